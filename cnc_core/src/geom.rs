@@ -1,0 +1,368 @@
+//! Path geometry: lines and arcs (with an optional linear motion of the
+//! plane's normal axis, i.e. helices). Positions are evaluated from the
+//! geometry at a path parameter, never accumulated, and `eval(length)`
+//! returns the programmed end point exactly.
+
+use crate::V3;
+use std::f64::consts::TAU;
+
+/// The working plane: G17 XY, G18 ZX, G19 YZ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Plane {
+    XY,
+    ZX,
+    YZ,
+}
+
+impl Plane {
+    /// (first axis, second axis, normal axis) indices; angles run from the
+    /// first towards the second axis, counter-clockwise seen from +normal.
+    pub fn axes(self) -> (usize, usize, usize) {
+        match self {
+            Plane::XY => (0, 1, 2),
+            Plane::ZX => (2, 0, 1),
+            Plane::YZ => (1, 2, 0),
+        }
+    }
+    pub fn gcode(self) -> &'static str {
+        match self {
+            Plane::XY => "G17",
+            Plane::ZX => "G18",
+            Plane::YZ => "G19",
+        }
+    }
+}
+
+/// A circular arc in a plane, optionally with a linear motion along the
+/// plane normal (helix).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Arc {
+    pub start: V3,
+    pub end: V3,
+    /// centre (its normal-axis coordinate is meaningless)
+    pub center: V3,
+    pub plane: Plane,
+    pub radius: f64,
+    /// start angle, rad
+    pub theta0: f64,
+    /// signed sweep, rad (positive = counter-clockwise = G03)
+    pub sweep: f64,
+    /// travel along the normal axis over the whole arc
+    pub axial: f64,
+    /// path length (helix length)
+    pub length: f64,
+}
+
+impl Arc {
+    /// Builds an arc from start, end and centre. The centre is moved onto
+    /// the perpendicular bisector of start and end so that both lie on one
+    /// circle (the caller has checked the radius difference). `turns` adds
+    /// whole extra revolutions. Start == end (in the plane) is a full circle.
+    pub fn new(start: V3, end: V3, center: V3, plane: Plane, ccw: bool, turns: u32) -> Arc {
+        let (p, q, n) = plane.axes();
+        let (sx, sy) = (start[p], start[q]);
+        let (ex, ey) = (end[p], end[q]);
+        let (mut cx, mut cy) = (center[p], center[q]);
+        let full = sx == ex && sy == ey;
+        if !full {
+            // project the centre onto the perpendicular bisector
+            let (mx, my) = ((sx + ex) * 0.5, (sy + ey) * 0.5);
+            let (dx, dy) = (ex - sx, ey - sy);
+            let d2 = dx * dx + dy * dy;
+            let t = ((cx - mx) * dx + (cy - my) * dy) / d2;
+            cx -= t * dx;
+            cy -= t * dy;
+        }
+        let radius = ((sx - cx).powi(2) + (sy - cy).powi(2)).sqrt();
+        let theta0 = (sy - cy).atan2(sx - cx);
+        let mut sweep = if full {
+            TAU
+        } else {
+            let theta1 = (ey - cy).atan2(ex - cx);
+            let mut s = theta1 - theta0;
+            if ccw {
+                while s <= 0.0 {
+                    s += TAU;
+                }
+                while s > TAU {
+                    s -= TAU;
+                }
+            } else {
+                while s >= 0.0 {
+                    s -= TAU;
+                }
+                while s < -TAU {
+                    s += TAU;
+                }
+                s = -s;
+            }
+            s
+        };
+        sweep += TAU * turns as f64;
+        if !ccw {
+            sweep = -sweep;
+        }
+        let axial = end[n] - start[n];
+        let plane_len = radius * sweep.abs();
+        let length = (plane_len * plane_len + axial * axial).sqrt();
+        let mut c = V3::zeros();
+        c[p] = cx;
+        c[q] = cy;
+        c[n] = start[n];
+        Arc {
+            start,
+            end,
+            center: c,
+            plane,
+            radius,
+            theta0,
+            sweep,
+            axial,
+            length,
+        }
+    }
+
+    /// Fraction of the in-plane speed in the path speed (1 for a flat arc).
+    pub fn plane_fraction(&self) -> f64 {
+        if self.length == 0.0 {
+            1.0
+        } else {
+            self.radius * self.sweep.abs() / self.length
+        }
+    }
+
+    fn point(&self, frac: f64) -> V3 {
+        let (p, q, n) = self.plane.axes();
+        let th = self.theta0 + self.sweep * frac;
+        let mut v = self.start;
+        v[p] = self.center[p] + self.radius * th.cos();
+        v[q] = self.center[q] + self.radius * th.sin();
+        v[n] = self.start[n] + self.axial * frac;
+        v
+    }
+
+    fn tangent(&self, frac: f64) -> V3 {
+        let (p, q, n) = self.plane.axes();
+        let th = self.theta0 + self.sweep * frac;
+        let mut v = V3::zeros();
+        let k = self.radius * self.sweep;
+        v[p] = -k * th.sin();
+        v[q] = k * th.cos();
+        v[n] = self.axial;
+        let l = v.norm();
+        if l > 0.0 {
+            v / l
+        } else {
+            v
+        }
+    }
+}
+
+/// One motion element.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Geom {
+    Line { start: V3, end: V3 },
+    Arc(Arc),
+}
+
+impl Geom {
+    pub fn start(&self) -> V3 {
+        match self {
+            Geom::Line { start, .. } => *start,
+            Geom::Arc(a) => a.start,
+        }
+    }
+    pub fn end(&self) -> V3 {
+        match self {
+            Geom::Line { end, .. } => *end,
+            Geom::Arc(a) => a.end,
+        }
+    }
+    pub fn length(&self) -> f64 {
+        match self {
+            Geom::Line { start, end } => (end - start).norm(),
+            Geom::Arc(a) => a.length,
+        }
+    }
+
+    /// The point at path length `s`; exactly the start at `s <= 0` and
+    /// exactly the programmed end at `s >= length`.
+    pub fn eval(&self, s: f64) -> V3 {
+        let len = self.length();
+        if s <= 0.0 {
+            return self.start();
+        }
+        if s >= len {
+            return self.end();
+        }
+        let f = s / len;
+        match self {
+            Geom::Line { start, end } => start + (end - start) * f,
+            Geom::Arc(a) => a.point(f),
+        }
+    }
+
+    /// Unit tangent at the start.
+    pub fn start_tangent(&self) -> V3 {
+        match self {
+            Geom::Line { start, end } => (end - start).normalize(),
+            Geom::Arc(a) => a.tangent(0.0),
+        }
+    }
+
+    /// Unit tangent at the end.
+    pub fn end_tangent(&self) -> V3 {
+        match self {
+            Geom::Line { start, end } => (end - start).normalize(),
+            Geom::Arc(a) => a.tangent(1.0),
+        }
+    }
+
+    /// Axis-aligned bounding box (arc extremes included).
+    pub fn bbox(&self) -> (V3, V3) {
+        let (s, e) = (self.start(), self.end());
+        let mut lo = s.inf(&e);
+        let mut hi = s.sup(&e);
+        if let Geom::Arc(a) = self {
+            let (p, q, _) = a.plane.axes();
+            // the arc reaches the extreme of axis p at angles 0 and pi, of q at pi/2, 3pi/2
+            let (t0, t1) = if a.sweep >= 0.0 {
+                (a.theta0, a.theta0 + a.sweep)
+            } else {
+                (a.theta0 + a.sweep, a.theta0)
+            };
+            for k in 0..4 {
+                let ang = k as f64 * std::f64::consts::FRAC_PI_2;
+                // the first multiple ang + m*2pi at or above t0
+                let m = ((t0 - ang) / TAU).ceil();
+                let first = ang + m * TAU;
+                if first <= t1 {
+                    let (axis, val) = match k {
+                        0 => (p, a.center[p] + a.radius),
+                        1 => (q, a.center[q] + a.radius),
+                        2 => (p, a.center[p] - a.radius),
+                        _ => (q, a.center[q] - a.radius),
+                    };
+                    lo[axis] = lo[axis].min(val);
+                    hi[axis] = hi[axis].max(val);
+                }
+            }
+        }
+        (lo, hi)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn v(x: f64, y: f64, z: f64) -> V3 {
+        V3::new(x, y, z)
+    }
+
+    #[test]
+    fn quarter_arcs_in_all_planes() {
+        // G17 CCW quarter from (10,0) to (0,10) about the origin
+        let a = Arc::new(
+            v(10., 0., 0.),
+            v(0., 10., 0.),
+            V3::zeros(),
+            Plane::XY,
+            true,
+            0,
+        );
+        assert!((a.sweep - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+        assert!((a.length - 5.0 * std::f64::consts::PI).abs() < 1e-12);
+        // CW the long way round
+        let b = Arc::new(
+            v(10., 0., 0.),
+            v(0., 10., 0.),
+            V3::zeros(),
+            Plane::XY,
+            false,
+            0,
+        );
+        assert!((b.sweep + 1.5 * std::f64::consts::PI).abs() < 1e-15);
+        // G18: angle from Z towards X; CCW from (z=10) to (x=10)
+        let c = Arc::new(
+            v(0., 0., 10.),
+            v(10., 0., 0.),
+            V3::zeros(),
+            Plane::ZX,
+            true,
+            0,
+        );
+        assert!((c.sweep - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+        let g = Geom::Arc(c);
+        let mid = g.eval(g.length() / 2.0);
+        assert!((mid - v(10. / 2f64.sqrt(), 0., 10. / 2f64.sqrt())).norm() < 1e-12);
+        // G19: from Y towards Z
+        let d = Arc::new(
+            v(0., 10., 0.),
+            v(0., 0., 10.),
+            V3::zeros(),
+            Plane::YZ,
+            true,
+            0,
+        );
+        assert!((d.sweep - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+    }
+
+    #[test]
+    fn end_point_exact_and_full_circle() {
+        let a = Arc::new(
+            v(0., 0., 0.),
+            v(0., 0., 1.05),
+            v(100., 0., 0.),
+            Plane::XY,
+            false,
+            0,
+        );
+        assert!((a.sweep + TAU).abs() < 1e-15);
+        let g = Geom::Arc(a);
+        assert_eq!(g.eval(g.length()), v(0., 0., 1.05));
+        assert_eq!(g.eval(1e300), v(0., 0., 1.05));
+        let half = g.eval(g.length() / 2.0);
+        assert!((half - v(200., 0., 0.525)).norm() < 1e-9, "{half}");
+    }
+
+    #[test]
+    fn bbox_includes_extremes() {
+        // CW half circle from (0,0) to (200,0) about (100,0) passes (100,100)
+        let g = Geom::Arc(Arc::new(
+            v(0., 0., 0.),
+            v(200., 0., 0.),
+            v(100., 0., 0.),
+            Plane::XY,
+            false,
+            0,
+        ));
+        let (lo, hi) = g.bbox();
+        assert!((hi[1] - 100.0).abs() < 1e-12 && lo[1] == 0.0, "{lo} {hi}");
+        let g = Geom::Arc(Arc::new(
+            v(0., 0., 0.),
+            v(200., 0., 0.),
+            v(100., 0., 0.),
+            Plane::XY,
+            true,
+            0,
+        ));
+        let (lo, _) = g.bbox();
+        assert!((lo[1] + 100.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn centre_is_moved_onto_the_bisector() {
+        // end radius 10.001 vs start radius 10: both must lie on the used circle
+        let a = Arc::new(
+            v(10., 0., 0.),
+            v(0., 10.001, 0.),
+            V3::zeros(),
+            Plane::XY,
+            true,
+            0,
+        );
+        let (s, e) = (a.start - a.center, a.end - a.center);
+        assert!((s.norm() - a.radius).abs() < 1e-12 && (e.norm() - a.radius).abs() < 1e-12);
+    }
+}

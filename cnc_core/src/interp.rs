@@ -1,0 +1,794 @@
+//! The interpreter: blocks in, canonical events out (LinuxCNC's seam between
+//! interpreter and motion). It keeps the modal state, validates every word,
+//! records every error (and keeps going, so one check reports them all), and
+//! holds only the current block: memory does not grow with the program.
+
+use crate::diag::{num, Diagnostic};
+use crate::dialect::Dialect;
+use crate::geom::{Arc, Geom, Plane};
+use crate::machine::Machine;
+use crate::parse::{parse_line, Block, Word};
+use crate::source::ProgramSource;
+use crate::V3;
+use std::collections::VecDeque;
+
+/// Largest radius difference between an arc's start and end, mm.
+pub const ARC_TOLERANCE_MM: f64 = 0.002;
+
+/// Where an event came from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Src {
+    pub line: u32,
+    pub block_no: Option<u64>,
+}
+
+/// How fast a move goes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Feed {
+    /// G00: as fast as the axes allow
+    Rapid,
+    /// G94: mm/min along the path
+    PerMin(f64),
+    /// G95: mm per spindle revolution, with the commanded speed in rpm
+    PerRev { mm_per_rev: f64, rpm: f64 },
+}
+
+impl Feed {
+    /// Path speed in mm/s (infinite for rapid: the axes limit it).
+    pub fn speed_mm_s(&self) -> f64 {
+        match *self {
+            Feed::Rapid => f64::INFINITY,
+            Feed::PerMin(f) => f / 60.0,
+            Feed::PerRev { mm_per_rev, rpm } => mm_per_rev * rpm.abs() / 60.0,
+        }
+    }
+}
+
+/// A canonical command.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Event {
+    Move {
+        geom: Geom,
+        feed: Feed,
+        src: Src,
+    },
+    Dwell {
+        seconds: f64,
+        src: Src,
+    },
+    /// spindle command, rpm, signed (+ = M03 clockwise)
+    Spindle {
+        rpm: f64,
+        src: Src,
+    },
+    Tool {
+        number: u32,
+        src: Src,
+    },
+    /// M02/M30 or the end of the text
+    End {
+        src: Src,
+    },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Motion {
+    Rapid,
+    Linear,
+    CwArc,
+    CcwArc,
+}
+
+impl Motion {
+    pub fn gcode(self) -> &'static str {
+        match self {
+            Motion::Rapid => "G00",
+            Motion::Linear => "G01",
+            Motion::CwArc => "G02",
+            Motion::CcwArc => "G03",
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpindleDir {
+    Off,
+    Cw,
+    Ccw,
+}
+
+/// The modal state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Modal {
+    pub motion: Motion,
+    pub plane: Plane,
+    pub absolute: bool,
+    pub per_rev: bool,
+    /// F as programmed (mm/min or mm/rev)
+    pub feed: Option<f64>,
+    /// S, rpm
+    pub speed: f64,
+    pub spindle: SpindleDir,
+    pub tool: u32,
+}
+
+impl Modal {
+    /// The active modal G codes, e.g. `["G01", "G17", "G90", "G94"]`.
+    pub fn gcodes(&self) -> [&'static str; 4] {
+        [
+            self.motion.gcode(),
+            self.plane.gcode(),
+            if self.absolute { "G90" } else { "G91" },
+            if self.per_rev { "G95" } else { "G94" },
+        ]
+    }
+    /// Signed commanded spindle speed, rpm.
+    pub fn spindle_rpm(&self) -> f64 {
+        match self.spindle {
+            SpindleDir::Off => 0.0,
+            SpindleDir::Cw => self.speed,
+            SpindleDir::Ccw => -self.speed,
+        }
+    }
+}
+
+const AXIS_LETTERS: [u8; 3] = [b'X', b'Y', b'Z'];
+const CENTER_LETTERS: [u8; 3] = [b'I', b'J', b'K'];
+
+/// The words of one block, sorted by meaning, each with its column.
+#[derive(Default)]
+struct Words {
+    motion: Option<(Motion, Word)>,
+    plane: Option<(Plane, Word)>,
+    distance: Option<(bool, Word)>,
+    feed_mode: Option<(bool, Word)>,
+    dwell: Option<Word>,
+    axis: [Option<Word>; 3],
+    center: [Option<Word>; 3],
+    f: Option<Word>,
+    s: Option<Word>,
+    t: Option<Word>,
+    p: Option<Word>,
+    spindle: Option<(SpindleDir, Word)>,
+    end: Option<Word>,
+}
+
+/// Interprets a program into [`Event`]s. Iterate it; afterwards read the
+/// errors, block count and bounding box.
+pub struct Interpreter<S> {
+    src: S,
+    dialect: Dialect,
+    present: [bool; 3],
+    lo: V3,
+    hi: V3,
+    diameter: bool,
+    max_rpm: Option<f64>,
+    max_errors: usize,
+    pub modal: Modal,
+    pos: V3,
+    buf: Vec<u8>,
+    block: Block,
+    pending: VecDeque<Event>,
+    errors: Vec<Diagnostic>,
+    error_count: usize,
+    blocks: u64,
+    last: Src,
+    finished: bool,
+    bbox: Option<(V3, V3)>,
+}
+
+impl<S: ProgramSource> Interpreter<S> {
+    pub fn new(src: S, dialect: Dialect, machine: &Machine) -> Self {
+        let present = [0, 1, 2].map(|i| machine.axis(i).is_some());
+        let lo = V3::from_fn(|i, _| machine.axis(i).map_or(0.0, |a| a.min_mm));
+        let hi = V3::from_fn(|i, _| machine.axis(i).map_or(0.0, |a| a.max_mm));
+        let lathe = machine.kind == crate::machine::MachineKind::Lathe;
+        Interpreter {
+            src,
+            dialect,
+            present,
+            lo,
+            hi,
+            diameter: machine.diameter_mode(),
+            max_rpm: machine.spindle.as_ref().map(|s| s.max_rpm),
+            max_errors: machine.limits.max_errors,
+            modal: Modal {
+                motion: Motion::Rapid,
+                plane: if lathe { Plane::ZX } else { Plane::XY },
+                absolute: true,
+                per_rev: false,
+                feed: None,
+                speed: 0.0,
+                spindle: SpindleDir::Off,
+                tool: 0,
+            },
+            pos: machine.home(),
+            buf: Vec::with_capacity(256),
+            block: Block::default(),
+            pending: VecDeque::with_capacity(8),
+            errors: Vec::new(),
+            error_count: 0,
+            blocks: 0,
+            last: Src::default(),
+            finished: false,
+            bbox: None,
+        }
+    }
+
+    /// Errors found so far (at most the machine's `max_errors`).
+    pub fn errors(&self) -> &[Diagnostic] {
+        &self.errors
+    }
+    /// All errors found so far, including those not kept.
+    pub fn error_count(&self) -> usize {
+        self.error_count
+    }
+    /// Blocks (lines with words) read so far.
+    pub fn blocks(&self) -> u64 {
+        self.blocks
+    }
+    /// Bounding box of all moves so far (machine coordinates).
+    pub fn bbox(&self) -> Option<(V3, V3)> {
+        self.bbox
+    }
+    /// Current programmed position (machine coordinates).
+    pub fn position(&self) -> V3 {
+        self.pos
+    }
+    /// Line and block of the last block read.
+    pub fn last_src(&self) -> Src {
+        self.last
+    }
+
+    fn error(&mut self, w: Option<&Word>, msg: String) {
+        self.error_count += 1;
+        if self.errors.len() >= self.max_errors {
+            return;
+        }
+        let (col, len) = w.map_or((1, 1), |w| (w.col, w.len));
+        let mut d = Diagnostic::new(self.last.line, col, len, msg);
+        d.block_no = self.last.block_no;
+        d.source = String::from_utf8_lossy(&self.buf).into_owned();
+        self.errors.push(d);
+    }
+
+    fn push_diag(&mut self, mut d: Diagnostic) {
+        self.error_count += 1;
+        if self.errors.len() < self.max_errors {
+            d.block_no = self.last.block_no;
+            self.errors.push(d);
+        }
+    }
+
+    fn step(&mut self) {
+        let pos = match self.src.read_line(&mut self.buf) {
+            Ok(Some(p)) => p,
+            Ok(None) => {
+                self.finish();
+                return;
+            }
+            Err(e) => {
+                self.last = Src {
+                    line: self.last.line + 1,
+                    block_no: None,
+                };
+                self.buf.clear();
+                self.error(None, format!("cannot read the program: {}", e.0));
+                self.finish();
+                return;
+            }
+        };
+        self.last = Src {
+            line: pos.line,
+            block_no: None,
+        };
+        let mut block = std::mem::take(&mut self.block);
+        let parsed = parse_line(self.dialect, pos.line, &self.buf, &mut block);
+        self.last.block_no = block.block_no();
+        match parsed {
+            Err(d) => self.push_diag(d),
+            Ok(()) if block.is_blank() => {}
+            Ok(()) => {
+                self.blocks += 1;
+                self.exec_block(&block);
+            }
+        }
+        self.block = block;
+    }
+
+    fn finish(&mut self) {
+        if !self.finished {
+            self.finished = true;
+            self.pending.push_back(Event::End { src: self.last });
+        }
+    }
+
+    /// Sorts the words of a block, reporting unknown and duplicate words.
+    fn classify(&mut self, block: &Block) -> Words {
+        let mut w = Words::default();
+        let mut n_seen = false;
+        for word in block.words.iter() {
+            let word = *word;
+            macro_rules! once {
+                ($slot:expr, $val:expr, $what:expr) => {{
+                    if $slot.is_some() {
+                        self.error(
+                            Some(&word),
+                            format!("{} programmed twice in one block", $what),
+                        );
+                    } else {
+                        $slot = Some($val);
+                    }
+                }};
+            }
+            match word.letter {
+                b'N' => {
+                    if n_seen {
+                        self.error(Some(&word), "block number N programmed twice".into());
+                    } else if word.as_int().is_none_or(|n| n < 0) || !word.integer {
+                        self.error(
+                            Some(&word),
+                            "block number N must be a whole number 0 or more".into(),
+                        );
+                    }
+                    n_seen = true;
+                }
+                b'G' => {
+                    let Some(code) = word.as_int().filter(|_| word.integer) else {
+                        self.error(
+                            Some(&word),
+                            format!("G code must be a whole number, found G{}", num(word.value)),
+                        );
+                        continue;
+                    };
+                    match code {
+                        0 => once!(w.motion, (Motion::Rapid, word), "a motion G code (G00-G03)"),
+                        1 => once!(
+                            w.motion,
+                            (Motion::Linear, word),
+                            "a motion G code (G00-G03)"
+                        ),
+                        2 => once!(w.motion, (Motion::CwArc, word), "a motion G code (G00-G03)"),
+                        3 => once!(
+                            w.motion,
+                            (Motion::CcwArc, word),
+                            "a motion G code (G00-G03)"
+                        ),
+                        4 => once!(w.dwell, word, "G04"),
+                        17 => once!(w.plane, (Plane::XY, word), "a plane G code (G17-G19)"),
+                        18 => once!(w.plane, (Plane::ZX, word), "a plane G code (G17-G19)"),
+                        19 => once!(w.plane, (Plane::YZ, word), "a plane G code (G17-G19)"),
+                        90 => once!(w.distance, (true, word), "G90/G91"),
+                        91 => once!(w.distance, (false, word), "G90/G91"),
+                        94 => once!(w.feed_mode, (false, word), "G94/G95"),
+                        95 => once!(w.feed_mode, (true, word), "G94/G95"),
+                        _ => self.error(
+                            Some(&word),
+                            format!(
+                                "unsupported G code G{code:02} in the {} dialect",
+                                self.dialect
+                            ),
+                        ),
+                    }
+                }
+                b'M' => {
+                    let Some(code) = word.as_int().filter(|_| word.integer) else {
+                        self.error(
+                            Some(&word),
+                            format!("M code must be a whole number, found M{}", num(word.value)),
+                        );
+                        continue;
+                    };
+                    match code {
+                        3 => once!(w.spindle, (SpindleDir::Cw, word), "a spindle M code (M03-M05)"),
+                        4 => once!(w.spindle, (SpindleDir::Ccw, word), "a spindle M code (M03-M05)"),
+                        5 => once!(w.spindle, (SpindleDir::Off, word), "a spindle M code (M03-M05)"),
+                        2 | 30 => once!(w.end, word, "a program end (M02/M30)"),
+                        // tool change and coolant: accepted, nothing to simulate
+                        6 | 8 | 9 => {}
+                        _ => self.error(
+                            Some(&word),
+                            format!("unsupported M code M{code:02}: expected M02, M03, M04, M05, M06, M08, M09 or M30"),
+                        ),
+                    }
+                }
+                b'X' | b'Y' | b'Z' => {
+                    let i = (word.letter - b'X') as usize;
+                    if !self.present[i] {
+                        self.error(
+                            Some(&word),
+                            format!("axis {} is not on this machine", word.letter as char),
+                        );
+                    } else {
+                        once!(w.axis[i], word, format!("axis {}", word.letter as char));
+                    }
+                }
+                b'I' | b'J' | b'K' => {
+                    let i = (word.letter - b'I') as usize;
+                    once!(
+                        w.center[i],
+                        word,
+                        format!("centre offset {}", word.letter as char)
+                    );
+                }
+                b'F' => once!(w.f, word, "F"),
+                b'S' => once!(w.s, word, "S"),
+                b'T' => once!(w.t, word, "T"),
+                b'P' => once!(w.p, word, "P"),
+                other => {
+                    let axes: String = (0..3)
+                        .filter(|&i| self.present[i])
+                        .map(|i| format!(" {}", AXIS_LETTERS[i] as char))
+                        .collect();
+                    self.error(
+                        Some(&word),
+                        format!(
+                            "unknown address '{}' in the {} dialect: expected one of N G M{axes} I J K F S T P",
+                            other as char, self.dialect
+                        ),
+                    );
+                }
+            }
+        }
+        w
+    }
+
+    fn exec_block(&mut self, block: &Block) {
+        let w = self.classify(block);
+        let src = self.last;
+        // --- feed, speed, tool -------------------------------------------------
+        if let Some((per_rev, _)) = w.feed_mode {
+            self.modal.per_rev = per_rev;
+        }
+        if let Some(f) = w.f {
+            if w.dwell.is_none() || self.dialect != Dialect::Heidenhain {
+                if f.value < 0.0 {
+                    self.error(
+                        Some(&f),
+                        format!("feed F must not be negative (F{})", num(f.value)),
+                    );
+                } else {
+                    self.modal.feed = Some(f.value);
+                }
+            }
+        }
+        if let Some(s) = w.s {
+            if s.value < 0.0 {
+                self.error(
+                    Some(&s),
+                    format!("spindle speed S must not be negative (S{})", num(s.value)),
+                );
+            } else if let Some(max) = self.max_rpm.filter(|&m| s.value > m) {
+                self.error(
+                    Some(&s),
+                    format!(
+                        "spindle speed S{} is over the machine's {} rpm",
+                        num(s.value),
+                        num(max)
+                    ),
+                );
+            } else if self.max_rpm.is_none() && s.value > 0.0 {
+                self.error(Some(&s), "this machine has no spindle".into());
+            } else {
+                self.modal.speed = s.value;
+            }
+        }
+        if let Some(t) = w.t {
+            match t.as_int().filter(|&n| t.integer && (0..=9999).contains(&n)) {
+                Some(n) => {
+                    self.modal.tool = n as u32;
+                    self.pending.push_back(Event::Tool {
+                        number: n as u32,
+                        src,
+                    });
+                }
+                None => self.error(
+                    Some(&t),
+                    format!(
+                        "tool T must be a whole number 0..9999, found T{}",
+                        num(t.value)
+                    ),
+                ),
+            }
+        }
+        // --- spindle ---------------------------------------------------------------
+        let before = self.modal.spindle_rpm();
+        if let Some((dir, m)) = w.spindle {
+            if dir != SpindleDir::Off && self.max_rpm.is_none() {
+                self.error(Some(&m), "this machine has no spindle".into());
+            } else {
+                self.modal.spindle = dir;
+            }
+        }
+        if self.modal.spindle_rpm() != before {
+            self.pending.push_back(Event::Spindle {
+                rpm: self.modal.spindle_rpm(),
+                src,
+            });
+        }
+        // --- modal geometry state --------------------------------------------
+        if let Some((plane, _)) = w.plane {
+            self.modal.plane = plane;
+        }
+        if let Some((abs, _)) = w.distance {
+            self.modal.absolute = abs;
+        }
+        // --- dwell -------------------------------------------------------------
+        if let Some(g4) = w.dwell {
+            self.exec_dwell(&w, &g4, src);
+        } else {
+            if let Some(p) = w.p {
+                self.error(Some(&p), "address P is only used with G04 (dwell)".into());
+            }
+            if let Some((m, _)) = w.motion {
+                self.modal.motion = m;
+            }
+            self.exec_motion(&w, src);
+        }
+        if w.end.is_some() {
+            self.finish();
+        }
+    }
+
+    fn exec_dwell(&mut self, w: &Words, g4: &Word, src: Src) {
+        let mut time: Option<Word> = w.p;
+        if self.dialect == Dialect::Heidenhain && time.is_none() {
+            time = w.f;
+        }
+        if time.is_none() {
+            time = w.axis[0];
+        }
+        let first_other = w
+            .axis
+            .iter()
+            .skip(if w.p.is_none() { 1 } else { 0 })
+            .flatten()
+            .next();
+        if let Some(o) = first_other.filter(|o| Some(**o) != time) {
+            self.error(
+                Some(o),
+                "G04 (dwell) cannot move an axis; the dwell time is P (seconds)".into(),
+            );
+        }
+        if let Some((_, m)) = w.motion {
+            self.error(
+                Some(&m),
+                "G04 (dwell) and a motion G code cannot share a block".into(),
+            );
+        }
+        match time {
+            Some(t) if t.value >= 0.0 && t.value <= 100_000.0 => {
+                if t.value > 0.0 {
+                    self.pending.push_back(Event::Dwell {
+                        seconds: t.value,
+                        src,
+                    });
+                }
+            }
+            Some(t) => self.error(
+                Some(&t),
+                format!("dwell time must be 0..100000 s, found {}", num(t.value)),
+            ),
+            None => self.error(Some(g4), "G04 needs a dwell time: P<seconds>".into()),
+        }
+    }
+
+    fn exec_motion(&mut self, w: &Words, src: Src) {
+        let has_axis = w.axis.iter().any(|a| a.is_some());
+        let has_center = w.center.iter().any(|c| c.is_some());
+        let motion = self.modal.motion;
+        let arc = matches!(motion, Motion::CwArc | Motion::CcwArc);
+        if has_center && !arc {
+            let c = w.center.iter().flatten().next().copied();
+            self.error(
+                c.as_ref(),
+                format!(
+                    "centre offsets I/J/K need G02 or G03, but {} is active",
+                    motion.gcode()
+                ),
+            );
+        }
+        if !has_axis && !(arc && has_center) {
+            return;
+        }
+        // target position
+        let mut target = self.pos;
+        for i in 0..3 {
+            if let Some(a) = w.axis[i] {
+                let v = if i == 0 && self.diameter {
+                    a.value * 0.5
+                } else {
+                    a.value
+                };
+                target[i] = if self.modal.absolute {
+                    v
+                } else {
+                    self.pos[i] + v
+                };
+            }
+        }
+        let anchor = w
+            .motion
+            .map(|m| m.1)
+            .or_else(|| w.axis.iter().flatten().next().copied());
+        // feed
+        let feed = match motion {
+            Motion::Rapid => Some(Feed::Rapid),
+            _ => self.feed_for(anchor.as_ref(), w),
+        };
+        // geometry
+        let geom = if arc {
+            self.arc_geom(w, target, motion == Motion::CcwArc, anchor.as_ref())
+        } else {
+            Some(Geom::Line {
+                start: self.pos,
+                end: target,
+            })
+        };
+        let start = self.pos;
+        self.pos = target;
+        let Some(geom) = geom else { return };
+        if geom.length() == 0.0 {
+            return;
+        }
+        self.check_travel(&geom, w, anchor.as_ref());
+        let (lo, hi) = geom.bbox();
+        self.bbox = Some(match self.bbox {
+            None => (lo, hi),
+            Some((a, b)) => (a.inf(&lo), b.sup(&hi)),
+        });
+        debug_assert_eq!(geom.start(), start);
+        if let Some(feed) = feed {
+            self.pending.push_back(Event::Move { geom, feed, src });
+        }
+    }
+
+    fn feed_for(&mut self, anchor: Option<&Word>, w: &Words) -> Option<Feed> {
+        let fw = w.f;
+        let f = match self.modal.feed {
+            Some(f) if f > 0.0 => f,
+            _ => {
+                let at = fw.or(anchor.copied());
+                let unit = if self.modal.per_rev {
+                    "mm/rev"
+                } else {
+                    "mm/min"
+                };
+                self.error(at.as_ref(), format!(
+                    "missing feed: {} needs a feed F ({unit}) greater than 0, programmed in this block or before",
+                    self.modal.motion.gcode()
+                ));
+                return None;
+            }
+        };
+        if self.modal.per_rev {
+            let rpm = self.modal.spindle_rpm();
+            if rpm == 0.0 {
+                self.error(anchor, "G95 feed per revolution needs the spindle turning (M03/M04 with S greater than 0)".into());
+                return None;
+            }
+            Some(Feed::PerRev { mm_per_rev: f, rpm })
+        } else {
+            Some(Feed::PerMin(f))
+        }
+    }
+
+    fn arc_geom(
+        &mut self,
+        w: &Words,
+        target: V3,
+        ccw: bool,
+        anchor: Option<&Word>,
+    ) -> Option<Geom> {
+        let plane = self.modal.plane;
+        let (p, q, n) = plane.axes();
+        if let Some(c) = w.center[n] {
+            self.error(
+                Some(&c),
+                format!(
+                    "centre offset {} does not belong to the {} plane (use {} and {})",
+                    c.letter as char,
+                    plane.gcode(),
+                    CENTER_LETTERS[p] as char,
+                    CENTER_LETTERS[q] as char
+                ),
+            );
+        }
+        if w.center[p].is_none() && w.center[q].is_none() {
+            self.error(
+                anchor,
+                format!(
+                    "arc needs its centre: {} and/or {} (offsets from the start point) in {}",
+                    CENTER_LETTERS[p] as char,
+                    CENTER_LETTERS[q] as char,
+                    plane.gcode()
+                ),
+            );
+            return None;
+        }
+        let mut center = self.pos;
+        for i in [p, q] {
+            if let Some(c) = w.center[i] {
+                center[i] += c.value;
+            }
+        }
+        let start = self.pos;
+        let r0 = ((start[p] - center[p]).powi(2) + (start[q] - center[q]).powi(2)).sqrt();
+        let r1 = ((target[p] - center[p]).powi(2) + (target[q] - center[q]).powi(2)).sqrt();
+        let at = w.center[p].or(w.center[q]);
+        if r0 < 1e-6 {
+            self.error(
+                at.as_ref(),
+                "arc radius is zero: the centre is the start point".into(),
+            );
+            return None;
+        }
+        if (r0 - r1).abs() > ARC_TOLERANCE_MM {
+            self.error(anchor.or(at.as_ref()), format!(
+                "arc radius mismatch: start radius {} mm, end radius {} mm (difference {} mm, at most {} mm)",
+                num(r0), num(r1), num((r0 - r1).abs()), ARC_TOLERANCE_MM
+            ));
+            return None;
+        }
+        Some(Geom::Arc(Arc::new(start, target, center, plane, ccw, 0)))
+    }
+
+    fn check_travel(&mut self, geom: &Geom, w: &Words, anchor: Option<&Word>) {
+        let (lo, hi) = geom.bbox();
+        let is_arc = matches!(geom, Geom::Arc(_));
+        for i in 0..3 {
+            if !self.present[i] {
+                continue;
+            }
+            let eps = 1e-9;
+            let bad = if lo[i] < self.lo[i] - eps {
+                Some(lo[i])
+            } else if hi[i] > self.hi[i] + eps {
+                Some(hi[i])
+            } else {
+                None
+            };
+            // the start was checked with the block before
+            if let Some(v) = bad.filter(|&v| v != geom.start()[i]) {
+                let k = if i == 0 && self.diameter { 2.0 } else { 1.0 };
+                let what = if i == 0 && self.diameter {
+                    " (diameter)"
+                } else {
+                    ""
+                };
+                let at = w.axis[i].or(anchor.copied());
+                let how = if is_arc && v != geom.end()[i] {
+                    "the arc reaches"
+                } else {
+                    "the move ends at"
+                };
+                self.error(
+                    at.as_ref(),
+                    format!(
+                        "travel limit: {how} {}{} {}, outside the axis range {}..{}",
+                        AXIS_LETTERS[i] as char,
+                        what,
+                        num(v * k),
+                        num(self.lo[i] * k),
+                        num(self.hi[i] * k)
+                    ),
+                );
+            }
+        }
+    }
+}
+
+impl<S: ProgramSource> Iterator for Interpreter<S> {
+    type Item = Event;
+    fn next(&mut self) -> Option<Event> {
+        loop {
+            if let Some(e) = self.pending.pop_front() {
+                return Some(e);
+            }
+            if self.finished {
+                return None;
+            }
+            self.step();
+        }
+    }
+}

@@ -1,0 +1,34 @@
+//! `cnc_core`: the pure, deterministic heart of the controller.
+//!
+//! Program text flows through a pipeline with no I/O and no clocks:
+//!
+//! ```text
+//! ProgramSource -> parse (per dialect, with spans) -> interp (modal state)
+//!   -> Event stream (canonical motion commands) -> plan (look-ahead, limits)
+//!   -> exec (fixed-rate samples, t = k * dt)
+//! ```
+//!
+//! [`check::check`] runs the same pipeline without sampling and reports every
+//! error, the estimated cycle time and the bounding box. [`exec::Executor`]
+//! produces setpoint samples. Both read the program line by line through a
+//! [`source::ProgramSource`], so memory does not grow with program length.
+
+pub mod check;
+pub mod diag;
+pub mod dialect;
+pub mod exec;
+pub mod geom;
+pub mod interp;
+pub mod machine;
+pub mod parse;
+pub mod plan;
+pub mod source;
+
+pub use check::{check, CheckReport};
+pub use diag::Diagnostic;
+pub use dialect::Dialect;
+pub use machine::Machine;
+
+/// A position or direction in machine coordinates (X, Y, Z), millimetres.
+/// On a lathe X is the radius (the cross-slide position), never the diameter.
+pub type V3 = nalgebra::Vector3<f64>;

@@ -1,0 +1,435 @@
+//! Machine files (TOML): axes, limits, spindle, planner and interpolation
+//! settings, the default dialect. Validated at load; every error names the
+//! key.
+
+use crate::dialect::Dialect;
+use crate::V3;
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MachineKind {
+    Mill,
+    Lathe,
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisConfig {
+    /// joint name on ROS topics and in recordings: "x", "y" or "z"
+    pub name: String,
+    /// travel limits, mm (for a diameter-mode X: radius, i.e. slide position)
+    pub min_mm: f64,
+    pub max_mm: f64,
+    /// where the axis stands when the controller starts, mm
+    #[serde(default)]
+    pub home_mm: f64,
+    pub max_velocity_mm_s: f64,
+    pub max_acceleration_mm_s2: f64,
+    /// lathe X programmed as a diameter (positions on topics stay radius)
+    #[serde(default)]
+    pub diameter_mode: bool,
+    /// servo model of the simulator: position gain 1/s
+    #[serde(default = "default_kp")]
+    pub servo_kp: f64,
+    /// servo model: velocity feed-forward 0..=1
+    #[serde(default = "default_ff")]
+    pub servo_feed_forward: f64,
+    /// servo model: velocity-loop time constant, s
+    #[serde(default = "default_lag")]
+    pub servo_lag_s: f64,
+}
+
+fn default_kp() -> f64 {
+    60.0
+}
+fn default_ff() -> f64 {
+    1.0
+}
+fn default_lag() -> f64 {
+    0.002
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpindleConfig {
+    pub max_rpm: f64,
+    pub acceleration_rpm_s: f64,
+    pub encoder_counts_per_rev: u32,
+    /// simulator: sinusoidal speed ripple as a fraction (0.02 = ±2 %)
+    #[serde(default)]
+    pub sim_ripple_fraction: f64,
+    #[serde(default = "default_ripple_hz")]
+    pub sim_ripple_hz: f64,
+    #[serde(default)]
+    pub sim_noise_rpm: f64,
+}
+
+fn default_ripple_hz() -> f64 {
+    5.0
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlannerConfig {
+    /// junctions whose direction changes by more than this stop exactly
+    #[serde(default = "default_exact_stop")]
+    pub exact_stop_angle_deg: f64,
+    /// how many segments the look-ahead may hold
+    #[serde(default = "default_lookahead")]
+    pub lookahead_blocks: usize,
+}
+
+fn default_exact_stop() -> f64 {
+    2.0
+}
+fn default_lookahead() -> usize {
+    200
+}
+
+impl Default for PlannerConfig {
+    fn default() -> Self {
+        PlannerConfig {
+            exact_stop_angle_deg: default_exact_stop(),
+            lookahead_blocks: default_lookahead(),
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct InterpolationConfig {
+    /// samples per second (default 1000)
+    #[serde(default = "default_rate")]
+    pub rate_hz: f64,
+}
+
+fn default_rate() -> f64 {
+    1000.0
+}
+
+impl Default for InterpolationConfig {
+    fn default() -> Self {
+        InterpolationConfig {
+            rate_hz: default_rate(),
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Limits {
+    /// largest program accepted, bytes
+    #[serde(default = "default_max_program")]
+    pub max_program_bytes: u64,
+    /// longest accepted line, bytes
+    #[serde(default = "default_max_line")]
+    pub max_line_bytes: usize,
+    /// errors listed in one report before "and N more"
+    #[serde(default = "default_max_errors")]
+    pub max_errors: usize,
+}
+
+fn default_max_program() -> u64 {
+    64 * 1024 * 1024
+}
+fn default_max_line() -> usize {
+    4096
+}
+fn default_max_errors() -> usize {
+    1000
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_program_bytes: default_max_program(),
+            max_line_bytes: default_max_line(),
+            max_errors: default_max_errors(),
+        }
+    }
+}
+
+/// A machine file.
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Machine {
+    pub name: String,
+    pub kind: MachineKind,
+    /// dialect of programs that do not name one
+    pub dialect: Dialect,
+    /// directory of programs sent by path (relative to the machine file)
+    #[serde(default)]
+    pub program_dir: Option<String>,
+    #[serde(default)]
+    pub interpolation: InterpolationConfig,
+    #[serde(default)]
+    pub planner: PlannerConfig,
+    #[serde(default)]
+    pub limits: Limits,
+    /// the axes in joint order
+    #[serde(rename = "axis")]
+    pub axes: Vec<AxisConfig>,
+    #[serde(default)]
+    pub spindle: Option<SpindleConfig>,
+}
+
+/// An error in a machine file; the text names the key.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MachineError(pub String);
+
+impl std::fmt::Display for MachineError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for MachineError {}
+
+impl Machine {
+    /// Parses and validates a machine file's text.
+    pub fn from_toml(text: &str) -> Result<Machine, MachineError> {
+        let m: Machine = toml::from_str(text)
+            .map_err(|e| MachineError(format!("machine file: {}", e.to_string().trim_end())))?;
+        m.validate()?;
+        Ok(m)
+    }
+
+    /// The bundled mill (X Y Z), the same as `config/mill.toml`.
+    pub fn builtin_mill() -> Machine {
+        // The bundled file is validated by the tests.
+        Machine::from_toml(include_str!("../../config/mill.toml")).expect("bundled mill.toml")
+    }
+
+    /// The bundled lathe (X in diameter, Z, spindle), as `config/lathe.toml`.
+    pub fn builtin_lathe() -> Machine {
+        Machine::from_toml(include_str!("../../config/lathe.toml")).expect("bundled lathe.toml")
+    }
+
+    fn validate(&self) -> Result<(), MachineError> {
+        let bad = |key: String, why: String| {
+            Err(MachineError(format!("machine file: key `{key}`: {why}")))
+        };
+        if self.axes.is_empty() {
+            return bad("axis".into(), "at least one [[axis]] is required".into());
+        }
+        let mut seen = [false; 3];
+        for (i, a) in self.axes.iter().enumerate() {
+            let k = |f: &str| format!("axis[{i}].{f}");
+            let Some(idx) = axis_index(&a.name) else {
+                return bad(
+                    k("name"),
+                    format!(
+                        "\"{}\" is not an axis; expected \"x\", \"y\" or \"z\"",
+                        a.name
+                    ),
+                );
+            };
+            if seen[idx] {
+                return bad(k("name"), format!("axis \"{}\" is defined twice", a.name));
+            }
+            seen[idx] = true;
+            for (f, v) in [
+                ("min_mm", a.min_mm),
+                ("max_mm", a.max_mm),
+                ("home_mm", a.home_mm),
+            ] {
+                if !v.is_finite() {
+                    return bad(k(f), "must be a finite number".into());
+                }
+            }
+            if a.min_mm >= a.max_mm {
+                return bad(
+                    k("max_mm"),
+                    format!("must be greater than min_mm ({})", a.min_mm),
+                );
+            }
+            if a.home_mm < a.min_mm || a.home_mm > a.max_mm {
+                return bad(
+                    k("home_mm"),
+                    format!("{} is outside min_mm..max_mm", a.home_mm),
+                );
+            }
+            for (f, v) in [
+                ("max_velocity_mm_s", a.max_velocity_mm_s),
+                ("max_acceleration_mm_s2", a.max_acceleration_mm_s2),
+                ("servo_kp", a.servo_kp),
+            ] {
+                if !(v.is_finite() && v > 0.0) {
+                    return bad(k(f), format!("must be greater than 0 (got {v})"));
+                }
+            }
+            if !(0.0..=1.0).contains(&a.servo_feed_forward) {
+                return bad(k("servo_feed_forward"), "must be between 0 and 1".into());
+            }
+            if !(a.servo_lag_s.is_finite() && a.servo_lag_s >= 0.0) {
+                return bad(k("servo_lag_s"), "must be 0 or more".into());
+            }
+            if a.diameter_mode && (self.kind != MachineKind::Lathe || idx != 0) {
+                return bad(
+                    k("diameter_mode"),
+                    "only the X axis of a lathe can be in diameter mode".into(),
+                );
+            }
+        }
+        if self.kind == MachineKind::Lathe && (!seen[0] || !seen[2] || seen[1]) {
+            return bad("axis".into(), "a lathe has exactly the axes x and z".into());
+        }
+        let r = self.interpolation.rate_hz;
+        if !(r.is_finite() && (10.0..=100_000.0).contains(&r)) {
+            return bad(
+                "interpolation.rate_hz".into(),
+                format!("must be between 10 and 100000 (got {r})"),
+            );
+        }
+        let p = &self.planner;
+        if !(p.exact_stop_angle_deg.is_finite() && (0.0..=90.0).contains(&p.exact_stop_angle_deg)) {
+            return bad(
+                "planner.exact_stop_angle_deg".into(),
+                "must be between 0 and 90".into(),
+            );
+        }
+        if !(2..=100_000).contains(&p.lookahead_blocks) {
+            return bad(
+                "planner.lookahead_blocks".into(),
+                "must be between 2 and 100000".into(),
+            );
+        }
+        if self.limits.max_line_bytes < 16 {
+            return bad("limits.max_line_bytes".into(), "must be at least 16".into());
+        }
+        if self.limits.max_errors == 0 {
+            return bad("limits.max_errors".into(), "must be at least 1".into());
+        }
+        if let Some(s) = &self.spindle {
+            for (f, v) in [
+                ("max_rpm", s.max_rpm),
+                ("acceleration_rpm_s", s.acceleration_rpm_s),
+            ] {
+                if !(v.is_finite() && v > 0.0) {
+                    return bad(
+                        format!("spindle.{f}"),
+                        format!("must be greater than 0 (got {v})"),
+                    );
+                }
+            }
+            if s.encoder_counts_per_rev < 4 {
+                return bad(
+                    "spindle.encoder_counts_per_rev".into(),
+                    "must be at least 4".into(),
+                );
+            }
+            if !(0.0..0.5).contains(&s.sim_ripple_fraction) {
+                return bad(
+                    "spindle.sim_ripple_fraction".into(),
+                    "must be between 0 and 0.5".into(),
+                );
+            }
+            if !(s.sim_ripple_hz.is_finite() && s.sim_ripple_hz >= 0.0) {
+                return bad("spindle.sim_ripple_hz".into(), "must be 0 or more".into());
+            }
+            if !(s.sim_noise_rpm.is_finite() && s.sim_noise_rpm >= 0.0) {
+                return bad("spindle.sim_noise_rpm".into(), "must be 0 or more".into());
+            }
+        } else if self.kind == MachineKind::Lathe {
+            return bad("spindle".into(), "a lathe needs a [spindle] table".into());
+        }
+        Ok(())
+    }
+
+    /// Interpolation period, s.
+    pub fn dt(&self) -> f64 {
+        1.0 / self.interpolation.rate_hz
+    }
+
+    /// The configured axis for machine coordinate index 0..3 (X, Y, Z).
+    pub fn axis(&self, idx: usize) -> Option<&AxisConfig> {
+        self.axes.iter().find(|a| axis_index(&a.name) == Some(idx))
+    }
+
+    /// Machine coordinate index (0 = X) of each joint, in joint order.
+    pub fn joint_indices(&self) -> Vec<usize> {
+        self.axes
+            .iter()
+            .filter_map(|a| axis_index(&a.name))
+            .collect()
+    }
+
+    /// Per-coordinate velocity limits, mm/s (absent axes: infinite; they
+    /// never move).
+    pub fn vmax(&self) -> V3 {
+        V3::from_fn(|i, _| self.axis(i).map_or(f64::INFINITY, |a| a.max_velocity_mm_s))
+    }
+
+    /// Per-coordinate acceleration limits, mm/s².
+    pub fn amax(&self) -> V3 {
+        V3::from_fn(|i, _| {
+            self.axis(i)
+                .map_or(f64::INFINITY, |a| a.max_acceleration_mm_s2)
+        })
+    }
+
+    /// Start position of the machine coordinates.
+    pub fn home(&self) -> V3 {
+        V3::from_fn(|i, _| self.axis(i).map_or(0.0, |a| a.home_mm))
+    }
+
+    /// X programmed as a diameter.
+    pub fn diameter_mode(&self) -> bool {
+        self.axis(0).is_some_and(|a| a.diameter_mode)
+    }
+}
+
+/// 0 for "x", 1 for "y", 2 for "z".
+pub fn axis_index(name: &str) -> Option<usize> {
+    match name {
+        "x" | "X" => Some(0),
+        "y" | "Y" => Some(1),
+        "z" | "Z" => Some(2),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bundled_files_load() {
+        let m = Machine::builtin_mill();
+        assert_eq!(m.joint_indices(), vec![0, 1, 2]);
+        assert_eq!(m.dialect, Dialect::Cnc836);
+        let l = Machine::builtin_lathe();
+        assert_eq!(l.joint_indices(), vec![0, 2]);
+        assert!(l.diameter_mode());
+        assert_eq!(
+            l.spindle.as_ref().map(|s| s.encoder_counts_per_rev),
+            Some(4096)
+        );
+    }
+
+    fn with(replace: &str, by: &str) -> Result<Machine, MachineError> {
+        let t = include_str!("../../config/mill.toml");
+        assert!(t.contains(replace), "{replace}");
+        Machine::from_toml(&t.replacen(replace, by, 1))
+    }
+
+    #[test]
+    fn bad_files_name_the_key() {
+        let e = with("max_velocity_mm_s = 250.0", "max_velocity_mm_s = -1.0").unwrap_err();
+        assert_eq!(
+            e.0,
+            "machine file: key `axis[0].max_velocity_mm_s`: must be greater than 0 (got -1)"
+        );
+        let e = with("max_velocity_mm_s = 250.0", "max_velocty_mm_s = 250.0").unwrap_err();
+        assert!(e.0.contains("unknown field `max_velocty_mm_s`"), "{}", e.0);
+        let e = with("dialect = \"cnc836\"", "dialect = \"fanuc\"").unwrap_err();
+        assert!(e.0.contains("unknown variant `fanuc`"), "{}", e.0);
+        let e = with("rate_hz = 1000.0", "rate_hz = 1.0").unwrap_err();
+        assert!(e.0.contains("key `interpolation.rate_hz`"), "{}", e.0);
+        let e = with("name = \"y\"", "name = \"x\"").unwrap_err();
+        assert!(e.0.contains("axis[1].name"), "{}", e.0);
+        let e = with("max_mm = 500.0", "max_mm = -50.0").unwrap_err();
+        assert!(e.0.contains("axis[0].max_mm"), "{}", e.0);
+    }
+}

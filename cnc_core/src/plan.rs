@@ -1,0 +1,426 @@
+//! The motion planner: a look-ahead queue in the manner of Klipper. Each
+//! move gets a trapezoidal speed profile whose entry and exit speeds respect
+//! the axis limits, the junction with its neighbours and the need to stop at
+//! the end of what is known so far. Tangent and nearly tangent junctions are
+//! passed at speed; sharper corners stop exactly.
+//!
+//! Limits are honoured at every *sample*, not only in continuous time: a
+//! junction with a small direction change makes each axis's velocity jump,
+//! and the sampled acceleration of that jump is Δv/dt. The planner therefore
+//! reserves [`KINK_SHARE`] of every axis's acceleration for such jumps and
+//! plans path acceleration with the rest.
+
+use crate::geom::Geom;
+use crate::interp::{Event, Feed, Src};
+use crate::machine::Machine;
+use crate::V3;
+use std::collections::VecDeque;
+
+/// Share of each axis's acceleration reserved for velocity jumps at
+/// nearly tangent junctions (within one sample).
+pub const KINK_SHARE: f64 = 0.15;
+/// Share of the acceleration used along lines.
+pub const LINE_SHARE: f64 = 1.0 - KINK_SHARE;
+/// Share used on arcs for each of the tangential and the centripetal
+/// acceleration (their vector sum stays under `LINE_SHARE`).
+pub const ARC_SHARE: f64 = 0.6;
+
+/// A trapezoidal (or triangular) speed profile over one move.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Profile {
+    pub v0: f64,
+    pub vp: f64,
+    pub v1: f64,
+    pub a: f64,
+    pub length: f64,
+    pub t_acc: f64,
+    pub t_cruise: f64,
+    pub t_dec: f64,
+    pub d_acc: f64,
+    pub d_cruise: f64,
+    /// total time, s
+    pub duration: f64,
+}
+
+impl Profile {
+    /// Fastest profile from `v0` to `v1` over `length` with acceleration
+    /// `a` and speed cap `vcap` (`v0, v1 <= vcap`, `|v1²-v0²| <= 2 a length`).
+    pub fn new(v0: f64, v1: f64, vcap: f64, a: f64, length: f64) -> Profile {
+        let peak = ((2.0 * a * length + v0 * v0 + v1 * v1) * 0.5).sqrt();
+        let vp = peak.min(vcap).max(v0).max(v1);
+        let d_acc = ((vp * vp - v0 * v0) / (2.0 * a)).max(0.0);
+        let d_dec = ((vp * vp - v1 * v1) / (2.0 * a)).max(0.0);
+        let d_cruise = (length - d_acc - d_dec).max(0.0);
+        let t_acc = (vp - v0) / a;
+        let t_dec = (vp - v1) / a;
+        let t_cruise = if vp > 0.0 { d_cruise / vp } else { 0.0 };
+        Profile {
+            v0,
+            vp,
+            v1,
+            a,
+            length,
+            t_acc,
+            t_cruise,
+            t_dec,
+            d_acc,
+            d_cruise,
+            duration: t_acc + t_cruise + t_dec,
+        }
+    }
+
+    /// Distance along the move at time `t` after its start.
+    pub fn s_at(&self, t: f64) -> f64 {
+        if t <= 0.0 {
+            return 0.0;
+        }
+        if t >= self.duration {
+            return self.length;
+        }
+        let s = if t < self.t_acc {
+            self.v0 * t + 0.5 * self.a * t * t
+        } else if t < self.t_acc + self.t_cruise {
+            self.d_acc + self.vp * (t - self.t_acc)
+        } else {
+            let u = t - self.t_acc - self.t_cruise;
+            self.d_acc + self.d_cruise + self.vp * u - 0.5 * self.a * u * u
+        };
+        s.min(self.length)
+    }
+
+    /// Path speed at time `t`.
+    pub fn v_at(&self, t: f64) -> f64 {
+        if t <= 0.0 {
+            self.v0
+        } else if t < self.t_acc {
+            self.v0 + self.a * t
+        } else if t < self.t_acc + self.t_cruise {
+            self.vp
+        } else if t < self.duration {
+            self.vp - self.a * (t - self.t_acc - self.t_cruise)
+        } else {
+            self.v1
+        }
+    }
+}
+
+/// A move with its profile.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlannedMove {
+    pub geom: Geom,
+    pub feed: Feed,
+    pub src: Src,
+    pub profile: Profile,
+}
+
+/// What the planner hands on, in order.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Item {
+    Move(PlannedMove),
+    Dwell { seconds: f64, src: Src },
+    Spindle { rpm: f64, src: Src },
+    Tool { number: u32, src: Src },
+    End { src: Src },
+}
+
+#[derive(Clone, Copy, Debug)]
+struct QSeg {
+    geom: Geom,
+    feed: Feed,
+    src: Src,
+    length: f64,
+    vcap: f64,
+    a: f64,
+    /// largest entry speed the junction allows
+    j: f64,
+    /// largest entry speed from which the rest of the queue can stop
+    entry_b: f64,
+}
+
+/// Planner settings derived from the machine file.
+#[derive(Clone, Copy, Debug)]
+pub struct PlanLimits {
+    pub vmax: V3,
+    pub amax: V3,
+    pub dt: f64,
+    pub exact_stop_cos: f64,
+    pub lookahead: usize,
+}
+
+impl PlanLimits {
+    pub fn from_machine(m: &Machine) -> Self {
+        PlanLimits {
+            vmax: m.vmax(),
+            amax: m.amax(),
+            dt: m.dt(),
+            exact_stop_cos: m.planner.exact_stop_angle_deg.to_radians().cos(),
+            lookahead: m.planner.lookahead_blocks,
+        }
+    }
+
+    /// (speed cap, path acceleration) of a move.
+    fn move_limits(&self, geom: &Geom, feed: &Feed) -> (f64, f64) {
+        let f = feed.speed_mm_s();
+        match geom {
+            Geom::Line { start, end } => {
+                let len = (end - start).norm();
+                let mut v = f;
+                let mut a = f64::INFINITY;
+                for i in 0..3 {
+                    let u = (end[i] - start[i]).abs() / len;
+                    if u > 0.0 {
+                        v = v.min(self.vmax[i] / u);
+                        a = a.min(LINE_SHARE * self.amax[i] / u);
+                    }
+                }
+                (v, a)
+            }
+            Geom::Arc(arc) => {
+                let (p, q, n) = arc.plane.axes();
+                let c = arc.plane_fraction();
+                let h = if arc.length > 0.0 {
+                    arc.axial.abs() / arc.length
+                } else {
+                    0.0
+                };
+                let apq = self.amax[p].min(self.amax[q]);
+                let vpq = self.vmax[p].min(self.vmax[q]);
+                let mut v = f
+                    .min(vpq / c)
+                    .min((ARC_SHARE * apq * arc.radius).sqrt() / c);
+                let mut a = ARC_SHARE * apq / c;
+                if h > 0.0 {
+                    v = v.min(self.vmax[n] / h);
+                    a = a.min(LINE_SHARE * self.amax[n] / h);
+                }
+                (v, a)
+            }
+        }
+    }
+
+    /// Largest speed at which the path may pass from `prev` into `next`.
+    fn junction(&self, prev: &QSeg, next_geom: &Geom, next_vcap: f64) -> f64 {
+        let t1 = prev.geom.end_tangent();
+        let t2 = next_geom.start_tangent();
+        if t1.dot(&t2) < self.exact_stop_cos {
+            return 0.0;
+        }
+        let mut v = prev.vcap.min(next_vcap);
+        for i in 0..3 {
+            let d = (t2[i] - t1[i]).abs();
+            if d > 1e-12 {
+                v = v.min(KINK_SHARE * self.amax[i] * self.dt / d);
+            }
+        }
+        v
+    }
+}
+
+/// The look-ahead queue.
+pub struct Planner {
+    lim: PlanLimits,
+    queue: VecDeque<QSeg>,
+    /// fixed entry speed of the queue's head
+    v_head: f64,
+    out: VecDeque<Item>,
+}
+
+impl Planner {
+    pub fn new(lim: PlanLimits) -> Self {
+        Planner {
+            lim,
+            queue: VecDeque::with_capacity(lim.lookahead + 2),
+            v_head: 0.0,
+            out: VecDeque::with_capacity(16),
+        }
+    }
+
+    /// Feeds one event in.
+    pub fn push(&mut self, ev: Event) {
+        match ev {
+            Event::Move { geom, feed, src } => self.push_move(geom, feed, src),
+            Event::Dwell { seconds, src } => {
+                self.flush();
+                self.out.push_back(Item::Dwell { seconds, src });
+            }
+            Event::Spindle { rpm, src } => {
+                self.flush();
+                self.out.push_back(Item::Spindle { rpm, src });
+            }
+            Event::Tool { number, src } => {
+                self.flush();
+                self.out.push_back(Item::Tool { number, src });
+            }
+            Event::End { src } => {
+                self.flush();
+                self.out.push_back(Item::End { src });
+            }
+        }
+    }
+
+    /// Takes the next finished item.
+    pub fn pop(&mut self) -> Option<Item> {
+        self.out.pop_front()
+    }
+
+    fn push_move(&mut self, geom: Geom, feed: Feed, src: Src) {
+        let length = geom.length();
+        if length <= 0.0 {
+            return;
+        }
+        let (vcap, a) = self.lim.move_limits(&geom, &feed);
+        let j = match self.queue.back() {
+            Some(prev) => self.lim.junction(prev, &geom, vcap),
+            None => self.v_head,
+        };
+        let entry_b = j.min((2.0 * a * length).sqrt());
+        self.queue.push_back(QSeg {
+            geom,
+            feed,
+            src,
+            length,
+            vcap,
+            a,
+            j,
+            entry_b,
+        });
+        // backward pass: raise the entry limits that the new tail relaxes
+        let n = self.queue.len();
+        for k in (0..n.saturating_sub(1)).rev() {
+            let next_b = self.queue[k + 1].entry_b;
+            let s = &mut self.queue[k];
+            let nb = s.j.min((next_b * next_b + 2.0 * s.a * s.length).sqrt());
+            if nb <= s.entry_b {
+                break;
+            }
+            s.entry_b = nb;
+        }
+        self.commit(false);
+    }
+
+    /// Commits every head whose exit speed can no longer change.
+    fn commit(&mut self, all: bool) {
+        while let Some(h) = self.queue.front().copied() {
+            let reach = (self.v_head * self.v_head + 2.0 * h.a * h.length).sqrt();
+            let v1 = match self.queue.get(1) {
+                Some(nx) => {
+                    let final_exit = nx.entry_b >= nx.j || reach <= nx.entry_b;
+                    if !(all || final_exit || self.queue.len() > self.lim.lookahead) {
+                        return;
+                    }
+                    nx.entry_b.min(reach)
+                }
+                None if all => 0.0,
+                None => return,
+            };
+            let profile = Profile::new(self.v_head, v1, h.vcap, h.a, h.length);
+            self.out.push_back(Item::Move(PlannedMove {
+                geom: h.geom,
+                feed: h.feed,
+                src: h.src,
+                profile,
+            }));
+            self.v_head = v1;
+            self.queue.pop_front();
+        }
+        if all {
+            self.v_head = 0.0;
+        }
+    }
+
+    /// Plans everything queued to a stop.
+    pub fn flush(&mut self) {
+        self.commit(true);
+    }
+}
+
+/// Turns planned items into whole sample ticks. Motion that runs without a
+/// stop forms a group; every group and dwell starts on a sample tick, so a
+/// stop is sampled exactly at its end point. The executor and the check use
+/// this same type, so the estimated cycle time equals the simulated one.
+#[derive(Clone, Copy, Debug)]
+pub struct Timeline {
+    pub dt: f64,
+    /// tick at which the current group started
+    pub group_k0: u64,
+    /// time from the group start to the start of the current move, s
+    pub seg_t0: f64,
+}
+
+impl Timeline {
+    pub fn new(dt: f64) -> Self {
+        Timeline {
+            dt,
+            group_k0: 0,
+            seg_t0: 0.0,
+        }
+    }
+
+    /// Whole ticks covering `seconds` (a hair of rounding is forgiven).
+    pub fn ticks(&self, seconds: f64) -> u64 {
+        let t = (seconds / self.dt - 1e-9).ceil();
+        if t > 0.0 {
+            t as u64
+        } else {
+            0
+        }
+    }
+
+    /// For a move that ends at rest: the tick of its end (the next group's start).
+    pub fn stop_tick(&self, m: &PlannedMove) -> Option<u64> {
+        (m.profile.v1 == 0.0).then(|| self.group_k0 + self.ticks(self.seg_t0 + m.profile.duration))
+    }
+
+    /// Time of tick `k` relative to the start of the current move.
+    pub fn local_time(&self, k: u64) -> f64 {
+        (k - self.group_k0) as f64 * self.dt - self.seg_t0
+    }
+
+    /// Advances past a finished move.
+    pub fn finish_move(&mut self, m: &PlannedMove) {
+        match self.stop_tick(m) {
+            Some(k) => {
+                self.group_k0 = k;
+                self.seg_t0 = 0.0;
+            }
+            None => self.seg_t0 += m.profile.duration,
+        }
+    }
+
+    /// Advances past a dwell starting at the current group tick.
+    pub fn finish_dwell(&mut self, seconds: f64) {
+        self.group_k0 += self.ticks(seconds);
+        self.seg_t0 = 0.0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn profile_shapes() {
+        // trapezoid: 0 -> 100 mm/s at 1000 mm/s², 100 mm
+        let p = Profile::new(0.0, 0.0, 100.0, 1000.0, 100.0);
+        assert!((p.t_acc - 0.1).abs() < 1e-12 && (p.d_acc - 5.0).abs() < 1e-12);
+        assert!((p.duration - (0.2 + 0.9)).abs() < 1e-12);
+        assert!((p.s_at(0.05) - 1.25).abs() < 1e-12);
+        assert_eq!(p.s_at(2.0), 100.0);
+        // triangle: 10 mm, cap not reached: peak sqrt(a*L) = 100
+        let p = Profile::new(0.0, 0.0, 1000.0, 1000.0, 10.0);
+        assert!((p.vp - 100.0).abs() < 1e-9 && p.t_cruise.abs() < 1e-9);
+        // entry and exit speeds
+        let p = Profile::new(50.0, 20.0, 100.0, 1000.0, 30.0);
+        assert!((p.v_at(0.0) - 50.0).abs() < 1e-12 && (p.v_at(p.duration) - 20.0).abs() < 1e-12);
+        assert!((p.s_at(p.duration - 1e-12) - 30.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn ticks_forgive_rounding() {
+        let t = Timeline::new(0.001);
+        assert_eq!(t.ticks(0.005), 5);
+        assert_eq!(t.ticks(0.005 + 1e-15), 5);
+        assert_eq!(t.ticks(0.0051), 6);
+        assert_eq!(t.ticks(0.0), 0);
+    }
+}

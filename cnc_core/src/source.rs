@@ -1,0 +1,184 @@
+//! Where program lines come from. The core never opens files: the caller
+//! hands it a [`ProgramSource`] (a string here, a buffered file in the CLI).
+
+/// A place in the program that can be returned to (for jumps).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SourcePos {
+    /// byte offset of the start of the line
+    pub offset: u64,
+    /// 1-based number of that line
+    pub line: u32,
+}
+
+/// A failure to read the program (I/O in a file-backed source).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SourceError(pub String);
+
+/// Line-by-line access to a program, with the ability to jump back.
+pub trait ProgramSource {
+    /// Reads the next line (without its line end) into `buf` (cleared first).
+    /// Returns the position of that line, or `None` at the end.
+    fn read_line(&mut self, buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError>;
+    /// Continues reading at `pos` (a value returned by `read_line`).
+    fn seek(&mut self, pos: SourcePos) -> Result<(), SourceError>;
+}
+
+/// A program held in memory.
+#[derive(Clone, Debug)]
+pub struct StrSource<'a> {
+    text: &'a [u8],
+    offset: usize,
+    line: u32,
+}
+
+impl<'a> StrSource<'a> {
+    pub fn new(text: &'a str) -> Self {
+        Self::from_bytes(text.as_bytes())
+    }
+    pub fn from_bytes(text: &'a [u8]) -> Self {
+        StrSource {
+            text,
+            offset: 0,
+            line: 0,
+        }
+    }
+}
+
+/// Removes a trailing `\r` (CRLF files).
+pub fn trim_line_end(buf: &mut Vec<u8>) {
+    while matches!(buf.last(), Some(b'\n') | Some(b'\r')) {
+        buf.pop();
+    }
+}
+
+impl ProgramSource for StrSource<'_> {
+    fn read_line(&mut self, buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError> {
+        buf.clear();
+        if self.offset >= self.text.len() {
+            return Ok(None);
+        }
+        let rest = &self.text[self.offset..];
+        let end = rest.iter().position(|&b| b == b'\n');
+        let (line, next) = match end {
+            Some(e) => (&rest[..e], self.offset + e + 1),
+            None => (rest, self.text.len()),
+        };
+        buf.extend_from_slice(line);
+        trim_line_end(buf);
+        self.line += 1;
+        let pos = SourcePos {
+            offset: self.offset as u64,
+            line: self.line,
+        };
+        self.offset = next;
+        Ok(Some(pos))
+    }
+
+    fn seek(&mut self, pos: SourcePos) -> Result<(), SourceError> {
+        if pos.offset as usize > self.text.len() || pos.line == 0 {
+            return Err(SourceError(format!("cannot seek to offset {}", pos.offset)));
+        }
+        self.offset = pos.offset as usize;
+        self.line = pos.line - 1;
+        Ok(())
+    }
+}
+
+/// A program read from any `BufRead + Seek` (a file), one line at a time, so
+/// a large program never sits in memory as a whole.
+pub struct ReaderSource<R> {
+    reader: R,
+    offset: u64,
+    line: u32,
+    max_line: usize,
+}
+
+impl<R: std::io::BufRead + std::io::Seek> ReaderSource<R> {
+    /// `max_line`: longest accepted line in bytes; a longer one is an error.
+    pub fn new(reader: R, max_line: usize) -> Self {
+        ReaderSource {
+            reader,
+            offset: 0,
+            line: 0,
+            max_line,
+        }
+    }
+}
+
+impl<R: std::io::BufRead + std::io::Seek> ProgramSource for ReaderSource<R> {
+    fn read_line(&mut self, buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError> {
+        use std::io::{BufRead, Read};
+        buf.clear();
+        let limit = self.max_line as u64 + 2;
+        let n = (&mut self.reader)
+            .take(limit)
+            .read_until(b'\n', buf)
+            .map_err(|e| SourceError(e.to_string()))?;
+        if n == 0 {
+            return Ok(None);
+        }
+        self.line += 1;
+        if buf.last() != Some(&b'\n') && n as u64 == limit {
+            return Err(SourceError(format!(
+                "line {} is longer than {} bytes",
+                self.line, self.max_line
+            )));
+        }
+        let pos = SourcePos {
+            offset: self.offset,
+            line: self.line,
+        };
+        self.offset += n as u64;
+        trim_line_end(buf);
+        Ok(Some(pos))
+    }
+
+    fn seek(&mut self, pos: SourcePos) -> Result<(), SourceError> {
+        self.reader
+            .seek(std::io::SeekFrom::Start(pos.offset))
+            .map_err(|e| SourceError(e.to_string()))?;
+        self.offset = pos.offset;
+        self.line = pos.line.saturating_sub(1);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn str_source_lines_and_seek() {
+        let mut s = StrSource::new("N10 G00\r\n\nN30 X1");
+        let mut b = Vec::new();
+        let p1 = s.read_line(&mut b).unwrap().unwrap();
+        assert_eq!((p1.line, b.as_slice()), (1, &b"N10 G00"[..]));
+        let p2 = s.read_line(&mut b).unwrap().unwrap();
+        assert_eq!((p2.line, b.len()), (2, 0));
+        let p3 = s.read_line(&mut b).unwrap().unwrap();
+        assert_eq!((p3.line, p3.offset, b.as_slice()), (3, 10, &b"N30 X1"[..]));
+        assert!(s.read_line(&mut b).unwrap().is_none());
+        s.seek(p1).unwrap();
+        assert_eq!(s.read_line(&mut b).unwrap().unwrap(), p1);
+    }
+
+    #[test]
+    fn reader_source_matches_str_source() {
+        let text = "N1 X1\nN2 X2\r\nN3 X3";
+        let mut r = ReaderSource::new(std::io::Cursor::new(text.as_bytes()), 100);
+        let mut s = StrSource::new(text);
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        loop {
+            let pa = r.read_line(&mut a).unwrap();
+            let pb = s.read_line(&mut b).unwrap();
+            assert_eq!(pa, pb);
+            assert_eq!(a, b);
+            if pa.is_none() {
+                break;
+            }
+        }
+        let mut r = ReaderSource::new(std::io::Cursor::new(b"X123456789\n".as_slice()), 4);
+        let err = r.read_line(&mut a).unwrap_err();
+        assert_eq!(err.0, "line 1 is longer than 4 bytes");
+    }
+}

@@ -1,0 +1,167 @@
+//! Bad programs are refused with line, column, block number and a message
+//! saying what was expected. All errors come in one report.
+
+use cnc_core::source::StrSource;
+use cnc_core::{check, Dialect, Machine};
+
+fn errors(text: &str, d: Dialect, m: &Machine) -> Vec<String> {
+    let r = check(StrSource::new(text), d, m);
+    assert_eq!(r.error_count, r.errors.len());
+    r.errors.iter().map(|e| e.to_string()).collect()
+}
+
+fn mill_errors(text: &str) -> Vec<String> {
+    errors(text, Dialect::Cnc836, &Machine::builtin_mill())
+}
+
+#[test]
+fn unknown_word() {
+    let e = mill_errors("N10 G00 X10\nN20 G01 X20 Q5 F100\n");
+    assert_eq!(
+        e,
+        vec!["line 2, column 13: block N20: unknown address 'Q' in the cnc836 dialect: expected one of N G M X Y Z I J K F S T P"]
+    );
+    let e = errors(
+        "N10 G00 Y10 *\n",
+        Dialect::Heidenhain,
+        &Machine::builtin_lathe(),
+    );
+    assert_eq!(
+        e,
+        vec!["line 1, column 9: block N10: axis Y is not on this machine"]
+    );
+    let e = mill_errors("G07 X1\nM99\n");
+    assert_eq!(
+        e,
+        vec![
+            "line 1, column 1: unsupported G code G07 in the cnc836 dialect",
+            "line 2, column 1: unsupported M code M99: expected M02, M03, M04, M05, M06, M08, M09 or M30"
+        ]
+    );
+}
+
+#[test]
+fn arc_radius_mismatch_over_two_micrometres() {
+    // start radius 10 about (20,10); end (20,20.0025) is 10.0025 away
+    let e = mill_errors("N1 G00 X10 Y10\nN2 G02 X20 Y20.0025 I10 J0 F500\n");
+    assert_eq!(
+        e,
+        vec!["line 2, column 4: block N2: arc radius mismatch: start radius 10 mm, end radius 10.0025 mm (difference 0.0025 mm, at most 0.002 mm)"]
+    );
+    // 0.0015 mm is accepted
+    assert!(mill_errors("N1 G00 X10 Y10\nN2 G02 X20 Y20.0015 I10 J0 F500\n").is_empty());
+}
+
+#[test]
+fn travel_limit_along_the_whole_path() {
+    // both ends inside, but the CW half circle bulges to X -3
+    let e = mill_errors("N1 G00 X2 Y250\nN2 G02 X2 Y260 I0 J5 F500\nN3 G01 X600\nN4 X1\n");
+    assert_eq!(
+        e,
+        vec![
+            "line 2, column 8: block N2: travel limit: the arc reaches X -3, outside the axis range 0..500",
+            "line 3, column 8: block N3: travel limit: the move ends at X 600, outside the axis range 0..500",
+        ]
+    );
+    // the CCW one bulges to +X and stays inside
+    assert!(mill_errors("N1 G00 X2 Y250\nN2 G03 X2 Y260 I0 J5 F500\n").is_empty());
+    // lathe: X limits are reported in diameter
+    let e = errors(
+        "N1 G00 X400 Z0\n",
+        Dialect::Cnc836,
+        &Machine::builtin_lathe(),
+    );
+    assert_eq!(
+        e,
+        vec!["line 1, column 8: block N1: travel limit: the move ends at X (diameter) 400, outside the axis range -10..300"]
+    );
+}
+
+#[test]
+fn missing_feed() {
+    let e = mill_errors("N1 G00 X10\nN2 G01 X20\n");
+    assert_eq!(
+        e,
+        vec!["line 2, column 4: block N2: missing feed: G01 needs a feed F (mm/min) greater than 0, programmed in this block or before"]
+    );
+    // F0 is no feed either; once F is set it is modal
+    let e = mill_errors("G01 X1 F0\nG01 X2 F100\nX3\n");
+    assert_eq!(e.len(), 1);
+    assert!(
+        e[0].starts_with("line 1, column 8: missing feed"),
+        "points at F0: {e:?}"
+    );
+    // G95 needs a turning spindle
+    let e = mill_errors("G95 G01 X1 F0.1\n");
+    assert_eq!(
+        e,
+        vec!["line 1, column 5: G95 feed per revolution needs the spindle turning (M03/M04 with S greater than 0)"]
+    );
+    assert!(mill_errors("M03 S1000\nG95 G01 X1 F0.1\n").is_empty());
+}
+
+#[test]
+fn every_error_in_one_report() {
+    let prog = "N10 G00 X10\nN20 G01 X20\nN30 X1 #\nN40 G02 X30 I0 J0 F10\nN50 G01 X9999\nN60 G01 G00 X1\n";
+    let e = mill_errors(prog);
+    let lines: Vec<&str> = e
+        .iter()
+        .map(|s| s.split(':').next().unwrap_or(""))
+        .collect();
+    assert_eq!(
+        lines,
+        vec![
+            "line 2, column 5",
+            "line 3, column 8",
+            "line 4, column 13",
+            "line 5, column 9",
+            "line 6, column 9"
+        ],
+        "{e:#?}"
+    );
+    assert!(e[1].contains("unexpected character '#'"));
+    assert!(e[2].contains("arc radius is zero"));
+    assert!(e[4].contains("a motion G code (G00-G03) programmed twice"));
+}
+
+#[test]
+fn dialect_syntax_is_not_guessed() {
+    // a heidenhain comment in a cnc836 program is an error, and vice versa
+    let e = mill_errors("G00 X1 ; comment\n");
+    assert_eq!(e, vec!["line 1, column 8: unexpected character ';': expected an address letter and a number; comments in cnc836 start with '\"'"]);
+    let e = errors(
+        "G00 X1 \" comment\n",
+        Dialect::Heidenhain,
+        &Machine::builtin_mill(),
+    );
+    assert_eq!(e.len(), 1);
+    assert!(
+        e[0].starts_with("line 1, column 8: unexpected character '\"'"),
+        "{e:?}"
+    );
+    assert!(errors(
+        "N10 G00 X1 * ; ok\n",
+        Dialect::Heidenhain,
+        &Machine::builtin_mill()
+    )
+    .is_empty());
+    assert!(mill_errors("N10 G00 X1 \" ok\n").is_empty());
+}
+
+#[test]
+fn good_program_summary() {
+    let r = check(
+        StrSource::new("N1 G00 X100 Y100\nN2 G02 X100 Y100 I20 J0 F1200\nN3 M30\nN4 G01 X9999\n"),
+        Dialect::Cnc836,
+        &Machine::builtin_mill(),
+    );
+    assert!(r.ok(), "text after M30 is not executed: {}", r.message());
+    assert_eq!((r.blocks, r.moves), (3, 2));
+    let (lo, hi) = r.bbox.unwrap();
+    assert_eq!((lo[0], lo[1]), (0.0, 0.0));
+    assert!((hi[0] - 140.0).abs() < 1e-12 && (hi[1] - 120.0).abs() < 1e-12);
+    // rapid 141.42 mm: both axes at 250 mm/s, path 353.55 mm/s, path
+    // acceleration 0.85*2000*sqrt(2): 0.4 + 0.1471 s; circle 125.66 mm at
+    // 20 mm/s with 0.6*2000 mm/s²: 6.2832 + 0.0167 s; each rounded up to ticks
+    assert!((r.duration_s - 6.848).abs() < 0.0015, "{}", r.duration_s);
+}

@@ -1,0 +1,271 @@
+//! End-to-end tests of the core pipeline: text -> samples. Values in mm.
+
+use cnc_core::exec::{Executor, Sample};
+use cnc_core::source::StrSource;
+use cnc_core::{check, Dialect, Machine, V3};
+
+fn mill() -> Machine {
+    Machine::builtin_mill()
+}
+
+fn run(text: &str, m: &Machine) -> Vec<Sample> {
+    let r = check(StrSource::new(text), Dialect::Cnc836, m);
+    assert!(r.ok(), "program refused: {}", r.message());
+    let samples: Vec<Sample> = Executor::new(StrSource::new(text), Dialect::Cnc836, m).collect();
+    // the check's estimate is the executed cycle time, to the tick
+    let last = samples.last().unwrap();
+    assert!(last.last);
+    assert_eq!(
+        last.k, r.ticks,
+        "estimate {} ticks, executed {}",
+        r.ticks, last.k
+    );
+    for (i, s) in samples.iter().enumerate() {
+        assert_eq!(s.k, i as u64);
+        assert_eq!(s.t, i as f64 * m.dt(), "t = k*dt exactly");
+    }
+    samples
+}
+
+/// Largest per-axis |velocity| / limit and |acceleration| / limit over all
+/// samples, from finite differences of the positions.
+fn limit_ratios(samples: &[Sample], m: &Machine) -> (f64, f64) {
+    let dt = m.dt();
+    let (vmax, amax) = (m.vmax(), m.amax());
+    let mut rv: f64 = 0.0;
+    let mut ra: f64 = 0.0;
+    let vel: Vec<V3> = samples
+        .windows(2)
+        .map(|w| (w[1].pos - w[0].pos) / dt)
+        .collect();
+    for v in &vel {
+        for i in 0..3 {
+            rv = rv.max(v[i].abs() / vmax[i]);
+        }
+    }
+    for w in vel.windows(2) {
+        let a = (w[1] - w[0]) / dt;
+        for i in 0..3 {
+            ra = ra.max(a[i].abs() / amax[i]);
+        }
+    }
+    (rv, ra)
+}
+
+fn on_line(samples: &[Sample], line: u32) -> Vec<&Sample> {
+    samples.iter().filter(|s| s.src.line == line).collect()
+}
+
+/// Checks that every sample of `line` lies on the circle (centre, radius) of
+/// the plane `(p, q)` and that the normal axis `n` does not move.
+fn assert_on_circle(
+    samples: &[Sample],
+    line: u32,
+    c: (f64, f64),
+    r: f64,
+    (p, q, n): (usize, usize, usize),
+    nval: f64,
+) -> usize {
+    let pts = on_line(samples, line);
+    assert!(pts.len() > 50, "line {line}: {} samples", pts.len());
+    for s in &pts {
+        let d = ((s.pos[p] - c.0).powi(2) + (s.pos[q] - c.1).powi(2)).sqrt();
+        assert!(
+            (d - r).abs() < 1e-9,
+            "line {line} t={} off the circle by {:e} mm",
+            s.t,
+            d - r
+        );
+        assert_eq!(s.pos[n], nval, "normal axis moved");
+    }
+    pts.len()
+}
+
+#[test]
+fn arcs_in_every_plane_and_direction_lie_on_their_circle() {
+    let m = mill();
+    // full circles, then half circles, in G17, G18 and G19, CW and CCW
+    let prog = "\
+N10 G00 X100 Y100 Z0
+N20 G17 G02 I20 J0 F2000
+N30 G03 I20
+N40 G02 X140 Y100 I20
+N50 G03 X100 Y100 I-20
+N60 G18 G02 I0 K20
+N70 G03 I0 K20
+N80 G02 X100 Z40 K20
+N90 G03 X100 Z0 K-20
+N100 G19 G02 J0 K30
+N110 G03 J30 K0
+N120 G02 Y160 Z0 J30
+N130 G03 Y100 Z0 J-30
+N140 M30
+";
+    let s = run(prog, &m);
+    // G17: centre (120, 100), normal Z = 0
+    let xy = (0, 1, 2);
+    assert_on_circle(&s, 2, (120.0, 100.0), 20.0, xy, 0.0);
+    assert_on_circle(&s, 3, (120.0, 100.0), 20.0, xy, 0.0);
+    assert_on_circle(&s, 4, (120.0, 100.0), 20.0, xy, 0.0);
+    assert_on_circle(&s, 5, (120.0, 100.0), 20.0, xy, 100.0_f64.min(0.0));
+    // G18: plane (Z, X), centre z=20, x=100, normal Y = 100
+    let zx = (2, 0, 1);
+    assert_on_circle(&s, 6, (20.0, 100.0), 20.0, zx, 100.0);
+    assert_on_circle(&s, 7, (20.0, 100.0), 20.0, zx, 100.0);
+    assert_on_circle(&s, 8, (20.0, 100.0), 20.0, zx, 100.0);
+    assert_on_circle(&s, 9, (20.0, 100.0), 20.0, zx, 100.0);
+    // G19: plane (Y, Z), centre y=100, z=30 for N100; y=130, z=0 for N110..
+    let yz = (1, 2, 0);
+    assert_on_circle(&s, 10, (100.0, 30.0), 30.0, yz, 100.0);
+    assert_on_circle(&s, 11, (130.0, 0.0), 30.0, yz, 100.0);
+    assert_on_circle(&s, 12, (130.0, 0.0), 30.0, yz, 100.0);
+    assert_on_circle(&s, 13, (130.0, 0.0), 30.0, yz, 100.0);
+    // direction: N20 is clockwise seen from +Z: from (100,100) it goes to +Y first
+    let n20 = on_line(&s, 2);
+    assert!(
+        n20[20].pos[1] > 100.0 && n20[20].pos[0] > 100.0,
+        "{:?}",
+        n20[20].pos
+    );
+    let n30 = on_line(&s, 3);
+    assert!(
+        n30[20].pos[1] < 100.0,
+        "G03 from (100,100) about (120,100) goes to -Y first"
+    );
+    // G18 CW seen from +Y (Z right, X up): from (x=100,z=0) about
+    // (x=100,z=20) it runs to +X first
+    let n60 = on_line(&s, 6);
+    assert!(n60[20].pos[0] > 100.0, "{:?}", n60[20].pos);
+    let n70 = on_line(&s, 7);
+    assert!(n70[20].pos[0] < 100.0, "{:?}", n70[20].pos);
+    // the programmed end is exact
+    assert_eq!(s.last().unwrap().pos, V3::new(100.0, 100.0, 0.0));
+}
+
+#[test]
+fn block_ends_are_exact_and_the_last_sample_is_the_end_point() {
+    let m = mill();
+    let prog = "N1 G00 X10.001 Y20.002 Z-3.003\nN2 G01 X123.456 F1234\nN3 Y77.777\nN4 G03 X133.456 Y67.777 I10 J0\n";
+    let s = run(prog, &m);
+    // every block ends at rest (90° corners), so its end point is sampled exactly
+    for want in [
+        V3::new(10.001, 20.002, -3.003),
+        V3::new(123.456, 20.002, -3.003),
+        V3::new(123.456, 77.777, -3.003),
+    ] {
+        assert!(
+            s.iter().any(|x| x.pos == want),
+            "end point {want} never sampled exactly"
+        );
+    }
+    assert_eq!(s.last().unwrap().pos, V3::new(133.456, 67.777, -3.003));
+}
+
+#[test]
+fn no_sample_exceeds_a_velocity_or_acceleration_limit() {
+    let m = mill();
+    // rapids at the axis limits, feeds, arcs with large centripetal demand,
+    // nearly tangent kinks and reversals
+    let prog = "\
+G00 X400 Y300 Z50
+G00 X10 Y10 Z-50
+G01 X200 Y10 F30000
+G01 X400 Y12 F30000
+G01 X420 Y14
+G03 X420 Y54 I0 J20 F20000
+G02 X420 Y94 I0 J20
+G01 X100 Y94.5 Z20
+G18 G02 X100 Z60 K20 F9000
+G17 G01 X100.1 Y94.5 F600
+G00 X0 Y0 Z0
+";
+    let s = run(prog, &m);
+    let (rv, ra) = limit_ratios(&s, &m);
+    assert!(rv <= 1.0 + 1e-9, "velocity at {rv} of the limit");
+    assert!(ra <= 1.0 + 1e-6, "acceleration at {ra} of the limit");
+    // the rapids really run at the limit of the leading axis
+    assert!(rv > 0.999, "rapid reached only {rv} of the velocity limit");
+}
+
+#[test]
+fn a_tangent_line_arc_line_path_keeps_its_speed() {
+    let m = mill();
+    // 50 mm/s; line +X, CCW quarter arc R50 tangent to it, line +Y tangent
+    let prog = "G00 X0 Y0\nG01 X50 Y0 F3000\nG03 X100 Y50 I0 J50\nG01 X100 Y150\n";
+    let s = run(prog, &m);
+    let dt = m.dt();
+    // speed from positions over the junction region (both junctions and the arc)
+    let mid: Vec<&Sample> = s
+        .iter()
+        .filter(|x| x.pos[0] > 30.0 && x.pos[1] < 130.0 && x.pos[1] >= 0.0 && x.k > 0)
+        .collect();
+    assert!(mid.len() > 2000);
+    let mut lo = f64::INFINITY;
+    let mut hi: f64 = 0.0;
+    for w in mid.windows(2) {
+        if w[1].k != w[0].k + 1 {
+            continue;
+        }
+        let v = (w[1].pos - w[0].pos).norm() / dt;
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    assert!(
+        lo > 49.999 && hi < 50.000_001,
+        "speed through the junctions {lo}..{hi} mm/s"
+    );
+}
+
+#[test]
+fn a_nearly_tangent_junction_does_not_stop_but_a_corner_does() {
+    let m = mill();
+    // 0.5° kink at X50: no stop; 90° corner at X100: exact stop
+    let prog = "G00 X0 Y0\nG01 X50 Y0 F600\nG01 X100 Y0.436\nG01 X100 Y50\n";
+    let s = run(prog, &m);
+    let speed_at = |x: f64| {
+        s.iter()
+            .filter(|p| (p.pos[0] - x).abs() < 0.2 && p.path_speed > 0.0)
+            .map(|p| p.path_speed)
+            .fold(f64::INFINITY, f64::min)
+    };
+    assert!(
+        speed_at(50.0) > 5.0,
+        "slowed to {} at the 0.5° kink",
+        speed_at(50.0)
+    );
+    // at the corner the path speed goes to zero and the corner is sampled exactly
+    assert!(s.iter().any(|p| p.pos == V3::new(100.0, 0.436, 0.0)));
+}
+
+#[test]
+fn runs_at_ten_kilohertz() {
+    let mut m = mill();
+    m.interpolation.rate_hz = 10_000.0;
+    let s = run("G00 X10 Y10\nG02 X10 Y10 I5 F1200\n", &m);
+    assert_on_circle(&s, 2, (15.0, 10.0), 5.0, (0, 1, 2), 0.0);
+    assert_eq!(s[1].t, 1e-4);
+    let (rv, ra) = limit_ratios(&s, &m);
+    assert!(rv <= 1.0 + 1e-9 && ra <= 1.0 + 1e-6, "{rv} {ra}");
+}
+
+#[test]
+fn lathe_diameter_mode_and_default_plane() {
+    let m = Machine::builtin_lathe();
+    // X in diameter: X60 is slide position 30; G18 is the default plane;
+    // I is a radius offset
+    let prog = "N10 G00 X60 Z5\nN20 G01 Z-20 F300\nN30 G02 X80 Z-30 I10 K0\nN40 G00 X200 Z20\n";
+    let r = check(StrSource::new(prog), Dialect::Cnc836, &m);
+    assert!(r.ok(), "{}", r.message());
+    let s: Vec<Sample> = Executor::new(StrSource::new(prog), Dialect::Cnc836, &m).collect();
+    // N20 -> N30 is a tangent junction (both run in -Z): passed at speed
+    assert!(s
+        .iter()
+        .any(|p| (p.pos - V3::new(30.0, 0.0, -20.0)).norm() < 0.006));
+    assert!(
+        s.iter().any(|p| p.pos == V3::new(30.0, 0.0, 5.0)),
+        "X60 is slide position 30"
+    );
+    // N30: arc about (x=40, z=-20) radius 10 in the ZX plane
+    assert_on_circle(&s, 3, (-20.0, 40.0), 10.0, (2, 0, 1), 0.0);
+    assert_eq!(s.last().unwrap().pos, V3::new(100.0, 0.0, 20.0));
+}
