@@ -1,1 +1,6 @@
+//! Shell around the pure core: loading machine files and programs, the
+//! offline simulation loop shared by `cnc simulate` and the tests, and (later)
+//! the ROS 2 node.
 
+pub mod files;
+pub mod offline;

@@ -1,1 +1,259 @@
-fn main(){}
+//! `cnc`: check and simulate CNC programs offline.
+
+use clap::{Parser, Subcommand};
+use cnc_core::{check, CheckReport, Dialect, Machine, V3};
+use cnc_node::files::{load_machine, open_program};
+use cnc_node::offline::simulate;
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "cnc",
+    version,
+    about = "CNC controller: check and simulate lathe and mill programs"
+)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Check a program before motion: every error with line and column, or a
+    /// one-line summary (blocks, estimated cycle time, bounding box).
+    Check {
+        /// the program file
+        file: PathBuf,
+        /// cnc836 or heidenhain (default: the machine file's)
+        #[arg(long)]
+        dialect: Option<Dialect>,
+        /// machine file, or a bundled machine: mill, lathe
+        #[arg(long, default_value = "mill")]
+        machine: String,
+    },
+    /// Run a program offline against the simulated axes and spindle.
+    Simulate {
+        file: PathBuf,
+        #[arg(long)]
+        dialect: Option<Dialect>,
+        #[arg(long, default_value = "mill")]
+        machine: String,
+        /// interpolation rate, Hz (default: the machine file's)
+        #[arg(long)]
+        rate: Option<f64>,
+        /// write one row per sample: t, setpoint per joint, actual per joint (mm)
+        #[arg(long)]
+        csv: Option<PathBuf>,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let r = match cli.cmd {
+        Cmd::Check {
+            file,
+            dialect,
+            machine,
+        } => cmd_check(&file, dialect, &machine),
+        Cmd::Simulate {
+            file,
+            dialect,
+            machine,
+            rate,
+            csv,
+        } => cmd_simulate(&file, dialect, &machine, rate, csv.as_deref()),
+    };
+    match r {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn load(machine: &str, rate: Option<f64>) -> Result<Machine, String> {
+    let mut m = load_machine(machine)?;
+    if let Some(r) = rate {
+        if !(r.is_finite() && (10.0..=100_000.0).contains(&r)) {
+            return Err(format!("--rate {r}: must be between 10 and 100000 Hz"));
+        }
+        m.interpolation.rate_hz = r;
+    }
+    Ok(m)
+}
+
+fn run_check(file: &Path, dialect: Dialect, m: &Machine) -> Result<CheckReport, String> {
+    let src = open_program(file, m)?;
+    Ok(check(src, dialect, m))
+}
+
+/// Prints every error with a snippet; true when the program is good.
+fn report_errors(file: &Path, r: &CheckReport) -> bool {
+    if r.ok() {
+        return true;
+    }
+    let origin = file.display().to_string();
+    let mut err = std::io::stderr().lock();
+    for d in &r.errors {
+        let _ = writeln!(err, "{}", d.render(Some(&origin)));
+    }
+    let more = r.error_count - r.errors.len();
+    if more > 0 {
+        let _ = writeln!(err, "... and {more} more errors");
+    }
+    let _ = writeln!(
+        err,
+        "{}: {} error{}; the program is refused and nothing moves",
+        origin,
+        r.error_count,
+        if r.error_count == 1 { "" } else { "s" }
+    );
+    false
+}
+
+fn fmt_duration(s: f64) -> String {
+    let total = s.max(0.0);
+    let h = (total / 3600.0).floor();
+    let m = ((total - h * 3600.0) / 60.0).floor();
+    let sec = total - h * 3600.0 - m * 60.0;
+    if h > 0.0 {
+        format!("{h:.0}h {m:02.0}m {sec:06.3}s")
+    } else if m > 0.0 {
+        format!("{m:.0}m {sec:06.3}s")
+    } else {
+        format!("{sec:.3}s")
+    }
+}
+
+fn fmt_bbox(m: &Machine, bbox: Option<(V3, V3)>) -> String {
+    let Some((lo, hi)) = bbox else {
+        return "no motion".into();
+    };
+    let mut parts = Vec::new();
+    for i in m.joint_indices() {
+        let (k, name) = if i == 0 && m.diameter_mode() {
+            (2.0, "X(dia)")
+        } else {
+            (1.0, ["X", "Y", "Z"][i])
+        };
+        parts.push(format!(
+            "{name} {}..{}",
+            cnc_core::diag::num(lo[i] * k),
+            cnc_core::diag::num(hi[i] * k)
+        ));
+    }
+    format!("{} mm", parts.join(" "))
+}
+
+fn cmd_check(file: &Path, dialect: Option<Dialect>, machine: &str) -> Result<ExitCode, String> {
+    let m = load(machine, None)?;
+    let d = dialect.unwrap_or(m.dialect);
+    let r = run_check(file, d, &m)?;
+    if !report_errors(file, &r) {
+        return Ok(ExitCode::from(1));
+    }
+    println!(
+        "{}: ok ({d}, {}): {} blocks, {} moves, estimated cycle time {} ({} s), bounding box {}",
+        file.display(),
+        m.name,
+        r.blocks,
+        r.moves,
+        fmt_duration(r.duration_s),
+        r.duration_s,
+        fmt_bbox(&m, r.bbox)
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn cmd_simulate(
+    file: &Path,
+    dialect: Option<Dialect>,
+    machine: &str,
+    rate: Option<f64>,
+    csv: Option<&Path>,
+) -> Result<ExitCode, String> {
+    let m = load(machine, rate)?;
+    let d = dialect.unwrap_or(m.dialect);
+    let r = run_check(file, d, &m)?;
+    if !report_errors(file, &r) {
+        return Ok(ExitCode::from(1));
+    }
+    let mut out = match csv {
+        Some(p) => {
+            let f = std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display()))?;
+            let mut w = std::io::BufWriter::with_capacity(1 << 16, f);
+            let names: Vec<&str> = m.axes.iter().map(|a| a.name.as_str()).collect();
+            let mut head = String::from("t");
+            for n in &names {
+                head.push_str(&format!(",{n}_set"));
+            }
+            for n in &names {
+                head.push_str(&format!(",{n}_act"));
+            }
+            writeln!(w, "{head}").map_err(|e| e.to_string())?;
+            Some(w)
+        }
+        None => None,
+    };
+    // a progress bar for runs of more than a few seconds of motion, on a terminal
+    let bar = (std::io::stdout().is_terminal() && r.ticks > 200_000).then(|| {
+        let b = indicatif::ProgressBar::new(r.ticks);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{bar:40} {percent:>3}% sample {pos}/{len} {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    });
+    let mut io_err: Option<std::io::Error> = None;
+    let mut buf = ryu::Buffer::new();
+    let src = open_program(file, &m)?;
+    let summary = simulate(src, d, &m, |st| {
+        if let Some(b) = &bar {
+            if st.sample.k % 10_000 == 0 {
+                b.set_position(st.sample.k);
+            }
+        }
+        if let (Some(w), None) = (out.as_mut(), io_err.as_ref()) {
+            let mut line = String::with_capacity(96);
+            line.push_str(buf.format(st.sample.t));
+            for v in st.setpoints.iter().chain(st.actual.iter()) {
+                line.push(',');
+                line.push_str(buf.format(*v));
+            }
+            line.push('\n');
+            if let Err(e) = w.write_all(line.as_bytes()) {
+                io_err = Some(e);
+            }
+        }
+    });
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    if let Some(mut w) = out {
+        if let Some(e) = io_err {
+            return Err(format!("writing the CSV: {e}"));
+        }
+        w.flush().map_err(|e| format!("writing the CSV: {e}"))?;
+    }
+    let errs: Vec<String> = m
+        .axes
+        .iter()
+        .zip(&summary.max_following_error)
+        .map(|(a, e)| format!("{} {:.4}", a.name, e))
+        .collect();
+    println!(
+        "{}: cycle time {} ({} s, {} samples at {} Hz), largest following error {} mm",
+        file.display(),
+        fmt_duration(summary.cycle_time),
+        summary.cycle_time,
+        summary.samples,
+        m.interpolation.rate_hz,
+        errs.join(", ")
+    );
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,185 @@
+//! The `cnc` binary as a user runs it.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn cnc(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_cnc"))
+        .args(args)
+        .current_dir(root())
+        .output()
+        .expect("run cnc");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn tmp(name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("cnc-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+#[test]
+fn check_good_program_prints_one_line_summary() {
+    let (code, out, err) = cnc(&["check", "examples/mill_pocket.nc", "--machine", "mill"]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(out.lines().count(), 1, "{out}");
+    assert!(
+        out.contains("ok (cnc836, mill): 15 blocks, 11 moves, estimated cycle time 19.803s (19.803 s), bounding box X 0..90 Y 0..70 Z -2..5 mm"),
+        "{out}"
+    );
+    let (code, out, _) = cnc(&["check", "examples/lathe_profile.nc", "--machine", "lathe"]);
+    assert_eq!(code, 0);
+    assert!(
+        out.contains("bounding box X(dia) 20..200 Z -45..20 mm"),
+        "{out}"
+    );
+    let (code, out, _) = cnc(&[
+        "check",
+        "examples/heidenhain_slot.h",
+        "--dialect",
+        "heidenhain",
+    ]);
+    assert_eq!(code, 0);
+    assert!(
+        out.contains("ok (heidenhain, mill): 10 blocks, 7 moves"),
+        "{out}"
+    );
+}
+
+#[test]
+fn check_bad_program_lists_every_error_with_snippets() {
+    let p = tmp(
+        "bad.nc",
+        "N10 G00 X10 Y10\nN20 G01 X20\nN30 G02 X30 Y12 I5 J0 F100\nN40 G01 X20 Q1\nN50 G00 X900\n",
+    );
+    let (code, out, err) = cnc(&["check", p.to_str().unwrap()]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(out.is_empty());
+    for want in [
+        "line 2, column 5: block N20: missing feed",
+        "line 3, column 5: block N30: arc radius mismatch: start radius 5 mm, end radius 5.3852 mm (difference 0.3852 mm, at most 0.002 mm)",
+        "line 4, column 13: block N40: unknown address 'Q'",
+        "line 5, column 9: block N50: travel limit: the move ends at X 900, outside the axis range 0..500",
+        "4 errors; the program is refused and nothing moves",
+    ] {
+        assert!(err.contains(want), "missing {want:?} in\n{err}");
+    }
+    // snippets show the offending line and point at the column
+    assert!(err.contains("4 | N40 G01 X20 Q1"), "{err}");
+    assert!(err.contains("bad.nc:4:13"), "{err}");
+}
+
+#[test]
+fn simulate_prints_cycle_time_and_following_error_and_writes_csv() {
+    let csv = std::env::temp_dir().join(format!("cnc-sim-{}.csv", std::process::id()));
+    let (code, out, err) = cnc(&[
+        "simulate",
+        "examples/mill_pocket.nc",
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains(
+            "cycle time 19.803s (19.803 s, 19804 samples at 1000 Hz), largest following error x "
+        ),
+        "{out}"
+    );
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let rows: Vec<&str> = text.lines().collect();
+    assert_eq!(rows[0], "t,x_set,y_set,z_set,x_act,y_act,z_act");
+    assert_eq!(rows.len(), 19804 + 1);
+    assert_eq!(rows[1], "0.0,0.0,0.0,0.0,0.0,0.0,0.0");
+    // t = k*dt; the last setpoint is the program's end point (X20 Y10 Z5)
+    let last: Vec<f64> = rows[19804].split(',').map(|v| v.parse().unwrap()).collect();
+    assert_eq!(last[0], 19803.0 * 0.001);
+    assert_eq!(&last[1..4], &[20.0, 10.0, 5.0]);
+    // the simulated axis lags but arrives within a micrometre after the dwell
+    for j in 0..3 {
+        assert!((last[4 + j] - last[1 + j]).abs() < 1e-3, "{last:?}");
+    }
+    std::fs::remove_file(csv).ok();
+}
+
+#[test]
+fn simulate_at_ten_kilohertz() {
+    let (code, out, err) = cnc(&[
+        "simulate",
+        "examples/heidenhain_slot.h",
+        "--dialect",
+        "heidenhain",
+        "--rate",
+        "10000",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("samples at 10000 Hz"), "{out}");
+    let (code, _, err) = cnc(&["simulate", "examples/heidenhain_slot.h", "--rate", "5"]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("--rate 5: must be between 10 and 100000 Hz"),
+        "{err}"
+    );
+}
+
+#[test]
+fn bad_machine_file_names_the_key() {
+    let m = std::fs::read_to_string(root().join("config/mill.toml")).unwrap();
+    let p = tmp(
+        "m.toml",
+        &m.replacen(
+            "max_acceleration_mm_s2 = 2000.0",
+            "max_acceleration_mm_s2 = 0.0",
+            1,
+        ),
+    );
+    let (code, _, err) = cnc(&[
+        "check",
+        "examples/mill_pocket.nc",
+        "--machine",
+        p.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("key `axis[0].max_acceleration_mm_s2`: must be greater than 0 (got 0)"),
+        "{err}"
+    );
+    let (code, _, err) = cnc(&["check", "examples/mill_pocket.nc", "--machine", "drill"]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("drill: no such machine file (bundled machines: mill, lathe)"),
+        "{err}"
+    );
+}
+
+#[test]
+fn program_over_the_size_limit_is_refused_unread() {
+    let m = std::fs::read_to_string(root().join("config/mill.toml")).unwrap();
+    let p = tmp(
+        "small.toml",
+        &m.replacen("max_program_bytes = 67108864", "max_program_bytes = 100", 1),
+    );
+    let prog = tmp("long.nc", &"G00 X1\n".repeat(20));
+    let (code, _, err) = cnc(&[
+        "check",
+        prog.to_str().unwrap(),
+        "--machine",
+        p.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains(
+            "140 bytes is over the machine's limit of 100 bytes (limits.max_program_bytes)"
+        ),
+        "{err}"
+    );
+}
