@@ -1,0 +1,169 @@
+#!/usr/bin/env bash
+# Set up a stock ROS 2 (Kilted) peer from PyPI wheels, for interop tests of the
+# Rust controller: rclpy + rmw_fastrtps_cpp + std/sensor msgs, and our own
+# interface package msgs/ (cnc_msgs) built with plain cmake.
+#
+#   scripts/ros_peer/setup.sh          # idempotent; re-runs take a few seconds
+#   . .venv-ros/env.sh                 # then: python3 scripts/ros_peer/smoke.py
+#
+# Creates (all gitignored, under the repo root):
+#   .venv-ros/                    Python 3.11 venv with the pinned wheels (requirements.txt)
+#   .venv-ros/build/cnc_msgs/     cmake build tree of msgs/
+#   .venv-ros/cnc_msgs_install/   install prefix of cnc_msgs (C/C++ libs, Python package, ament index)
+#   .venv-ros/env.sh              environment for tests (PATH, PYTHONPATH, LD_LIBRARY_PATH, ...)
+# and, outside the repo, symlinks under /opt/python/cp311-cp311 (only if missing or
+# dangling) because the wheels' CMake exports hard-code the manylinux build
+# image's Python and numpy include directories.
+#
+# Needs: Debian 12 (or similar, x86_64/glibc >= 2.28), python3.11, network access to
+# PyPI; installs python3-venv, python3-dev, g++, make with apt-get when missing.
+# Environment knobs: ROS_PEER_PYTHON (interpreter, default python3),
+# ROS_PEER_FORCE=1 (reinstall wheels and rebuild msgs/ from scratch).
+set -euo pipefail
+
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+root="$(cd "$here/../.." && pwd)"
+venv="$root/.venv-ros"
+prefix="$venv/cnc_msgs_install"
+build="$venv/build/cnc_msgs"
+req="$here/requirements.txt"
+py="${ROS_PEER_PYTHON:-python3}"
+force="${ROS_PEER_FORCE:-0}"
+t_start=$(date +%s)
+
+log() { printf '[ros_peer setup %3ss] %s\n' "$(( $(date +%s) - t_start ))" "$*"; }
+
+# ---------------------------------------------------------------- apt helpers
+apt_updated=0
+apt_install() {
+  local sudo=""
+  if [ "$(id -u)" != 0 ]; then
+    command -v sudo >/dev/null || { echo "need root (or sudo) to apt-get install $*" >&2; exit 1; }
+    sudo="sudo -n"
+  fi
+  if [ "$apt_updated" = 0 ]; then
+    log "apt-get update"
+    $sudo env DEBIAN_FRONTEND=noninteractive apt-get update -qq
+    apt_updated=1
+  fi
+  log "apt-get install $*"
+  $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "$@" >/dev/null
+}
+as_root() {
+  if [ "$(id -u)" = 0 ]; then "$@"; else sudo -n "$@"; fi
+}
+
+# ---------------------------------------------------------------- 0. tools
+command -v "$py" >/dev/null || apt_install python3
+pyver="$("$py" -c 'import sys; print("%d.%d" % sys.version_info[:2])')"
+if [ "$pyver" != 3.11 ]; then
+  echo "the ROS 2 wheels are cp311 only; $py is Python $pyver (set ROS_PEER_PYTHON)" >&2
+  exit 1
+fi
+# The generated Python bindings are C extensions: they need Python.h.
+py_inc="$("$py" -c 'import sysconfig; print(sysconfig.get_paths()["include"])')"
+[ -f "$py_inc/Python.h" ] || apt_install python3-dev
+missing=()
+command -v g++ >/dev/null || missing+=(g++)
+command -v gcc >/dev/null || missing+=(gcc)
+command -v make >/dev/null || missing+=(make)
+[ ${#missing[@]} = 0 ] || apt_install "${missing[@]}"
+
+# ---------------------------------------------------------------- 1. venv
+if [ "$force" = 1 ]; then rm -rf "$venv"; fi
+if [ ! -x "$venv/bin/python" ]; then
+  log "creating venv $venv"
+  # Debian's python3 has venv but not ensurepip until python3-venv is installed.
+  "$py" -c 'import ensurepip, venv' 2>/dev/null || apt_install python3-venv
+  "$py" -m venv "$venv"
+fi
+vpy="$venv/bin/python"
+
+# ---------------------------------------------------------------- 2. wheels
+stamp="$venv/.requirements.sha256"
+want="$(sha256sum "$req" | cut -d' ' -f1)"
+if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
+  log "pip install -r $(realpath --relative-to="$root" "$req")"
+  # ros_wheels_bootstrapper (a .pth) re-execs every venv python with
+  # LD_LIBRARY_PATH set; harmless for pip.
+  "$vpy" -m pip install -q --disable-pip-version-check -r "$req"
+  echo "$want" > "$stamp"
+else
+  log "wheels up to date (requirements.txt unchanged)"
+fi
+
+# ---------------------------------------------------------------- 3. include symlinks
+# The wheels' exported CMake targets (e.g. builtin_interfaces__rosidl_generator_py)
+# list these manylinux paths in INTERFACE_INCLUDE_DIRECTORIES; CMake refuses
+# non-existent ones. Point them at this machine's Python and numpy headers.
+np_inc="$("$vpy" -c 'import numpy; print(numpy.get_include())')"
+link_dir() {  # link_dir TARGET LINKPATH
+  local target="$1" link="$2"
+  if [ -L "$link" ]; then
+    # ours from an earlier run (maybe another checkout): keep while it resolves
+    [ -e "$link" ] && return 0
+    as_root rm -f "$link"
+  elif [ -e "$link" ]; then
+    return 0  # a real directory (e.g. we are in a manylinux image): leave it
+  fi
+  log "symlink $link -> $target"
+  as_root mkdir -p "$(dirname "$link")"
+  as_root ln -s "$target" "$link"
+}
+link_dir "$py_inc" /opt/python/cp311-cp311/include/python3.11
+link_dir "$np_inc" /opt/python/cp311-cp311/lib/python3.11/site-packages/numpy/_core/include
+
+# ---------------------------------------------------------------- 4. build msgs/
+export PATH="$venv/bin:$PATH"
+export CMAKE_PREFIX_PATH="$venv"
+export AMENT_PREFIX_PATH="$venv"
+unset PYTHONPATH
+if [ "$force" = 1 ]; then rm -rf "$build" "$prefix"; fi
+mkdir -p "$venv/build"
+if [ ! -f "$build/CMakeCache.txt" ]; then
+  log "cmake configure msgs/"
+  cmake -S "$root/msgs" -B "$build" \
+    -DCMAKE_BUILD_TYPE=Release \
+    -DCMAKE_INSTALL_PREFIX="$prefix" \
+    -DPython3_EXECUTABLE="$vpy" \
+    -DBUILD_TESTING=OFF \
+    >"$venv/build/cnc_msgs.configure.log" 2>&1 \
+    || { cat "$venv/build/cnc_msgs.configure.log" >&2; exit 1; }
+fi
+log "cmake build + install msgs/ -> $(realpath --relative-to="$root" "$prefix")"
+cmake --build "$build" -j "$(nproc)" >"$venv/build/cnc_msgs.build.log" 2>&1 \
+  || { tail -50 "$venv/build/cnc_msgs.build.log" >&2; exit 1; }
+cmake --install "$build" >"$venv/build/cnc_msgs.install.log" 2>&1 \
+  || { cat "$venv/build/cnc_msgs.install.log" >&2; exit 1; }
+
+# ---------------------------------------------------------------- 5. env.sh
+cat > "$venv/env.sh" <<EOF
+# Generated by scripts/ros_peer/setup.sh -- source it: . .venv-ros/env.sh
+# Stock ROS 2 Kilted (PyPI wheels) + cnc_msgs, Fast DDS RMW.
+_rp_venv="$venv"
+_rp_prefix="$prefix"
+_rp_sp="\$_rp_venv/lib/python3.11/site-packages"
+_rp_libs="\$_rp_prefix/lib:\$_rp_venv/lib"
+for _rp_d in "\$_rp_sp"/ros_*.libs; do [ -d "\$_rp_d" ] && _rp_libs="\$_rp_libs:\$_rp_d"; done
+export PATH="\$_rp_venv/bin\${PATH:+:\$PATH}"
+export PYTHONPATH="\$_rp_prefix/lib/python3.11/site-packages\${PYTHONPATH:+:\$PYTHONPATH}"
+export LD_LIBRARY_PATH="\$_rp_libs\${LD_LIBRARY_PATH:+:\$LD_LIBRARY_PATH}"
+export AMENT_PREFIX_PATH="\$_rp_prefix:\$_rp_venv"
+export CMAKE_PREFIX_PATH="\$_rp_prefix:\$_rp_venv"
+export RMW_IMPLEMENTATION=rmw_fastrtps_cpp
+# LD_LIBRARY_PATH is complete: stop ros_wheels_bootstrapper re-exec'ing python.
+export _ROS_WHEELS_BOOTSTRAP_COMPLETE=1
+export VIRTUAL_ENV="\$_rp_venv"
+export ROS_DISTRO=kilted   # ros2-client compares it with its distro feature
+# Keep discovery on loopback unless the caller chose otherwise: Fast DDS then
+# sends SPDP by unicast to 127.0.0.1:7410+2*i instead of multicast
+# 239.255.0.1:7400 on every interface. ROS_DOMAIN_ID is left to the caller.
+export ROS_AUTOMATIC_DISCOVERY_RANGE="\${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST}"
+unset _rp_venv _rp_prefix _rp_sp _rp_libs _rp_d
+EOF
+
+# ---------------------------------------------------------------- 6. check
+log "checking imports"
+( . "$venv/env.sh"
+  python3 -c "import rclpy; from cnc_msgs.srv import RunProgram; from cnc_msgs.msg import SpindleEncoder, ControllerStatus; from sensor_msgs.msg import JointState; from std_srvs.srv import Trigger" )
+log "done: . $(realpath --relative-to="$PWD" "$venv/env.sh" 2>/dev/null || echo "$venv/env.sh") && python3 scripts/ros_peer/smoke.py"
