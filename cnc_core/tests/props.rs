@@ -9,13 +9,28 @@ use proptest::prelude::*;
 
 #[derive(Clone, Debug)]
 enum Mv {
-    Line { dx: f64, dy: f64, dz: f64, rapid: bool },
-    Arc { r: f64, a0: f64, sweep: f64, ccw: bool },
+    Line {
+        dx: f64,
+        dy: f64,
+        dz: f64,
+        rapid: bool,
+    },
+    Arc {
+        r: f64,
+        a0: f64,
+        sweep: f64,
+        ccw: bool,
+    },
 }
 
 fn mv() -> impl Strategy<Value = Mv> {
     prop_oneof![
-        (-30.0..30.0f64, -30.0..30.0f64, -5.0..5.0f64, prop::bool::weighted(0.2))
+        (
+            -30.0..30.0f64,
+            -30.0..30.0f64,
+            -5.0..5.0f64,
+            prop::bool::weighted(0.2)
+        )
             .prop_map(|(dx, dy, dz, rapid)| Mv::Line { dx, dy, dz, rapid }),
         (0.5..25.0f64, 0.0..6.28f64, 0.1..6.2f64, any::<bool>())
             .prop_map(|(r, a0, sweep, ccw)| Mv::Arc { r, a0, sweep, ccw }),
@@ -33,8 +48,18 @@ fn program(moves: &[Mv], feed: f64) -> (String, V3) {
     for m in moves {
         match *m {
             Mv::Line { dx, dy, dz, rapid } => {
-                let e = V3::new(r4(p.x + dx), r4(p.y + dy), r4((p.z + dz).clamp(-50.0, 50.0)));
-                s += &format!("{} X{} Y{} Z{}\n", if rapid { "G00" } else { "G01" }, e.x, e.y, e.z);
+                let e = V3::new(
+                    r4(p.x + dx),
+                    r4(p.y + dy),
+                    r4((p.z + dz).clamp(-50.0, 50.0)),
+                );
+                s += &format!(
+                    "{} X{} Y{} Z{}\n",
+                    if rapid { "G00" } else { "G01" },
+                    e.x,
+                    e.y,
+                    e.z
+                );
                 p = e;
             }
             Mv::Arc { r, a0, sweep, ccw } => {
