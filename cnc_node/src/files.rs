@@ -6,22 +6,7 @@ use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
 
-/// Loads a machine: a path to a TOML file, or the name of a bundled one
-/// (`mill`, `lathe`) when no such file exists.
-pub fn load_machine(arg: &str) -> Result<Machine, String> {
-    let p = Path::new(arg);
-    if p.exists() {
-        let text = std::fs::read_to_string(p).map_err(|e| format!("{arg}: {e}"))?;
-        return Machine::from_toml(&text).map_err(|e| format!("{arg}: {e}"));
-    }
-    match arg {
-        "mill" => Ok(Machine::builtin_mill()),
-        "lathe" => Ok(Machine::builtin_lathe()),
-        _ => Err(format!(
-            "{arg}: no such machine file (bundled machines: mill, lathe)"
-        )),
-    }
-}
+pub use sim_axes::machine::load_machine;
 
 /// Opens a program for streaming, refusing files over the machine's size
 /// limit before reading them.

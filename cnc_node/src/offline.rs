@@ -4,41 +4,12 @@
 use cnc_core::exec::{Executor, Sample};
 use cnc_core::source::ProgramSource;
 use cnc_core::{Dialect, Machine};
-use sim_axes::{Axis, AxisParams, MachineModel, Spindle, SpindleParams};
+pub use sim_axes::machine::{model_for as model_for_seed, DRIVE_HEADROOM};
+use sim_axes::MachineModel;
 
-/// Drive headroom of the simulated axes over the planner's limits.
-pub const DRIVE_HEADROOM: f64 = 1.25;
-
-/// The axis and spindle model for a machine file, axes in joint order.
+/// The axis and spindle model for a machine file (spindle noise seed 1).
 pub fn model_for(machine: &Machine) -> MachineModel {
-    let axes = machine
-        .axes
-        .iter()
-        .map(|a| {
-            Axis::new(
-                AxisParams {
-                    max_velocity: a.max_velocity_mm_s * DRIVE_HEADROOM,
-                    max_acceleration: a.max_acceleration_mm_s2 * DRIVE_HEADROOM,
-                    kp: a.servo_kp,
-                    velocity_feed_forward: a.servo_feed_forward,
-                    velocity_lag: a.servo_lag_s,
-                },
-                a.home_mm,
-            )
-        })
-        .collect();
-    let spindle = machine.spindle.as_ref().map(|s| {
-        Spindle::new(SpindleParams {
-            max_rpm: s.max_rpm,
-            acceleration_rpm_per_s: s.acceleration_rpm_s,
-            encoder_counts_per_rev: s.encoder_counts_per_rev,
-            ripple_fraction: s.sim_ripple_fraction,
-            ripple_hz: s.sim_ripple_hz,
-            noise_rpm: s.sim_noise_rpm,
-            seed: 1,
-        })
-    });
-    MachineModel::new(axes, spindle)
+    model_for_seed(machine, 1)
 }
 
 /// What a simulation run measured.

@@ -66,6 +66,7 @@
 #![warn(missing_docs)]
 
 pub mod axis;
+pub mod machine;
 pub mod model;
 pub mod rng;
 pub mod spindle;

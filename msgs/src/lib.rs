@@ -1,0 +1,196 @@
+//! Rust types of the ROS 2 interfaces the controller speaks: `cnc_msgs`
+//! (the `.msg`/`.srv` files beside this crate) and the standard types it
+//! uses. Each type is declared once, with its ROS field types, by
+//! [`ros_message!`]; a test parses the interface files and fails if the two
+//! drift apart. Field order is the CDR wire order.
+
+pub mod ros;
+
+use serde::{Deserialize, Serialize};
+
+/// A ROS message type with its interface description.
+pub trait RosType {
+    /// `package/msg/Name` (or `package/srv/Name_Request`)
+    const ROS_NAME: &'static str;
+    /// (field name, ROS type) in wire order
+    const FIELDS: &'static [(&'static str, &'static str)];
+}
+
+macro_rules! ros_message {
+    ($(#[$meta:meta])* $name:ident = $ros:literal { $($(#[$fm:meta])* $field:ident : $ty:ty = $rt:literal),* $(,)? }) => {
+        $(#[$meta])*
+        #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+        pub struct $name { $($(#[$fm])* pub $field: $ty),* }
+        impl RosType for $name {
+            const ROS_NAME: &'static str = $ros;
+            const FIELDS: &'static [(&'static str, &'static str)] = &[$((stringify!($field), $rt)),*];
+        }
+        impl ros2_client::Message for $name {}
+    };
+}
+
+ros_message!(
+    /// `builtin_interfaces/msg/Time`
+    #[derive(Copy, Eq)]
+    Time = "builtin_interfaces/msg/Time" { sec: i32 = "int32", nanosec: u32 = "uint32" }
+);
+
+impl Time {
+    /// From seconds (non-negative).
+    pub fn from_secs_f64(t: f64) -> Time {
+        let t = t.max(0.0);
+        let sec = t.floor();
+        let mut nanosec = ((t - sec) * 1e9).round() as u32;
+        let mut sec = sec as i64;
+        if nanosec >= 1_000_000_000 {
+            nanosec -= 1_000_000_000;
+            sec += 1;
+        }
+        Time {
+            sec: sec.min(i32::MAX as i64) as i32,
+            nanosec,
+        }
+    }
+    pub fn as_secs_f64(&self) -> f64 {
+        self.sec as f64 + self.nanosec as f64 * 1e-9
+    }
+}
+
+ros_message!(
+    /// `std_msgs/msg/Header`
+    Header = "std_msgs/msg/Header" { stamp: Time = "builtin_interfaces/Time", frame_id: String = "string" }
+);
+
+ros_message!(
+    /// `sensor_msgs/msg/JointState`
+    JointState = "sensor_msgs/msg/JointState" {
+        header: Header = "std_msgs/Header",
+        name: Vec<String> = "string[]",
+        position: Vec<f64> = "float64[]",
+        velocity: Vec<f64> = "float64[]",
+        effort: Vec<f64> = "float64[]",
+    }
+);
+
+ros_message!(
+    /// `std_msgs/msg/Float64`
+    Float64 = "std_msgs/msg/Float64" { data: f64 = "float64" }
+);
+
+ros_message!(
+    /// `std_srvs/srv/Trigger` request (an empty message carries one dummy byte)
+    TriggerRequest = "std_srvs/srv/Trigger_Request" { structure_needs_at_least_one_member: u8 = "uint8" }
+);
+ros_message!(
+    /// `std_srvs/srv/Trigger` response
+    TriggerResponse = "std_srvs/srv/Trigger_Response" { success: bool = "bool", message: String = "string" }
+);
+ros_message!(
+    /// `std_srvs/srv/SetBool` request
+    SetBoolRequest = "std_srvs/srv/SetBool_Request" { data: bool = "bool" }
+);
+ros_message!(
+    /// `std_srvs/srv/SetBool` response
+    SetBoolResponse = "std_srvs/srv/SetBool_Response" { success: bool = "bool", message: String = "string" }
+);
+
+ros_message!(
+    /// `cnc_msgs/srv/RunProgram` request
+    RunProgramRequest = "cnc_msgs/srv/RunProgram_Request" {
+        program: String = "string",
+        program_path: String = "string",
+        dialect: String = "string",
+        dry_run: bool = "bool",
+    }
+);
+ros_message!(
+    /// `cnc_msgs/srv/RunProgram` response
+    RunProgramResponse = "cnc_msgs/srv/RunProgram_Response" {
+        accepted: bool = "bool",
+        message: String = "string",
+        job_id: u32 = "uint32",
+        estimated_duration: f64 = "float64",
+    }
+);
+
+ros_message!(
+    /// `cnc_msgs/msg/SpindleEncoder`: an incremental encoder with an index channel
+    SpindleEncoder = "cnc_msgs/msg/SpindleEncoder" {
+        stamp: Time = "builtin_interfaces/Time",
+        count: i64 = "int64",
+        counts_per_rev: u32 = "uint32",
+        index_count: i64 = "int64",
+        count_at_index: i64 = "int64",
+        velocity: f64 = "float64",
+    }
+);
+
+ros_message!(
+    /// `cnc_msgs/msg/ControllerStatus`
+    ControllerStatus = "cnc_msgs/msg/ControllerStatus" {
+        header: Header = "std_msgs/Header",
+        state: u8 = "uint8",
+        job_id: u32 = "uint32",
+        source_line: u32 = "uint32",
+        block_number: i64 = "int64",
+        active_g_codes: Vec<String> = "string[]",
+        active_tool: i32 = "int32",
+        spindle_speed_command: f64 = "float64",
+        feed_override: f64 = "float64",
+        progress: f64 = "float64",
+        last_error: String = "string",
+    }
+);
+
+impl ControllerStatus {
+    pub const STATE_IDLE: u8 = 0;
+    pub const STATE_RUNNING: u8 = 1;
+    pub const STATE_HOLD: u8 = 2;
+    pub const STATE_ERROR: u8 = 3;
+    /// (name, value) of the constants, as in the .msg file
+    pub const CONSTANTS: &'static [(&'static str, u8)] = &[
+        ("STATE_IDLE", 0),
+        ("STATE_RUNNING", 1),
+        ("STATE_HOLD", 2),
+        ("STATE_ERROR", 3),
+    ];
+}
+
+/// The interface files of the package, embedded (also what recordings
+/// store as schema text).
+pub mod definitions {
+    pub const RUN_PROGRAM_SRV: &str = include_str!("../srv/RunProgram.srv");
+    pub const SPINDLE_ENCODER_MSG: &str = include_str!("../msg/SpindleEncoder.msg");
+    pub const CONTROLLER_STATUS_MSG: &str = include_str!("../msg/ControllerStatus.msg");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn time_conversion() {
+        assert_eq!(
+            Time::from_secs_f64(1.5),
+            Time {
+                sec: 1,
+                nanosec: 500_000_000
+            }
+        );
+        assert_eq!(
+            Time::from_secs_f64(2.999_999_999_9),
+            Time { sec: 3, nanosec: 0 }
+        );
+        assert_eq!(Time::from_secs_f64(-1.0), Time { sec: 0, nanosec: 0 });
+        assert!(
+            (Time {
+                sec: 3,
+                nanosec: 250_000_000
+            }
+            .as_secs_f64()
+                - 3.25)
+                .abs()
+                < 1e-12
+        );
+    }
+}

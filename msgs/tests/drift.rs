@@ -1,0 +1,98 @@
+//! Fails when the Rust types and the interface files drift apart.
+
+use cnc_msgs::*;
+
+/// (name, type) of the fields, and (name, value) of the constants, of one
+/// section of a .msg/.srv file.
+fn parse(section: &str) -> (Vec<(String, String)>, Vec<(String, String)>) {
+    let mut fields = Vec::new();
+    let mut consts = Vec::new();
+    for line in section.lines() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let mut it = line.split_whitespace();
+        let ty = it.next().unwrap().to_string();
+        let rest: String = it.collect::<Vec<_>>().join(" ");
+        if let Some((name, value)) = rest.split_once('=') {
+            consts.push((name.trim().to_string(), value.trim().to_string()));
+        } else {
+            let name = rest.split_whitespace().next().unwrap().to_string();
+            fields.push((name, ty));
+        }
+    }
+    (fields, consts)
+}
+
+fn fields_of<T: RosType>() -> Vec<(String, String)> {
+    T::FIELDS
+        .iter()
+        .map(|(n, t)| (n.to_string(), t.to_string()))
+        .collect()
+}
+
+fn file(rel: &str) -> String {
+    std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)).unwrap()
+}
+
+#[test]
+fn run_program_srv_matches() {
+    let text = file("srv/RunProgram.srv");
+    let (req, resp) = text.split_once("\n---").expect("a service has a --- line");
+    assert_eq!(parse(req).0, fields_of::<RunProgramRequest>());
+    assert_eq!(parse(resp).0, fields_of::<RunProgramResponse>());
+    assert_eq!(definitions::RUN_PROGRAM_SRV, text);
+}
+
+#[test]
+fn spindle_encoder_msg_matches() {
+    let text = file("msg/SpindleEncoder.msg");
+    assert_eq!(parse(&text).0, fields_of::<SpindleEncoder>());
+    assert_eq!(definitions::SPINDLE_ENCODER_MSG, text);
+}
+
+#[test]
+fn controller_status_msg_matches() {
+    let text = file("msg/ControllerStatus.msg");
+    let (fields, consts) = parse(&text);
+    assert_eq!(fields, fields_of::<ControllerStatus>());
+    let want: Vec<(String, String)> = ControllerStatus::CONSTANTS
+        .iter()
+        .map(|(n, v)| (n.to_string(), v.to_string()))
+        .collect();
+    assert_eq!(consts, want);
+    assert_eq!(definitions::CONTROLLER_STATUS_MSG, text);
+}
+
+#[test]
+fn the_package_builds_every_interface_file() {
+    let cmake = file("CMakeLists.txt");
+    for f in [
+        "srv/RunProgram.srv",
+        "msg/SpindleEncoder.msg",
+        "msg/ControllerStatus.msg",
+    ] {
+        assert!(
+            cmake.contains(&format!("\"{f}\"")),
+            "{f} missing from CMakeLists.txt"
+        );
+    }
+    let mut on_disk: Vec<String> = ["msg", "srv"]
+        .iter()
+        .flat_map(|d| {
+            std::fs::read_dir(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(d))
+                .unwrap()
+                .map(move |e| format!("{d}/{}", e.unwrap().file_name().to_string_lossy()))
+        })
+        .collect();
+    on_disk.sort();
+    assert_eq!(
+        on_disk,
+        [
+            "msg/ControllerStatus.msg",
+            "msg/SpindleEncoder.msg",
+            "srv/RunProgram.srv"
+        ]
+    );
+}
