@@ -4,7 +4,9 @@ use cnc_msgs::*;
 
 /// (name, type) of the fields, and (name, value) of the constants, of one
 /// section of a .msg/.srv file.
-fn parse(section: &str) -> (Vec<(String, String)>, Vec<(String, String)>) {
+type Pairs = Vec<(String, String)>;
+
+fn parse(section: &str) -> (Pairs, Pairs) {
     let mut fields = Vec::new();
     let mut consts = Vec::new();
     for line in section.lines() {
@@ -25,7 +27,7 @@ fn parse(section: &str) -> (Vec<(String, String)>, Vec<(String, String)>) {
     (fields, consts)
 }
 
-fn fields_of<T: RosType>() -> Vec<(String, String)> {
+fn fields_of<T: RosType>() -> Pairs {
     T::FIELDS
         .iter()
         .map(|(n, t)| (n.to_string(), t.to_string()))
@@ -57,7 +59,7 @@ fn controller_status_msg_matches() {
     let text = file("msg/ControllerStatus.msg");
     let (fields, consts) = parse(&text);
     assert_eq!(fields, fields_of::<ControllerStatus>());
-    let want: Vec<(String, String)> = ControllerStatus::CONSTANTS
+    let want: Pairs = ControllerStatus::CONSTANTS
         .iter()
         .map(|(n, v)| (n.to_string(), v.to_string()))
         .collect();
