@@ -2,6 +2,13 @@
 //! produces one setpoint sample per tick, sample k at t = k·dt exactly.
 //! Positions come from the geometry at the profile's path length, never from
 //! accumulated increments.
+//!
+//! Feed hold and abort scale time along the path: a virtual tick counter
+//! advances by the feed scale σ per sample instead of 1. σ moves towards its
+//! target so that the path speed changes by exactly the move's planned path
+//! acceleration per second, so the deceleration stays within the axis
+//! limits and the tool stays on the path. With σ = 1 the virtual counter is
+//! the tick index and the samples are exactly those of an unscaled run.
 
 use crate::dialect::Dialect;
 use crate::interp::{Interpreter, Modal, Src};
@@ -42,6 +49,11 @@ pub struct Executor<S> {
     timeline: Timeline,
     dt: f64,
     k: u64,
+    /// virtual tick: advances by `scale` per sample
+    vk: f64,
+    /// feed scale σ now, and where it is heading (0 = hold)
+    scale: f64,
+    target: f64,
     cur: Option<Cur>,
     pos: V3,
     src: Src,
@@ -59,6 +71,9 @@ impl<S: ProgramSource> Executor<S> {
             timeline: Timeline::new(lim.dt),
             dt: lim.dt,
             k: 0,
+            vk: 0.0,
+            scale: 1.0,
+            target: 1.0,
             cur: None,
             pos: machine.home(),
             src: Src::default(),
@@ -77,6 +92,42 @@ impl<S: ProgramSource> Executor<S> {
     /// look-ahead window).
     pub fn modal(&self) -> &Modal {
         &self.interp.modal
+    }
+
+    /// Sets the feed scale to head for: 0 holds (decelerating along the
+    /// path), 1 runs at the programmed feed. Values are clamped to 0..=1.
+    pub fn set_feed_target(&mut self, target: f64) {
+        self.target = if target.is_nan() { 0.0 } else { target.clamp(0.0, 1.0) };
+    }
+
+    /// The feed scale in force (0 when held still).
+    pub fn feed_scale(&self) -> f64 {
+        self.scale
+    }
+
+    /// Time of the virtual tick relative to the start of the current move.
+    fn local_time(&self) -> f64 {
+        (self.vk - self.timeline.group_k0 as f64) * self.dt - self.timeline.seg_t0
+    }
+
+    /// Moves σ towards its target: the path speed changes by the move's
+    /// path acceleration × dt, measured at the next sample's profile speed.
+    fn update_scale(&mut self, m: &PlannedMove, tau: f64) {
+        if self.scale == self.target {
+            return;
+        }
+        let vp = m.profile.v_at(tau);
+        let v_now = vp * self.scale;
+        let step = m.profile.a * self.dt;
+        let vp_next = m.profile.v_at(tau + self.scale * self.dt);
+        let down = self.target < self.scale;
+        let v_next = if down { v_now - step } else { v_now + step };
+        let s = if vp_next > 1e-9 { v_next / vp_next } else { self.target };
+        self.scale = if down {
+            s.min(self.scale).max(self.target)
+        } else {
+            s.max(self.scale).min(self.target)
+        };
     }
 
     /// Errors the interpreter met (none for a checked program).
@@ -130,6 +181,7 @@ impl<S: ProgramSource> Executor<S> {
                         self.cur = Some(Cur::Move(m, stop));
                     }
                     Some(Item::Dwell { seconds, src }) => {
+                        self.scale = self.target;
                         self.src = src;
                         let end = self.timeline.group_k0 + self.timeline.ticks(seconds);
                         self.timeline.finish_dwell(seconds);
@@ -149,16 +201,18 @@ impl<S: ProgramSource> Executor<S> {
             match self.cur {
                 Some(Cur::Move(ref m, stop)) => {
                     let m = *m;
-                    let tau = self.timeline.local_time(self.k);
+                    let tau = self.local_time();
                     let running = match stop {
-                        Some(end) => self.k < end,
+                        Some(end) => self.vk < end as f64,
                         None => tau < m.profile.duration,
                     };
                     if running {
                         self.src = m.src;
                         let pos = m.geom.eval(m.profile.s_at(tau));
-                        let s = self.sample(pos, m.profile.v_at(tau), false);
+                        let s = self.sample(pos, m.profile.v_at(tau) * self.scale, false);
+                        self.update_scale(&m, tau);
                         self.k += 1;
+                        self.vk += self.scale;
                         return Some(s);
                     }
                     self.pos = m.geom.end();
@@ -166,9 +220,11 @@ impl<S: ProgramSource> Executor<S> {
                     self.cur = None;
                 }
                 Some(Cur::Dwell(end)) => {
-                    if self.k < end {
+                    if self.vk < end as f64 {
                         let s = self.sample(self.pos, 0.0, false);
+                        self.scale = self.target;
                         self.k += 1;
+                        self.vk += self.scale;
                         return Some(s);
                     }
                     self.cur = None;

@@ -1,0 +1,97 @@
+//! Feed hold, resume and abort in the executor: deceleration along the path
+//! within the axis limits, a still hold, and an exact end after resuming.
+
+use cnc_core::exec::{Executor, Sample};
+use cnc_core::source::StrSource;
+use cnc_core::{Dialect, Machine, V3};
+
+fn max_accel_ratio(s: &[Sample], m: &Machine) -> f64 {
+    let dt = m.dt();
+    let amax = m.amax();
+    let v: Vec<V3> = s.windows(2).map(|w| (w[1].pos - w[0].pos) / dt).collect();
+    v.windows(2)
+        .map(|w| {
+            let a = (w[1] - w[0]) / dt;
+            (0..3).map(|i| a[i].abs() / amax[i]).fold(0.0, f64::max)
+        })
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn hold_decelerates_on_the_path_holds_still_and_resumes_to_the_exact_end() {
+    let m = Machine::builtin_mill();
+    // a line and a full circle (R20) at 100 mm/s
+    let prog = "G00 X10 Y100\nG01 X200 Y100 F6000\nG02 X200 Y100 I0 J20\n";
+    let mut ex = Executor::new(StrSource::new(prog), Dialect::Cnc836, &m);
+    let mut s: Vec<Sample> = Vec::new();
+    // run into the line, then hold
+    while s.len() < 1500 {
+        s.push(ex.next_sample().unwrap());
+    }
+    let v_before = (s[1499].pos - s[1498].pos).norm() / m.dt();
+    assert!((v_before - 100.0).abs() < 1e-6, "cruising at {v_before}");
+    ex.set_feed_target(0.0);
+    for _ in 0..500 {
+        s.push(ex.next_sample().unwrap());
+    }
+    assert_eq!(ex.feed_scale(), 0.0);
+    // 100 mm/s at 0.85 * 2000 mm/s² stops in 58.8 ms, 2.94 mm
+    let stop = s[1999].pos;
+    let travelled = stop[0] - s[1499].pos[0];
+    assert!(
+        (travelled - 100.0 * 100.0 / (2.0 * 1700.0)).abs() < 0.15,
+        "{travelled}"
+    );
+    // held still for the last 400 samples, on the line
+    assert!(
+        s[1600..2000].iter().all(|x| x.pos == stop),
+        "moved while held"
+    );
+    assert!(
+        s.iter()
+            .filter(|x| x.src.line == 2)
+            .all(|x| x.pos[1] == 100.0 && x.pos[2] == 0.0),
+        "left the path"
+    );
+    // resume and hold again inside the circle
+    ex.set_feed_target(1.0);
+    while s.last().unwrap().src.line != 3 {
+        s.push(ex.next_sample().unwrap());
+    }
+    for _ in 0..300 {
+        s.push(ex.next_sample().unwrap());
+    }
+    ex.set_feed_target(0.0);
+    for _ in 0..300 {
+        s.push(ex.next_sample().unwrap());
+    }
+    ex.set_feed_target(1.0);
+    while let Some(x) = ex.next_sample() {
+        s.push(x);
+    }
+    // every sample of the circle on the circle, through hold and resume
+    for x in s.iter().filter(|x| x.src.line == 3) {
+        let r = ((x.pos[0] - 200.0).powi(2) + (x.pos[1] - 120.0).powi(2)).sqrt();
+        assert!((r - 20.0).abs() < 1e-9, "off the circle by {}", r - 20.0);
+    }
+    assert_eq!(s.last().unwrap().pos, V3::new(200.0, 100.0, 0.0));
+    assert!(s.last().unwrap().last);
+    let ra = max_accel_ratio(&s, &m);
+    assert!(ra <= 1.0 + 1e-6, "acceleration at {ra} of the limit");
+    for (i, x) in s.iter().enumerate() {
+        assert_eq!(x.k, i as u64);
+    }
+}
+
+#[test]
+fn without_hold_the_samples_are_the_unscaled_ones() {
+    let m = Machine::builtin_mill();
+    let prog = "G00 X10 Y100\nG01 X50 Y100 F6000\nG04 P0.2\nG02 X50 Y100 I0 J20\n";
+    let a: Vec<Sample> = Executor::new(StrSource::new(prog), Dialect::Cnc836, &m).collect();
+    let mut ex = Executor::new(StrSource::new(prog), Dialect::Cnc836, &m);
+    ex.set_feed_target(1.0);
+    let b: Vec<Sample> = ex.collect();
+    assert_eq!(a, b);
+    let r = cnc_core::check(StrSource::new(prog), Dialect::Cnc836, &m);
+    assert_eq!(a.last().unwrap().k, r.ticks);
+}

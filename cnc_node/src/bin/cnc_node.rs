@@ -1,0 +1,461 @@
+//! The controller as a ROS 2 node (`ros_interface.md`).
+//!
+//! Three threads, so the control loop never waits on DDS, a file or a check:
+//! - control: at the interpolation rate (Ticker on absolute deadlines) it
+//!   takes commands without blocking, computes one sample and hands it to the
+//!   DDS thread through a bounded queue (`try_send`: a full queue drops, it
+//!   never blocks);
+//! - check worker: reads and checks programs, answers run_program;
+//! - main (DDS): services, publishers, the encoder subscription.
+
+use clap::Parser;
+use cnc_core::source::StrSource;
+use cnc_core::{check, Dialect, Machine};
+use cnc_msgs::ros::{self, Ticker};
+use cnc_msgs::*;
+use cnc_node::controller::{Controller, Job, State, Status, Tick};
+use cnc_node::files::load_machine;
+use cnc_node::program::{read_limited, resolve_in};
+use ros2_client::{MessageTypeName, Name, ServiceMapping, ServiceTypeName};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::sync::mpsc::{self, Receiver, Sender, SyncSender, TryRecvError};
+use std::sync::Arc;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+#[derive(Parser)]
+#[command(name = "cnc_node", version, about = "CNC controller as a ROS 2 node")]
+struct Args {
+    /// machine file, or a bundled machine: mill, lathe
+    #[arg(long, default_value = "mill")]
+    machine: String,
+    /// namespace of the controller's services and topics
+    #[arg(long, default_value = "/cnc")]
+    namespace: String,
+    /// namespace of the simulator (or hardware bridge) publishing the encoder
+    #[arg(long, default_value = "/sim")]
+    sim_namespace: String,
+    /// DDS domain (default: ROS_DOMAIN_ID, else 0)
+    #[arg(long)]
+    domain: Option<u16>,
+    /// interpolation rate, Hz (default: the machine file's)
+    #[arg(long)]
+    rate: Option<f64>,
+    /// directory of programs sent by program_path (default: the machine
+    /// file's program_dir, relative to the machine file)
+    #[arg(long)]
+    program_dir: Option<PathBuf>,
+}
+
+enum Cmd {
+    Start(Job, Sender<Result<(), String>>),
+    Abort(Sender<Result<String, String>>),
+    Hold(bool, Sender<Result<String, String>>),
+}
+
+struct Out {
+    stamp: Time,
+    tick: Tick,
+    status: Option<Status>,
+}
+
+fn main() {
+    if let Err(e) = run(Args::parse()) {
+        eprintln!("cnc_node: {e}");
+        std::process::exit(2);
+    }
+}
+
+fn now_stamp() -> Time {
+    let d = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .unwrap_or_default();
+    Time {
+        sec: d.as_secs().min(i32::MAX as u64) as i32,
+        nanosec: d.subsec_nanos(),
+    }
+}
+
+fn name(ns: &str, base: &str) -> Result<Name, String> {
+    Name::new(ns, base).map_err(|e| format!("name {ns}/{base}: {e:?}"))
+}
+
+fn program_dir(args: &Args, m: &Machine) -> PathBuf {
+    if let Some(d) = &args.program_dir {
+        return d.clone();
+    }
+    let base = Path::new(&args.machine)
+        .parent()
+        .filter(|_| Path::new(&args.machine).exists())
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("config"));
+    base.join(m.program_dir.as_deref().unwrap_or("."))
+}
+
+fn run(args: Args) -> Result<(), String> {
+    let mut machine = load_machine(&args.machine)?;
+    if let Some(r) = args.rate {
+        if !(r.is_finite() && (10.0..=20_000.0).contains(&r)) {
+            return Err(format!("--rate {r}: must be between 10 and 20000 Hz"));
+        }
+        machine.interpolation.rate_hz = r;
+    }
+    let dir = program_dir(&args, &machine);
+    let domain = args.domain.unwrap_or_else(ros::domain_from_env);
+    let ctx = ros::context(domain, ros::localhost_only_from_env())?;
+    let mut node = ros::node(&ctx, &args.namespace, "cnc_node")?;
+    let qos = ros::qos_default();
+    let sq = ros::qos_services();
+    let e = |e| format!("{e:?}");
+    let topic = |node: &ros2_client::Node, n: Name, pkg: &str, ty: &str| {
+        node.create_topic(&n, MessageTypeName::new(pkg, ty), &qos)
+            .map_err(e)
+    };
+    let ns = args.namespace.as_str();
+    let t_set = topic(
+        &node,
+        name(ns, "joint_setpoints")?,
+        "sensor_msgs",
+        "JointState",
+    )?;
+    let t_spin = topic(&node, name(ns, "spindle_command")?, "std_msgs", "Float64")?;
+    let t_status = topic(&node, name(ns, "status")?, "cnc_msgs", "ControllerStatus")?;
+    let t_enc = topic(
+        &node,
+        name(&args.sim_namespace, "spindle_encoder")?,
+        "cnc_msgs",
+        "SpindleEncoder",
+    )?;
+    let pub_set = node
+        .create_publisher::<JointState>(&t_set, None)
+        .map_err(e)?;
+    let pub_spin = node.create_publisher::<Float64>(&t_spin, None).map_err(e)?;
+    let pub_status = node
+        .create_publisher::<ControllerStatus>(&t_status, None)
+        .map_err(e)?;
+    let sub_enc = node
+        .create_subscription::<SpindleEncoder>(&t_enc, None)
+        .map_err(e)?;
+    let srv_run = node
+        .create_server::<RunProgramRequest, RunProgramResponse>(
+            ServiceMapping::Enhanced,
+            &name(ns, "run_program")?,
+            &ServiceTypeName::new("cnc_msgs", "RunProgram"),
+            sq.clone(),
+            sq.clone(),
+        )
+        .map_err(e)?;
+    let srv_abort = node
+        .create_server::<TriggerRequest, TriggerResponse>(
+            ServiceMapping::Enhanced,
+            &name(ns, "abort")?,
+            &ServiceTypeName::new("std_srvs", "Trigger"),
+            sq.clone(),
+            sq.clone(),
+        )
+        .map_err(e)?;
+    let srv_hold = node
+        .create_server::<SetBoolRequest, SetBoolResponse>(
+            ServiceMapping::Enhanced,
+            &name(ns, "feed_hold")?,
+            &ServiceTypeName::new("std_srvs", "SetBool"),
+            sq.clone(),
+            sq,
+        )
+        .map_err(e)?;
+
+    // where the machine stands (f64 bits per joint), for checks of new jobs
+    let here: Arc<[AtomicU64; 3]> = Arc::new(Default::default());
+    let home = machine.home();
+    for (j, &i) in machine.joint_indices().iter().enumerate() {
+        here[j].store(home[i].to_bits(), Ordering::Relaxed);
+    }
+    let state = Arc::new(AtomicU32::new(State::Idle as u32));
+
+    let (cmd_tx, cmd_rx) = mpsc::channel::<Cmd>();
+    let (out_tx, out_rx) = mpsc::sync_channel::<Out>(8192);
+    let (chk_tx, chk_rx) = mpsc::channel();
+    let (resp_tx, resp_rx) = mpsc::channel();
+    {
+        let m = machine.clone();
+        let here = here.clone();
+        let state = state.clone();
+        std::thread::Builder::new()
+            .name("control".into())
+            .spawn(move || control_loop(m, cmd_rx, out_tx, here, state))
+            .map_err(|e| e.to_string())?;
+    }
+    {
+        let m = machine.clone();
+        let cmd_tx = cmd_tx.clone();
+        std::thread::Builder::new()
+            .name("check".into())
+            .spawn(move || check_worker(m, dir, chk_rx, resp_tx, cmd_tx, here))
+            .map_err(|e| e.to_string())?;
+    }
+    let names: Vec<String> = machine.axes.iter().map(|a| a.name.clone()).collect();
+    eprintln!(
+        "cnc_node: {} ({}), {} Hz, domain {domain}, serving {}/run_program",
+        machine.name,
+        names.join(" "),
+        machine.interpolation.rate_hz,
+        ns.trim_end_matches('/')
+    );
+    let mut last_spindle = f64::NAN;
+    let mut encoder: Option<SpindleEncoder> = None;
+    loop {
+        // services
+        while let Ok(Some((id, req))) = srv_run.receive_request() {
+            let _ = chk_tx.send((id, req));
+        }
+        while let Ok(Some((id, _))) = srv_abort.receive_request() {
+            let (tx, rx) = mpsc::channel();
+            let _ = cmd_tx.send(Cmd::Abort(tx));
+            let r = rx
+                .recv_timeout(Duration::from_millis(500))
+                .unwrap_or(Err("controller did not answer".into()));
+            let (success, message) = match r {
+                Ok(m) => (true, m),
+                Err(m) => (false, m),
+            };
+            let _ = srv_abort.send_response(id, TriggerResponse { success, message });
+        }
+        while let Ok(Some((id, req))) = srv_hold.receive_request() {
+            let (tx, rx) = mpsc::channel();
+            let _ = cmd_tx.send(Cmd::Hold(req.data, tx));
+            let r = rx
+                .recv_timeout(Duration::from_millis(500))
+                .unwrap_or(Err("controller did not answer".into()));
+            let (success, message) = match r {
+                Ok(m) => (true, m),
+                Err(m) => (false, m),
+            };
+            let _ = srv_hold.send_response(id, SetBoolResponse { success, message });
+        }
+        while let Ok((id, resp)) = resp_rx.try_recv() {
+            let _ = srv_run.send_response(id, resp);
+        }
+        while let Ok(Some((m, _))) = sub_enc.take() {
+            encoder = Some(m);
+        }
+        let _ = &encoder;
+        // samples from the control loop
+        let first = out_rx.recv_timeout(Duration::from_millis(2));
+        let mut next = first.ok();
+        while let Some(o) = next {
+            let t = &o.tick;
+            let _ = pub_set.publish(JointState {
+                header: Header {
+                    stamp: o.stamp,
+                    frame_id: String::new(),
+                },
+                name: names.clone(),
+                position: t.positions[..t.n].iter().map(|p| p / 1000.0).collect(),
+                velocity: Vec::new(),
+                effort: Vec::new(),
+            });
+            if t.spindle_rpm != last_spindle {
+                last_spindle = t.spindle_rpm;
+                let _ = pub_spin.publish(Float64 {
+                    data: t.spindle_rpm * std::f64::consts::TAU / 60.0,
+                });
+            }
+            if let Some(s) = o.status {
+                let _ = pub_status.publish(to_msg(&s, o.stamp));
+            }
+            next = out_rx.try_recv().ok();
+        }
+        if matches!(out_rx.try_recv(), Err(TryRecvError::Disconnected)) {
+            return Err("the control loop stopped".into());
+        }
+    }
+}
+
+fn to_msg(s: &Status, stamp: Time) -> ControllerStatus {
+    ControllerStatus {
+        header: Header {
+            stamp,
+            frame_id: String::new(),
+        },
+        state: s.state as u8,
+        job_id: s.job_id,
+        source_line: s.source_line,
+        block_number: s.block_number,
+        active_g_codes: s.active_g_codes.clone(),
+        active_tool: s.active_tool,
+        spindle_speed_command: s.spindle_rpm,
+        feed_override: s.feed_override,
+        progress: s.progress,
+        last_error: s.last_error.clone(),
+    }
+}
+
+fn control_loop(
+    machine: Machine,
+    cmds: Receiver<Cmd>,
+    out: SyncSender<Out>,
+    here: Arc<[AtomicU64; 3]>,
+    state: Arc<AtomicU32>,
+) {
+    let period = Duration::from_secs_f64(machine.dt());
+    let mut ctl = Controller::new(machine);
+    let mut ticker = Ticker::new(period);
+    let mut last_status = Instant::now() - Duration::from_secs(1);
+    let mut line_changes = Instant::now();
+    let mut dropped = 0u64;
+    loop {
+        ticker.wait();
+        loop {
+            match cmds.try_recv() {
+                Ok(Cmd::Start(job, reply)) => {
+                    let _ = reply.send(ctl.start(job));
+                }
+                Ok(Cmd::Abort(reply)) => {
+                    let _ = reply.send(ctl.abort());
+                }
+                Ok(Cmd::Hold(on, reply)) => {
+                    let _ = reply.send(ctl.feed_hold(on));
+                }
+                Err(TryRecvError::Empty) => break,
+                Err(TryRecvError::Disconnected) => return,
+            }
+        }
+        let prev_state = ctl.state();
+        let tick = ctl.tick();
+        for j in 0..tick.n {
+            here[j].store(tick.positions[j].to_bits(), Ordering::Relaxed);
+        }
+        state.store(tick.state as u32, Ordering::Relaxed);
+        let now = Instant::now();
+        // status: on a state change at once, on a line change at most 50 Hz,
+        // and at least 10 Hz
+        let due = tick.state != prev_state
+            || now.duration_since(last_status) >= Duration::from_millis(100)
+            || (tick.changed && now.duration_since(line_changes) >= Duration::from_millis(20));
+        let status = due.then(|| {
+            last_status = now;
+            line_changes = now;
+            ctl.status()
+        });
+        let o = Out {
+            stamp: now_stamp(),
+            tick,
+            status,
+        };
+        if out.try_send(o).is_err() {
+            dropped += 1;
+            if dropped.is_power_of_two() {
+                eprintln!("cnc_node: publisher queue full, {dropped} samples dropped");
+            }
+        }
+    }
+}
+
+fn check_worker(
+    machine: Machine,
+    dir: PathBuf,
+    reqs: Receiver<(ros2_client::RmwRequestId, RunProgramRequest)>,
+    resps: Sender<(ros2_client::RmwRequestId, RunProgramResponse)>,
+    cmds: Sender<Cmd>,
+    here: Arc<[AtomicU64; 3]>,
+) {
+    let mut next_id = 1u32;
+    while let Ok((id, req)) = reqs.recv() {
+        let resp = handle_run(&machine, &dir, &req, &mut next_id, &cmds, &here);
+        let _ = resps.send((id, resp));
+    }
+}
+
+fn refuse(message: String) -> RunProgramResponse {
+    RunProgramResponse {
+        accepted: false,
+        message,
+        job_id: 0,
+        estimated_duration: 0.0,
+    }
+}
+
+fn handle_run(
+    machine: &Machine,
+    dir: &Path,
+    req: &RunProgramRequest,
+    next_id: &mut u32,
+    cmds: &Sender<Cmd>,
+    here: &Arc<[AtomicU64; 3]>,
+) -> RunProgramResponse {
+    let max = machine.limits.max_program_bytes;
+    let text = match (req.program.is_empty(), req.program_path.is_empty()) {
+        (false, true) => {
+            if req.program.len() as u64 > max {
+                return refuse(format!(
+                    "the program is {} bytes, over the machine's limit of {max} bytes (limits.max_program_bytes)",
+                    req.program.len()
+                ));
+            }
+            req.program.clone().into_bytes()
+        }
+        (true, false) => {
+            match resolve_in(dir, &req.program_path).and_then(|p| read_limited(&p, max)) {
+                Ok(t) => t,
+                Err(e) => return refuse(e),
+            }
+        }
+        _ => return refuse("exactly one of program and program_path must be set".into()),
+    };
+    let dialect = if req.dialect.is_empty() {
+        machine.dialect
+    } else {
+        match req.dialect.parse::<Dialect>() {
+            Ok(d) => d,
+            Err(e) => return refuse(e),
+        }
+    };
+    // check from where the machine stands now
+    let mut m = machine.clone();
+    let joints = m.joint_indices();
+    for (j, &i) in joints.iter().enumerate() {
+        if let Some(a) = m
+            .axes
+            .iter_mut()
+            .find(|a| cnc_core::machine::axis_index(&a.name) == Some(i))
+        {
+            a.home_mm = f64::from_bits(here[j].load(Ordering::Relaxed));
+        }
+    }
+    let report = check(StrSource::from_bytes(&text), dialect, &m);
+    if !report.ok() {
+        return refuse(report.message());
+    }
+    if req.dry_run {
+        return RunProgramResponse {
+            accepted: true,
+            message: String::new(),
+            job_id: 0,
+            estimated_duration: report.duration_s,
+        };
+    }
+    let job_id = *next_id;
+    let (tx, rx) = mpsc::channel();
+    let job = Job {
+        id: job_id,
+        text,
+        dialect,
+        ticks: report.ticks,
+    };
+    if cmds.send(Cmd::Start(job, tx)).is_err() {
+        return refuse("the control loop is not running".into());
+    }
+    match rx.recv_timeout(Duration::from_secs(2)) {
+        Ok(Ok(())) => {
+            *next_id += 1;
+            RunProgramResponse {
+                accepted: true,
+                message: String::new(),
+                job_id,
+                estimated_duration: report.duration_s,
+            }
+        }
+        Ok(Err(m)) => refuse(m),
+        Err(_) => refuse("the control loop did not answer".into()),
+    }
+}

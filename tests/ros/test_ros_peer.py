@@ -1,0 +1,242 @@
+"""The controller and simulator nodes against a stock ROS 2 peer: rclpy
+(ROS 2 Kilted wheels from PyPI, Fast DDS) with our msgs/ package built for
+it. Run through scripts/test.sh (which sets up the peer), or:
+
+    scripts/ros_peer/setup.sh && . .venv-ros/env.sh && python3 -m pytest tests/ros
+"""
+import math
+import os
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from sensor_msgs.msg import JointState
+from std_srvs.srv import SetBool, Trigger
+
+from cnc_msgs.msg import ControllerStatus
+from cnc_msgs.srv import RunProgram
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+TARGET = os.environ.get("CNC_TARGET_DIR", os.path.join(ROOT, "target", "debug"))
+DOMAIN = str(100 + os.getpid() % 100)
+NS = "/cnc"
+
+
+@pytest.fixture(scope="module")
+def nodes():
+    env = dict(os.environ, ROS_DOMAIN_ID=DOMAIN, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    if not os.environ.get("CNC_SKIP_BUILD"):
+        subprocess.run(["cargo", "build", "-q", "-p", "cnc_node", "-p", "sim_axes", "--bins"], cwd=ROOT, check=True)
+    procs = [
+        subprocess.Popen([os.path.join(TARGET, "sim_axes"), "--machine", "mill"], cwd=ROOT, env=env),
+        subprocess.Popen([os.path.join(TARGET, "cnc_node"), "--machine", "mill"], cwd=ROOT, env=env),
+    ]
+    os.environ["ROS_DOMAIN_ID"] = DOMAIN
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    rclpy.init()
+    yield procs
+    rclpy.shutdown()
+    for p in procs:
+        p.terminate()
+    for p in procs:
+        try:
+            p.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            p.kill()
+
+
+class Peer:
+    """An rclpy node that records setpoints and status in a spinning thread."""
+
+    def __init__(self, name):
+        self.node = rclpy.create_node(name)
+        self.lock = threading.Lock()
+        self.setpoints = []  # (stamp s, positions m)
+        self.status = []
+        self.node.create_subscription(JointState, NS + "/joint_setpoints", self._sp, 10)
+        self.node.create_subscription(ControllerStatus, NS + "/status", self._st, 10)
+        self.run = self.node.create_client(RunProgram, NS + "/run_program")
+        self.abort = self.node.create_client(Trigger, NS + "/abort")
+        self.hold = self.node.create_client(SetBool, NS + "/feed_hold")
+        self.ex = SingleThreadedExecutor()
+        self.ex.add_node(self.node)
+        self.stop = False
+        self.thread = threading.Thread(target=self._spin, daemon=True)
+        self.thread.start()
+        assert self.run.wait_for_service(timeout_sec=30.0), "no /cnc/run_program service"
+
+    def _spin(self):
+        while not self.stop:
+            self.ex.spin_once(timeout_sec=0.05)
+
+    def _sp(self, m):
+        with self.lock:
+            self.setpoints.append((m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, list(m.position), list(m.name)))
+
+    def _st(self, m):
+        with self.lock:
+            self.status.append(m)
+
+    def call(self, client, req, timeout=20.0):
+        fut = client.call_async(req)
+        t0 = time.time()
+        while not fut.done() and time.time() - t0 < timeout:
+            time.sleep(0.005)
+        assert fut.done(), "no reply from the service"
+        return fut.result()
+
+    def run_program(self, text, dry_run=False, path=""):
+        req = RunProgram.Request()
+        req.program = text
+        req.program_path = path
+        req.dry_run = dry_run
+        return self.call(self.run, req)
+
+    def wait_state(self, job_id, state, timeout=30.0):
+        t0 = time.time()
+        while time.time() - t0 < timeout:
+            with self.lock:
+                if any(s.job_id == job_id and s.state == state for s in self.status):
+                    return
+            time.sleep(0.01)
+        raise AssertionError("job %d never reached state %d" % (job_id, state))
+
+    def close(self):
+        self.stop = True
+        self.thread.join()
+        self.node.destroy_node()
+
+
+@pytest.fixture
+def peer(nodes):
+    p = Peer("peer_%d" % (time.time_ns() % 100000))
+    yield p
+    p.close()
+
+
+def test_both_nodes_are_in_the_graph(peer):
+    t0 = time.time()
+    while time.time() - t0 < 10:
+        names = set(peer.node.get_node_names_and_namespaces())
+        if ("cnc_node", "/cnc") in names and ("sim_axes", "/sim") in names:
+            break
+        time.sleep(0.2)
+    assert ("cnc_node", "/cnc") in names and ("sim_axes", "/sim") in names, names
+    topics = dict(peer.node.get_topic_names_and_types())
+    assert topics.get("/cnc/joint_setpoints") == ["sensor_msgs/msg/JointState"]
+    assert topics.get("/cnc/status") == ["cnc_msgs/msg/ControllerStatus"]
+    assert topics.get("/sim/spindle_encoder") == ["cnc_msgs/msg/SpindleEncoder"]
+
+
+def test_known_program_end_positions_and_rate(peer):
+    prog = "N10 G17 G90 G00 X10 Y20 Z5\nN20 G01 X30.0015 F1200\nN30 G02 X40.0015 Y30 I0 J10\nN40 M30\n"
+    r = peer.run_program(prog)
+    assert r.accepted, r.message
+    assert r.job_id >= 1
+    # estimate: the check's cycle time, a whole number of ms
+    assert r.estimated_duration > 1.0
+    assert abs(r.estimated_duration * 1000 - round(r.estimated_duration * 1000)) < 1e-6
+    peer.wait_state(r.job_id, ControllerStatus.STATE_RUNNING)
+    peer.wait_state(r.job_id, ControllerStatus.STATE_IDLE)
+    time.sleep(0.3)
+    with peer.lock:
+        sps = list(peer.setpoints)
+        sts = list(peer.status)
+    assert sps[-1][2] == ["x", "y", "z"]
+    end = sps[-1][1]
+    # the end point to 1 µm, in metres on the topic
+    for got, want in zip(end, [40.0015e-3, 30e-3, 5e-3]):
+        assert abs(got - want) < 1e-6, end
+    # samples published every cycle: 1 kHz within 1 %, from the stamps
+    moving = [s for s in sps if s[0] >= sps[0][0]]
+    span = moving[-1][0] - moving[0][0]
+    rate = (len(moving) - 1) / span
+    assert abs(rate - 1000.0) < 10.0, rate
+    # status went through the program's lines
+    lines = {s.source_line for s in sts if s.job_id == r.job_id}
+    assert {2, 3} <= lines, lines
+    last = [s for s in sts if s.job_id == r.job_id][-1]
+    assert last.state == ControllerStatus.STATE_IDLE and last.progress == 1.0
+
+
+def test_bad_program_is_refused_with_its_line(peer):
+    r = peer.run_program("N10 G00 X10\nN20 G01 X20\nN30 G01 X30 Q5 F100\n")
+    assert not r.accepted
+    lines = r.message.split("\n")
+    assert lines[0].startswith("line 2, column 5: block N20: missing feed"), r.message
+    assert lines[1].startswith("line 3, column 13: block N30: unknown address 'Q'"), r.message
+    assert r.job_id == 0
+    r = peer.run_program("")
+    assert not r.accepted and r.message == "exactly one of program and program_path must be set"
+
+
+def test_dry_run_moves_nothing(peer):
+    r = peer.run_program("G00 X100 Y100\n", dry_run=True)
+    assert r.accepted and r.job_id == 0
+    assert 0.4 < r.estimated_duration < 1.0, r.estimated_duration
+
+
+def test_program_path_stays_in_the_program_directory(peer):
+    r = peer.run_program("", path="mill_pocket.nc", dry_run=True)
+    assert r.accepted, r.message
+    assert abs(r.estimated_duration - 19.803) < 0.5, r.estimated_duration
+    r = peer.run_program("", path="../config/mill.toml", dry_run=True)
+    assert not r.accepted and "may not contain '..'" in r.message
+    r = peer.run_program("", path="/etc/passwd", dry_run=True)
+    assert not r.accepted and "is absolute" in r.message
+
+
+def test_busy_refusal_feed_hold_resume_and_abort(peer):
+    # 200 mm at 1200 mm/min: 10 s
+    r = peer.run_program("G00 X10 Y10 Z0\nG01 X210 F1200\n")
+    assert r.accepted, r.message
+    peer.wait_state(r.job_id, ControllerStatus.STATE_RUNNING)
+    time.sleep(1.5)
+    busy = peer.run_program("G00 X1\n")
+    assert not busy.accepted and "is running" in busy.message, busy.message
+    h = peer.call(peer.hold, SetBool.Request(data=True))
+    assert h.success, h.message
+    peer.wait_state(r.job_id, ControllerStatus.STATE_HOLD)
+    time.sleep(0.5)  # decelerating takes ~20 ms at 1700 mm/s²
+    with peer.lock:
+        a = peer.setpoints[-1][1][0]
+    time.sleep(0.5)
+    with peer.lock:
+        b = peer.setpoints[-1][1][0]
+    assert a == b, (a, b)
+    assert 0.02 < a < 0.2
+    h = peer.call(peer.hold, SetBool.Request(data=False))
+    assert h.success
+    time.sleep(0.5)
+    with peer.lock:
+        c = peer.setpoints[-1][1][0]
+    assert c > b + 0.005, (b, c)
+    t = peer.call(peer.abort, Trigger.Request())
+    assert t.success, t.message
+    peer.wait_state(r.job_id, ControllerStatus.STATE_IDLE)
+    time.sleep(0.3)
+    with peer.lock:
+        d = peer.setpoints[-1][1][0]
+        last = [s for s in peer.status if s.job_id == r.job_id][-1]
+    assert c < d < 0.2, d
+    assert "aborted" in last.last_error, last.last_error
+    # and a new job is accepted from where the machine stopped
+    r2 = peer.run_program("G01 X10 F3000\n", dry_run=True)
+    assert r2.accepted
+    assert r2.estimated_duration > (d * 1000 - 10) / 50.0 * 0.9
+
+
+def test_short_lived_clients_get_their_reply_every_time(nodes):
+    env = dict(os.environ, ROS_DOMAIN_ID=DOMAIN)
+    ok = 0
+    for i in range(20):
+        p = subprocess.run([sys.executable, os.path.join(ROOT, "tests", "ros", "oneshot_call.py"), NS],
+                           env=env, capture_output=True, text=True, timeout=60)
+        assert p.returncode == 0, (i, p.stdout, p.stderr)
+        assert "accepted=True" in p.stdout, p.stdout
+        ok += 1
+    assert ok == 20
