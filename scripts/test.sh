@@ -18,3 +18,9 @@ echo "== cargo clippy"
 cargo clippy --workspace --all-targets --locked -- -D warnings
 echo "== cargo test"
 cargo test --workspace --locked
+echo "== ROS 2 integration with a stock peer (rclpy, Kilted wheels from PyPI)"
+bash scripts/ros_peer/setup.sh
+# shellcheck disable=SC1091
+. .venv-ros/env.sh
+cargo build --locked -p cnc_node -p sim_axes --bins
+CNC_SKIP_BUILD=1 python3 -m pytest tests/ros -q -p no:cacheprovider

@@ -2,6 +2,7 @@
 //! offline simulation loop shared by `cnc simulate` and the tests, and (later)
 //! the ROS 2 node.
 
+pub mod client;
 pub mod controller;
 pub mod files;
 pub mod offline;

@@ -240,3 +240,64 @@ def test_short_lived_clients_get_their_reply_every_time(nodes):
         assert "accepted=True" in p.stdout, p.stdout
         ok += 1
     assert ok == 20
+
+
+def test_two_machines_share_a_domain_and_a_5mb_program_goes_by_path(nodes, tmp_path):
+    """A second controller+simulator pair under /cnc2 and /sim2 in the same
+    domain: its job moves only its own axes; a 5 MB program by program_path
+    is accepted."""
+    prog = tmp_path / "big.ngc"
+    subprocess.run([sys.executable, os.path.join(ROOT, "bench", "gen_program.py"), "--blocks", "115000",
+                    "--out", str(prog)], check=True, capture_output=True)
+    size = prog.stat().st_size
+    assert size > 5_000_000, size
+    env = dict(os.environ, ROS_DOMAIN_ID=DOMAIN)
+    procs = [
+        subprocess.Popen([os.path.join(TARGET, "sim_axes"), "--machine", "mill", "--namespace", "/sim2",
+                          "--controller-namespace", "/cnc2"], cwd=ROOT, env=env),
+        subprocess.Popen([os.path.join(TARGET, "cnc_node"), "--machine", "mill", "--namespace", "/cnc2",
+                          "--sim-namespace", "/sim2", "--program-dir", str(tmp_path)], cwd=ROOT, env=env),
+    ]
+    node = rclpy.create_node("peer2")
+    got = {"cnc": [], "cnc2": []}
+    node.create_subscription(JointState, "/cnc/joint_setpoints", lambda m: got["cnc"].append(list(m.position)), 10)
+    node.create_subscription(JointState, "/cnc2/joint_setpoints", lambda m: got["cnc2"].append(list(m.position)), 10)
+    run2 = node.create_client(RunProgram, "/cnc2/run_program")
+    abort2 = node.create_client(Trigger, "/cnc2/abort")
+    try:
+        assert run2.wait_for_service(timeout_sec=30.0)
+        t0 = time.time()
+        while time.time() - t0 < 10:
+            names = set(node.get_node_names_and_namespaces())
+            if {("cnc_node", "/cnc"), ("cnc_node", "/cnc2"), ("sim_axes", "/sim"), ("sim_axes", "/sim2")} <= names:
+                break
+            rclpy.spin_once(node, timeout_sec=0.1)
+        assert ("cnc_node", "/cnc2") in names and ("sim_axes", "/sim2") in names, names
+        req = RunProgram.Request()
+        req.program_path = "big.ngc"
+        fut = run2.call_async(req)
+        t0 = time.time()
+        rclpy.spin_until_future_complete(node, fut, timeout_sec=30.0)
+        answered = time.time() - t0
+        r = fut.result()
+        assert r is not None and r.accepted, r
+        assert r.estimated_duration > 3600, r.estimated_duration
+        got["cnc"].clear()
+        got["cnc2"].clear()
+        t0 = time.time()
+        while time.time() - t0 < 1.5:
+            rclpy.spin_once(node, timeout_sec=0.05)
+        # /cnc2 moves, /cnc stands still
+        assert len(got["cnc2"]) > 500 and len(got["cnc"]) > 500
+        assert got["cnc2"][0] != got["cnc2"][-1]
+        assert all(p == got["cnc"][0] for p in got["cnc"])
+        fut = abort2.call_async(Trigger.Request())
+        rclpy.spin_until_future_complete(node, fut, timeout_sec=10.0)
+        assert fut.result().success
+        print("5 MB program (%d bytes) accepted after %.2f s" % (size, answered))
+    finally:
+        node.destroy_node()
+        for p in procs:
+            p.terminate()
+        for p in procs:
+            p.wait(timeout=5)

@@ -47,6 +47,28 @@ enum Cmd {
         #[arg(long)]
         csv: Option<PathBuf>,
     },
+    /// Send a program to a running controller node (ROS 2 service
+    /// <namespace>/run_program), follow its status to the end, print a summary.
+    Run {
+        /// the program file (sent as text)
+        file: Option<PathBuf>,
+        /// send this path (inside the node's program directory) instead of text
+        #[arg(long, conflicts_with = "file")]
+        path: Option<String>,
+        #[arg(long)]
+        dialect: Option<Dialect>,
+        #[arg(long, default_value = "/cnc")]
+        namespace: String,
+        /// DDS domain (default: ROS_DOMAIN_ID, else 0)
+        #[arg(long)]
+        domain: Option<u16>,
+        /// check and estimate only
+        #[arg(long)]
+        dry_run: bool,
+        /// seconds to wait for the node
+        #[arg(long, default_value_t = 30.0)]
+        wait: f64,
+    },
 }
 
 fn main() -> ExitCode {
@@ -64,6 +86,23 @@ fn main() -> ExitCode {
             rate,
             csv,
         } => cmd_simulate(&file, dialect, &machine, rate, csv.as_deref()),
+        Cmd::Run {
+            file,
+            path,
+            dialect,
+            namespace,
+            domain,
+            dry_run,
+            wait,
+        } => cmd_run(
+            file.as_deref(),
+            path,
+            dialect,
+            namespace,
+            domain,
+            dry_run,
+            wait,
+        ),
     };
     match r {
         Ok(code) => code,
@@ -256,4 +295,64 @@ fn cmd_simulate(
         errs.join(", ")
     );
     Ok(ExitCode::SUCCESS)
+}
+
+fn cmd_run(
+    file: Option<&Path>,
+    path: Option<String>,
+    dialect: Option<Dialect>,
+    namespace: String,
+    domain: Option<u16>,
+    dry_run: bool,
+    wait: f64,
+) -> Result<ExitCode, String> {
+    use cnc_node::client::{run, RunOutcome, RunRequest};
+    let program = match file {
+        Some(f) => std::fs::read_to_string(f).map_err(|e| format!("{}: {e}", f.display()))?,
+        None if path.is_some() => String::new(),
+        None => return Err("give a program FILE or --path".into()),
+    };
+    let what = file
+        .map(|f| f.display().to_string())
+        .or(path.clone())
+        .unwrap_or_default();
+    let outcome = run(RunRequest {
+        namespace,
+        domain: domain.unwrap_or_else(cnc_msgs::ros::domain_from_env),
+        program,
+        program_path: path.unwrap_or_default(),
+        dialect: dialect.map(|d| d.to_string()).unwrap_or_default(),
+        dry_run,
+        connect_timeout: std::time::Duration::from_secs_f64(wait.clamp(0.1, 3600.0)),
+    })?;
+    match outcome {
+        RunOutcome::Refused(m) => {
+            eprintln!("{what}: refused by the controller:\n{m}");
+            Ok(ExitCode::from(1))
+        }
+        RunOutcome::Checked { estimated } => {
+            println!(
+                "{what}: accepted (dry run), estimated cycle time {}",
+                fmt_duration(estimated)
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        RunOutcome::Done {
+            job_id,
+            estimated,
+            wall,
+            lines,
+        } => {
+            println!(
+                "{what}: job {job_id} done: estimated {}, took {} on the node, up to line {lines}",
+                fmt_duration(estimated),
+                fmt_duration(wall)
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        RunOutcome::Failed { job_id, error } => {
+            eprintln!("{what}: job {job_id} failed: {error}");
+            Ok(ExitCode::from(1))
+        }
+    }
 }
