@@ -126,3 +126,82 @@ impl Ticker {
         deadline
     }
 }
+
+/// Wake-up lateness of a loop, in 1 µs bins up to 20 ms (one overflow bin):
+/// fixed memory, no allocation per record.
+pub struct Lateness {
+    bins: Vec<u64>,
+    n: u64,
+    max_us: f64,
+}
+
+impl Default for Lateness {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Lateness {
+    const BINS: usize = 20_001;
+
+    pub fn new() -> Self {
+        Lateness { bins: vec![0; Self::BINS], n: 0, max_us: 0.0 }
+    }
+
+    pub fn record(&mut self, late: Duration) {
+        let us = late.as_secs_f64() * 1e6;
+        let b = (us as usize).min(Self::BINS - 1);
+        self.bins[b] += 1;
+        self.n += 1;
+        self.max_us = self.max_us.max(us);
+    }
+
+    /// The `p`-th percentile in µs (bin upper edge).
+    pub fn percentile(&self, p: f64) -> f64 {
+        if self.n == 0 {
+            return 0.0;
+        }
+        let want = ((p / 100.0) * self.n as f64).ceil().max(1.0) as u64;
+        let mut acc = 0;
+        for (i, &c) in self.bins.iter().enumerate() {
+            acc += c;
+            if acc >= want {
+                return (i + 1) as f64;
+            }
+        }
+        self.max_us
+    }
+
+    pub fn count(&self) -> u64 {
+        self.n
+    }
+
+    /// `n=…, p50 … µs, p99 …, p99.9 …, max …`
+    pub fn summary(&self) -> String {
+        format!(
+            "n={} p50<={:.0} us p99<={:.0} us p99.9<={:.0} us max={:.1} us",
+            self.n,
+            self.percentile(50.0),
+            self.percentile(99.0),
+            self.percentile(99.9),
+            self.max_us
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lateness_percentiles() {
+        let mut l = Lateness::new();
+        for i in 0..1000u64 {
+            l.record(Duration::from_nanos(i * 1000 + 500));
+        }
+        assert_eq!(l.count(), 1000);
+        assert_eq!(l.percentile(50.0), 500.0);
+        assert_eq!(l.percentile(99.0), 990.0);
+        assert!((l.max_us - 999.5).abs() < 1e-6);
+    }
+}

@@ -45,6 +45,9 @@ struct Args {
     /// file's program_dir, relative to the machine file)
     #[arg(long)]
     program_dir: Option<PathBuf>,
+    /// log the control loop's wake-up lateness percentiles every N seconds
+    #[arg(long, value_name = "SECONDS")]
+    loop_stats: Option<f64>,
 }
 
 enum Cmd {
@@ -180,9 +183,10 @@ fn run(args: Args) -> Result<(), String> {
         let m = machine.clone();
         let here = here.clone();
         let state = state.clone();
+        let stats = args.loop_stats.filter(|s| *s > 0.0).map(Duration::from_secs_f64);
         std::thread::Builder::new()
             .name("control".into())
-            .spawn(move || control_loop(m, cmd_rx, out_tx, here, state))
+            .spawn(move || control_loop(m, cmd_rx, out_tx, here, state, stats))
             .map_err(|e| e.to_string())?;
     }
     {
@@ -296,15 +300,27 @@ fn control_loop(
     out: SyncSender<Out>,
     here: Arc<[AtomicU64; 3]>,
     state: Arc<AtomicU32>,
+    stats: Option<Duration>,
 ) {
     let period = Duration::from_secs_f64(machine.dt());
+    let mut lateness = ros::Lateness::new();
+    let mut stats_due = Instant::now() + stats.unwrap_or_default();
     let mut ctl = Controller::new(machine);
     let mut ticker = Ticker::new(period);
     let mut last_status = Instant::now() - Duration::from_secs(1);
     let mut line_changes = Instant::now();
     let mut dropped = 0u64;
     loop {
-        ticker.wait();
+        let deadline = ticker.wait();
+        // the stamp is the wake-up time: stamp differences are the loop's period
+        let stamp = now_stamp();
+        if let Some(every) = stats {
+            lateness.record(Instant::now().saturating_duration_since(deadline));
+            if Instant::now() >= stats_due {
+                stats_due += every;
+                eprintln!("cnc_node: loop lateness {}", lateness.summary());
+            }
+        }
         loop {
             match cmds.try_recv() {
                 Ok(Cmd::Start(job, reply)) => {
