@@ -4,7 +4,6 @@
 
 use cnc_msgs::ros;
 use cnc_msgs::{ControllerStatus, RunProgramRequest, RunProgramResponse};
-use ros2_client::{MessageTypeName, Name, ServiceMapping, ServiceTypeName};
 use std::time::{Duration, Instant};
 
 /// What to send.
@@ -45,34 +44,13 @@ fn timeout<T>(d: Duration, f: impl std::future::Future<Output = T>) -> Option<T>
     }))
 }
 
-fn dbg<E: std::fmt::Debug>(e: E) -> String {
-    format!("{e:?}")
-}
-
 pub fn run(req: RunRequest) -> Result<RunOutcome, String> {
     let ctx = ros::context(req.domain, ros::localhost_only_from_env())?;
     let mut node = ros::node(&ctx, "/", &format!("cnc_cli_{}", std::process::id()))?;
-    let sq = ros::qos_services();
     let ns = req.namespace.as_str();
-    let client = node
-        .create_client::<RunProgramRequest, RunProgramResponse>(
-            ServiceMapping::Enhanced,
-            &Name::new(ns, "run_program").map_err(dbg)?,
-            &ServiceTypeName::new("cnc_msgs", "RunProgram"),
-            sq.clone(),
-            sq,
-        )
-        .map_err(dbg)?;
-    let topic = node
-        .create_topic(
-            &Name::new(ns, "status").map_err(dbg)?,
-            MessageTypeName::new("cnc_msgs", "ControllerStatus"),
-            &ros::qos_default(),
-        )
-        .map_err(dbg)?;
-    let status = node
-        .create_subscription::<ControllerStatus>(&topic, None)
-        .map_err(dbg)?;
+    let client =
+        ros::client::<RunProgramRequest, RunProgramResponse>(&mut node, ns, "run_program")?;
+    let status = ros::subscription::<ControllerStatus>(&mut node, ns, "status")?;
     if timeout(req.connect_timeout, client.wait_for_service(&node)).is_none() {
         return Err(format!(
             "no controller answers at {ns}/run_program (is cnc_node running on domain {}?)",

@@ -145,7 +145,11 @@ impl Lateness {
     const BINS: usize = 20_001;
 
     pub fn new() -> Self {
-        Lateness { bins: vec![0; Self::BINS], n: 0, max_us: 0.0 }
+        Lateness {
+            bins: vec![0; Self::BINS],
+            n: 0,
+            max_us: 0.0,
+        }
     }
 
     pub fn record(&mut self, late: Duration) {
@@ -204,4 +208,167 @@ mod tests {
         assert_eq!(l.percentile(99.0), 990.0);
         assert!((l.max_us - 999.5).abs() < 1e-6);
     }
+}
+
+/// Wall-clock time as a ROS stamp.
+pub fn wall_stamp() -> crate::Time {
+    let d = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap_or_default();
+    crate::Time {
+        sec: d.as_secs().min(i32::MAX as u64) as i32,
+        nanosec: d.subsec_nanos(),
+    }
+}
+
+/// `namespace/base` as a ROS name.
+pub fn name(ns: &str, base: &str) -> Result<ros2_client::Name, String> {
+    ros2_client::Name::new(ns, base).map_err(|e| format!("name {ns}/{base}: {e:?}"))
+}
+
+/// (`pkg`, `Type`) of `pkg/msg/Type` or `pkg/srv/Type_Request`.
+fn split_type<T: crate::RosType>() -> (&'static str, &'static str) {
+    let mut it = T::ROS_NAME.split('/');
+    let pkg = it.next().unwrap_or("");
+    let ty = it.nth(1).unwrap_or("");
+    (
+        pkg,
+        ty.trim_end_matches("_Request")
+            .trim_end_matches("_Response"),
+    )
+}
+
+fn topic<T: crate::RosType>(node: &Node, ns: &str, base: &str) -> Result<rustdds::Topic, String> {
+    let (pkg, ty) = split_type::<T>();
+    node.create_topic(
+        &name(ns, base)?,
+        ros2_client::MessageTypeName::new(pkg, ty),
+        &qos_default(),
+    )
+    .map_err(|e| format!("topic {ns}/{base}: {e:?}"))
+}
+
+/// A publisher of `ns/base` with rclpy's default QoS; the type name comes
+/// from `T`.
+pub fn publisher<T: crate::RosType + serde::Serialize>(
+    node: &mut Node,
+    ns: &str,
+    base: &str,
+) -> Result<ros2_client::Publisher<T>, String> {
+    let t = topic::<T>(node, ns, base)?;
+    node.create_publisher::<T>(&t, None)
+        .map_err(|e| format!("publisher {ns}/{base}: {e:?}"))
+}
+
+/// A subscription to `ns/base` with rclpy's default QoS.
+pub fn subscription<T: crate::RosType + 'static>(
+    node: &mut Node,
+    ns: &str,
+    base: &str,
+) -> Result<ros2_client::Subscription<T>, String> {
+    let t = topic::<T>(node, ns, base)?;
+    node.create_subscription::<T>(&t, None)
+        .map_err(|e| format!("subscription {ns}/{base}: {e:?}"))
+}
+
+/// A service server `ns/base` (Fast DDS request/reply mapping).
+pub fn server<Req, Resp>(
+    node: &mut Node,
+    ns: &str,
+    base: &str,
+) -> Result<ros2_client::Server<Req, Resp>, String>
+where
+    Req: crate::RosType + ros2_client::Message + Clone + 'static,
+    Resp: crate::RosType + ros2_client::Message + 'static,
+{
+    let (pkg, ty) = split_type::<Req>();
+    let q = qos_services();
+    node.create_server::<Req, Resp>(
+        ros2_client::ServiceMapping::Enhanced,
+        &name(ns, base)?,
+        &ros2_client::ServiceTypeName::new(pkg, ty),
+        q.clone(),
+        q,
+    )
+    .map_err(|e| format!("service {ns}/{base}: {e:?}"))
+}
+
+/// A service client of `ns/base`.
+pub fn client<Req, Resp>(
+    node: &mut Node,
+    ns: &str,
+    base: &str,
+) -> Result<ros2_client::Client<Req, Resp>, String>
+where
+    Req: crate::RosType + ros2_client::Message + Clone + 'static,
+    Resp: crate::RosType + ros2_client::Message + 'static,
+{
+    let (pkg, ty) = split_type::<Req>();
+    let q = qos_services();
+    node.create_client::<Req, Resp>(
+        ros2_client::ServiceMapping::Enhanced,
+        &name(ns, base)?,
+        &ros2_client::ServiceTypeName::new(pkg, ty),
+        q.clone(),
+        q,
+    )
+    .map_err(|e| format!("client {ns}/{base}: {e:?}"))
+}
+
+#[cfg(test)]
+mod type_names {
+    #[test]
+    fn split() {
+        assert_eq!(
+            super::split_type::<crate::JointState>(),
+            ("sensor_msgs", "JointState")
+        );
+        assert_eq!(
+            super::split_type::<crate::RunProgramRequest>(),
+            ("cnc_msgs", "RunProgram")
+        );
+        assert_eq!(
+            super::split_type::<crate::SetBoolResponse>(),
+            ("std_srvs", "SetBool")
+        );
+    }
+}
+
+/// Re-publishes this context's node information on `ros_discovery_info`
+/// every second for the first ten seconds, then every five seconds.
+///
+/// ros2-client publishes it only when a node's entities change, relying on
+/// transient-local durability for late joiners; against Fast DDS that
+/// delivery is sometimes lost at start-up, and an rclpy peer that started
+/// at the same moment then never lists our nodes (`ros2 node list`). rmw's
+/// graph cache keys the information by participant, so repeating it is
+/// harmless.
+pub fn keep_announcing(ctx: &Context) -> Result<(), String> {
+    use ros2_client::builtin_topics::ros_discovery;
+    use ros2_client::entities_info::ParticipantEntitiesInfo;
+    let dp = ctx.domain_participant();
+    let e = |e| format!("ros_discovery_info: {e:?}");
+    let topic = dp
+        .create_topic(
+            ros_discovery::TOPIC_NAME.to_string(),
+            ros_discovery::TYPE_NAME.to_string(),
+            &ros_discovery::QOS_PUB,
+            rustdds::TopicKind::NoKey,
+        )
+        .map_err(e)?;
+    let publisher = dp.create_publisher(&ros_discovery::QOS_PUB).map_err(e)?;
+    let writer = publisher
+        .create_datawriter_no_key_cdr::<ParticipantEntitiesInfo>(&topic, None)
+        .map_err(e)?;
+    let ctx = ctx.clone();
+    std::thread::Builder::new()
+        .name("ros-announce".into())
+        .spawn(move || {
+            for i in 0u64.. {
+                std::thread::sleep(Duration::from_secs(if i < 10 { 1 } else { 5 }));
+                let _ = writer.write(ctx.participant_entities_info(), None);
+            }
+        })
+        .map_err(|e| e.to_string())?;
+    Ok(())
 }

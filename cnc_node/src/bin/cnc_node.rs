@@ -16,12 +16,11 @@ use cnc_msgs::*;
 use cnc_node::controller::{Controller, Job, State, Status, Tick};
 use cnc_node::files::load_machine;
 use cnc_node::program::{read_limited, resolve_in};
-use ros2_client::{MessageTypeName, Name, ServiceMapping, ServiceTypeName};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, Sender, SyncSender, TryRecvError};
 use std::sync::Arc;
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant};
 
 #[derive(Parser)]
 #[command(name = "cnc_node", version, about = "CNC controller as a ROS 2 node")]
@@ -69,20 +68,6 @@ fn main() {
     }
 }
 
-fn now_stamp() -> Time {
-    let d = SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .unwrap_or_default();
-    Time {
-        sec: d.as_secs().min(i32::MAX as u64) as i32,
-        nanosec: d.subsec_nanos(),
-    }
-}
-
-fn name(ns: &str, base: &str) -> Result<Name, String> {
-    Name::new(ns, base).map_err(|e| format!("name {ns}/{base}: {e:?}"))
-}
-
 fn program_dir(args: &Args, m: &Machine) -> PathBuf {
     if let Some(d) = &args.program_dir {
         return d.clone();
@@ -107,65 +92,17 @@ fn run(args: Args) -> Result<(), String> {
     let domain = args.domain.unwrap_or_else(ros::domain_from_env);
     let ctx = ros::context(domain, ros::localhost_only_from_env())?;
     let mut node = ros::node(&ctx, &args.namespace, "cnc_node")?;
-    let qos = ros::qos_default();
-    let sq = ros::qos_services();
-    let e = |e| format!("{e:?}");
-    let topic = |node: &ros2_client::Node, n: Name, pkg: &str, ty: &str| {
-        node.create_topic(&n, MessageTypeName::new(pkg, ty), &qos)
-            .map_err(e)
-    };
+    ros::keep_announcing(&ctx)?;
     let ns = args.namespace.as_str();
-    let t_set = topic(
-        &node,
-        name(ns, "joint_setpoints")?,
-        "sensor_msgs",
-        "JointState",
-    )?;
-    let t_spin = topic(&node, name(ns, "spindle_command")?, "std_msgs", "Float64")?;
-    let t_status = topic(&node, name(ns, "status")?, "cnc_msgs", "ControllerStatus")?;
-    let t_enc = topic(
-        &node,
-        name(&args.sim_namespace, "spindle_encoder")?,
-        "cnc_msgs",
-        "SpindleEncoder",
-    )?;
-    let pub_set = node
-        .create_publisher::<JointState>(&t_set, None)
-        .map_err(e)?;
-    let pub_spin = node.create_publisher::<Float64>(&t_spin, None).map_err(e)?;
-    let pub_status = node
-        .create_publisher::<ControllerStatus>(&t_status, None)
-        .map_err(e)?;
-    let sub_enc = node
-        .create_subscription::<SpindleEncoder>(&t_enc, None)
-        .map_err(e)?;
-    let srv_run = node
-        .create_server::<RunProgramRequest, RunProgramResponse>(
-            ServiceMapping::Enhanced,
-            &name(ns, "run_program")?,
-            &ServiceTypeName::new("cnc_msgs", "RunProgram"),
-            sq.clone(),
-            sq.clone(),
-        )
-        .map_err(e)?;
-    let srv_abort = node
-        .create_server::<TriggerRequest, TriggerResponse>(
-            ServiceMapping::Enhanced,
-            &name(ns, "abort")?,
-            &ServiceTypeName::new("std_srvs", "Trigger"),
-            sq.clone(),
-            sq.clone(),
-        )
-        .map_err(e)?;
-    let srv_hold = node
-        .create_server::<SetBoolRequest, SetBoolResponse>(
-            ServiceMapping::Enhanced,
-            &name(ns, "feed_hold")?,
-            &ServiceTypeName::new("std_srvs", "SetBool"),
-            sq.clone(),
-            sq,
-        )
-        .map_err(e)?;
+    let pub_set = ros::publisher::<JointState>(&mut node, ns, "joint_setpoints")?;
+    let pub_spin = ros::publisher::<Float64>(&mut node, ns, "spindle_command")?;
+    let pub_status = ros::publisher::<ControllerStatus>(&mut node, ns, "status")?;
+    let sub_enc =
+        ros::subscription::<SpindleEncoder>(&mut node, &args.sim_namespace, "spindle_encoder")?;
+    let srv_run =
+        ros::server::<RunProgramRequest, RunProgramResponse>(&mut node, ns, "run_program")?;
+    let srv_abort = ros::server::<TriggerRequest, TriggerResponse>(&mut node, ns, "abort")?;
+    let srv_hold = ros::server::<SetBoolRequest, SetBoolResponse>(&mut node, ns, "feed_hold")?;
 
     // where the machine stands (f64 bits per joint), for checks of new jobs
     let here: Arc<[AtomicU64; 3]> = Arc::new(Default::default());
@@ -183,7 +120,10 @@ fn run(args: Args) -> Result<(), String> {
         let m = machine.clone();
         let here = here.clone();
         let state = state.clone();
-        let stats = args.loop_stats.filter(|s| *s > 0.0).map(Duration::from_secs_f64);
+        let stats = args
+            .loop_stats
+            .filter(|s| *s > 0.0)
+            .map(Duration::from_secs_f64);
         std::thread::Builder::new()
             .name("control".into())
             .spawn(move || control_loop(m, cmd_rx, out_tx, here, state, stats))
@@ -213,27 +153,11 @@ fn run(args: Args) -> Result<(), String> {
             let _ = chk_tx.send((id, req));
         }
         while let Ok(Some((id, _))) = srv_abort.receive_request() {
-            let (tx, rx) = mpsc::channel();
-            let _ = cmd_tx.send(Cmd::Abort(tx));
-            let r = rx
-                .recv_timeout(Duration::from_millis(500))
-                .unwrap_or(Err("controller did not answer".into()));
-            let (success, message) = match r {
-                Ok(m) => (true, m),
-                Err(m) => (false, m),
-            };
+            let (success, message) = ask(&cmd_tx, Cmd::Abort);
             let _ = srv_abort.send_response(id, TriggerResponse { success, message });
         }
         while let Ok(Some((id, req))) = srv_hold.receive_request() {
-            let (tx, rx) = mpsc::channel();
-            let _ = cmd_tx.send(Cmd::Hold(req.data, tx));
-            let r = rx
-                .recv_timeout(Duration::from_millis(500))
-                .unwrap_or(Err("controller did not answer".into()));
-            let (success, message) = match r {
-                Ok(m) => (true, m),
-                Err(m) => (false, m),
-            };
+            let (success, message) = ask(&cmd_tx, |tx| Cmd::Hold(req.data, tx));
             let _ = srv_hold.send_response(id, SetBoolResponse { success, message });
         }
         while let Ok((id, resp)) = resp_rx.try_recv() {
@@ -275,6 +199,22 @@ fn run(args: Args) -> Result<(), String> {
     }
 }
 
+/// Sends a command to the control loop and waits (briefly) for its answer.
+fn ask(
+    cmds: &Sender<Cmd>,
+    make: impl FnOnce(Sender<Result<String, String>>) -> Cmd,
+) -> (bool, String) {
+    let (tx, rx) = mpsc::channel();
+    if cmds.send(make(tx)).is_err() {
+        return (false, "the control loop is not running".into());
+    }
+    match rx.recv_timeout(Duration::from_millis(500)) {
+        Ok(Ok(m)) => (true, m),
+        Ok(Err(m)) => (false, m),
+        Err(_) => (false, "the control loop did not answer".into()),
+    }
+}
+
 fn to_msg(s: &Status, stamp: Time) -> ControllerStatus {
     ControllerStatus {
         header: Header {
@@ -313,7 +253,7 @@ fn control_loop(
     loop {
         let deadline = ticker.wait();
         // the stamp is the wake-up time: stamp differences are the loop's period
-        let stamp = now_stamp();
+        let stamp = ros::wall_stamp();
         if let Some(every) = stats {
             lateness.record(Instant::now().saturating_duration_since(deadline));
             if Instant::now() >= stats_due {
@@ -354,7 +294,7 @@ fn control_loop(
             ctl.status()
         });
         let o = Out {
-            stamp: now_stamp(),
+            stamp,
             tick,
             status,
         };

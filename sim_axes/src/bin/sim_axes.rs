@@ -8,10 +8,9 @@
 
 use clap::Parser;
 use cnc_msgs::ros::{self, Ticker};
-use cnc_msgs::{Float64, Header, JointState, SpindleEncoder, Time};
-use ros2_client::{MessageTypeName, Name};
+use cnc_msgs::{Float64, Header, JointState, SpindleEncoder};
 use sim_axes::machine::{load_machine, model_for};
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant};
 
 #[derive(Parser)]
 #[command(
@@ -56,20 +55,6 @@ fn main() {
     }
 }
 
-fn stamp() -> Time {
-    let d = SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .unwrap_or_default();
-    Time {
-        sec: d.as_secs().min(i32::MAX as u64) as i32,
-        nanosec: d.subsec_nanos(),
-    }
-}
-
-fn name(ns: &str, base: &str) -> Result<Name, String> {
-    Name::new(ns, base).map_err(|e| format!("topic name {ns}/{base}: {e:?}"))
-}
-
 fn run(a: Args) -> Result<(), String> {
     let mut machine = load_machine(&a.machine)?;
     if let Some(s) = machine.spindle.as_mut() {
@@ -88,44 +73,12 @@ fn run(a: Args) -> Result<(), String> {
     let domain = a.domain.unwrap_or_else(ros::domain_from_env);
     let ctx = ros::context(domain, ros::localhost_only_from_env())?;
     let mut node = ros::node(&ctx, &a.namespace, "sim_axes")?;
-    let qos = ros::qos_default();
-    let topic = |n: &Name, pkg: &str, ty: &str| {
-        node.create_topic(n, MessageTypeName::new(pkg, ty), &qos)
-            .map_err(|e| format!("topic: {e:?}"))
-    };
-    let t_set = topic(
-        &name(&a.controller_namespace, "joint_setpoints")?,
-        "sensor_msgs",
-        "JointState",
-    )?;
-    let t_spin = topic(
-        &name(&a.controller_namespace, "spindle_command")?,
-        "std_msgs",
-        "Float64",
-    )?;
-    let t_js = topic(
-        &name(&a.namespace, "joint_states")?,
-        "sensor_msgs",
-        "JointState",
-    )?;
-    let t_enc = topic(
-        &name(&a.namespace, "spindle_encoder")?,
-        "cnc_msgs",
-        "SpindleEncoder",
-    )?;
-    let err = |e| format!("{e:?}");
-    let sub_set = node
-        .create_subscription::<JointState>(&t_set, None)
-        .map_err(err)?;
-    let sub_spin = node
-        .create_subscription::<Float64>(&t_spin, None)
-        .map_err(err)?;
-    let pub_js = node
-        .create_publisher::<JointState>(&t_js, None)
-        .map_err(err)?;
-    let pub_enc = node
-        .create_publisher::<SpindleEncoder>(&t_enc, None)
-        .map_err(err)?;
+    ros::keep_announcing(&ctx)?;
+    let cns = a.controller_namespace.as_str();
+    let sub_set = ros::subscription::<JointState>(&mut node, cns, "joint_setpoints")?;
+    let sub_spin = ros::subscription::<Float64>(&mut node, cns, "spindle_command")?;
+    let pub_js = ros::publisher::<JointState>(&mut node, &a.namespace, "joint_states")?;
+    let pub_enc = ros::publisher::<SpindleEncoder>(&mut node, &a.namespace, "spindle_encoder")?;
 
     let names: Vec<String> = machine.axes.iter().map(|x| x.name.clone()).collect();
     let mut model = model_for(&machine, a.seed);
@@ -159,7 +112,7 @@ fn run(a: Args) -> Result<(), String> {
         }
         model.step(&set, spindle_rpm, dt);
         model.positions_into(&mut act);
-        let now = stamp();
+        let now = ros::wall_stamp();
         let js = JointState {
             header: Header {
                 stamp: now,
