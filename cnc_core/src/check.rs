@@ -5,11 +5,14 @@
 
 use crate::diag::Diagnostic;
 use crate::dialect::Dialect;
-use crate::interp::Interpreter;
+use crate::geom::Geom;
+use crate::interp::{Event, Feed, Interpreter, Src};
 use crate::machine::Machine;
-use crate::plan::{Item, PlanLimits, Planner, Timeline};
-use crate::source::ProgramSource;
+use crate::parse::{parse_words, Appended, Word};
+use crate::plan::{Item, ItemSink, Lookahead, PlanLimits, Profile, Timeline};
+use crate::source::{ProgramSource, SourceError, SourcePos};
 use crate::V3;
+use std::collections::VecDeque;
 
 /// What the check found.
 #[derive(Clone, Debug, PartialEq)]
@@ -53,42 +56,505 @@ impl CheckReport {
     }
 }
 
+/// Events planned before the check decides to use a second thread.
+const FIRST_EVENTS: usize = 512;
+/// Lines read and parsed at a time by the reading thread.
+const LINES: usize = 512;
+/// Batches of lines on their way through the interpreter at most.
+const IN_FLIGHT: usize = 4;
+
+/// The planning half of the check: look-ahead and timeline, fed events in
+/// program order.
+struct Plan {
+    look: Lookahead<()>,
+    totals: Totals,
+}
+
+/// What the planned items add up to.
+struct Totals {
+    tl: Timeline,
+    moves: u64,
+    ended: bool,
+}
+
+impl ItemSink for Totals {
+    /// only the profile counts: the queue keeps nothing else of a move
+    type Kept = ();
+    #[inline]
+    fn keep(_: &Geom, _: Feed, _: Src) {}
+    #[inline]
+    fn planned(&mut self, (): (), profile: Profile) {
+        self.moves += 1;
+        self.tl.finish_profile(&profile);
+    }
+    #[inline]
+    fn item(&mut self, item: Item) {
+        match item {
+            // (moves come to `planned`)
+            Item::Move(m) => self.planned((), m.profile),
+            Item::Dwell { seconds, .. } => self.tl.finish_dwell(seconds),
+            Item::End { .. } => self.ended = true,
+            Item::Spindle { .. } | Item::Tool { .. } => {}
+        }
+    }
+}
+
+impl Plan {
+    fn new(lim: PlanLimits) -> Self {
+        Plan {
+            look: Lookahead::new(lim),
+            totals: Totals {
+                tl: Timeline::new(lim.dt),
+                moves: 0,
+                ended: false,
+            },
+        }
+    }
+
+    /// Plans a batch of events; nothing after the end counts.
+    /// `arc_tangents`: the start and end tangents of the arcs among them,
+    /// in order, as far as they have been computed already.
+    fn run(&mut self, events: &VecDeque<Event>, arc_tangents: &[(V3, V3)]) {
+        let mut arc_tangents = arc_tangents.iter();
+        for ev in events {
+            if self.totals.ended {
+                return;
+            }
+            let tangents = match ev {
+                Event::Move {
+                    geom: Geom::Arc(_), ..
+                } => arc_tangents.next().copied(),
+                _ => None,
+            };
+            self.look.push(ev, tangents, &mut self.totals);
+        }
+    }
+
+    /// After the last event: plans what is left (the interpreter always
+    /// ends with an `End` event, so this is a safeguard).
+    fn finish(mut self) -> Totals {
+        if !self.totals.ended {
+            self.look.flush(&mut self.totals);
+        }
+        self.totals
+    }
+}
+
 /// Checks a whole program.
+///
+/// A program of more than a few hundred moves is checked by two threads in
+/// a pipeline: this one reads and parses lines, a second one interprets
+/// them, and this one plans the events that come back. (Reading, parsing
+/// and planning together weigh about as much as interpreting with its arc
+/// geometry; the arcs' tangents, wanted by the planner, go to whichever
+/// thread has time.) Every stage sees everything in program order and
+/// nothing flows backwards (the reader only runs ahead by a few batches),
+/// so the report is the one a single thread makes, bit for bit.
 pub fn check<S: ProgramSource>(source: S, dialect: Dialect, machine: &Machine) -> CheckReport {
     let lim = PlanLimits::from_machine(machine);
     let mut interp = Interpreter::new(source, dialect, machine);
-    let mut planner = Planner::new(lim);
-    let mut tl = Timeline::new(lim.dt);
-    let mut moves = 0u64;
-    let mut ended = false;
-    while !ended {
-        let ev = interp.next();
-        match ev {
-            Some(e) => planner.push(e),
-            None => planner.flush(),
-        }
-        while let Some(item) = planner.pop() {
-            match item {
-                Item::Move(m) => {
-                    moves += 1;
-                    tl.finish_move(&m);
-                }
-                Item::Dwell { seconds, .. } => tl.finish_dwell(seconds),
-                Item::End { .. } => ended = true,
-                Item::Spindle { .. } | Item::Tool { .. } => {}
-            }
-        }
-        if ev.is_none() {
-            ended = true;
-        }
+    let mut plan = Plan::new(lim);
+    let mut first = VecDeque::with_capacity(FIRST_EVENTS);
+    if interp.fill(&mut first, FIRST_EVENTS) {
+        return check_concurrently(interp, plan, first, dialect, lim);
     }
+    plan.run(&first, &[]);
+    report(&interp, plan.finish(), lim)
+}
+
+fn report<T: ProgramSource>(
+    interp: &Interpreter<T>,
+    totals: Totals,
+    lim: PlanLimits,
+) -> CheckReport {
     CheckReport {
         blocks: interp.blocks(),
-        moves,
-        duration_s: tl.group_k0 as f64 * lim.dt,
-        ticks: tl.group_k0,
+        moves: totals.moves,
+        duration_s: totals.tl.group_k0 as f64 * lim.dt,
+        ticks: totals.tl.group_k0,
         bbox: interp.bbox(),
         errors: interp.errors().to_vec(),
         error_count: interp.error_count(),
+    }
+}
+
+/// The source of an interpreter whose lines come from the check's reader.
+struct Fed;
+
+impl ProgramSource for Fed {
+    fn read_line(&mut self, _buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError> {
+        Ok(None)
+    }
+    fn seek(&mut self, _pos: SourcePos) -> Result<(), SourceError> {
+        Ok(())
+    }
+}
+
+/// One line as `parse_line` made it.
+struct ParsedLine {
+    pos: SourcePos,
+    /// end of its text in `Batch::text`, of its words in `Batch::words`
+    text_end: usize,
+    words_end: usize,
+    error: Option<Box<Diagnostic>>,
+}
+
+/// Lines read and parsed by the reader, passed to the interpreter, and
+/// back with the events made of them. Batches are reused.
+#[derive(Default)]
+struct Batch {
+    lines: Vec<ParsedLine>,
+    text: Vec<u8>,
+    words: Vec<Word>,
+    /// after the last line: the end of the text, or a read error
+    end: Option<Result<(), SourceError>>,
+    /// the interpreter's events for these lines
+    events: VecDeque<Event>,
+    /// the start and end tangents of the arcs among them (computed by the
+    /// interpreting thread to even out the work; the planner would compute
+    /// the same)
+    arc_tangents: Vec<(V3, V3)>,
+    /// the interpreter has ended the program (later lines are not run)
+    finished: bool,
+}
+
+impl Batch {
+    /// Reads and parses up to `LINES` lines, as `Interpreter::step` would.
+    fn read<S: ProgramSource>(&mut self, src: &mut S, dialect: Dialect, line: &mut Vec<u8>) {
+        self.lines.clear();
+        self.text.clear();
+        self.words.clear();
+        self.end = None;
+        while self.lines.len() < LINES {
+            match src.read_line(line) {
+                Ok(Some(pos)) => {
+                    let mut words = Appended {
+                        start: self.words.len(),
+                        words: &mut self.words,
+                    };
+                    let parsed = parse_words(dialect, pos.line, line, &mut words, &mut false);
+                    self.text.extend_from_slice(line);
+                    self.lines.push(ParsedLine {
+                        pos,
+                        text_end: self.text.len(),
+                        words_end: self.words.len(),
+                        error: parsed.err().map(Box::new),
+                    });
+                }
+                Ok(None) => {
+                    self.end = Some(Ok(()));
+                    return;
+                }
+                Err(e) => {
+                    self.end = Some(Err(e));
+                    return;
+                }
+            }
+        }
+    }
+
+    /// Runs the lines through the interpreter and keeps its events; with
+    /// `tangents`, also computes the tangents of the arcs for the planner.
+    fn interpret(&mut self, interp: &mut Interpreter<Fed>, tangents: bool) {
+        let (mut t0, mut w0) = (0, 0);
+        for l in &mut self.lines {
+            if interp.is_finished() {
+                break;
+            }
+            let text = &self.text[t0..l.text_end];
+            let words = &self.words[w0..l.words_end];
+            interp.exec_line(l.pos.line, text, l.error.take(), words);
+            (t0, w0) = (l.text_end, l.words_end);
+        }
+        if !interp.is_finished() {
+            match &self.end {
+                Some(Ok(())) => interp.end_of_text(),
+                Some(Err(e)) => interp.read_failed(e),
+                None => {}
+            }
+        }
+        interp.take_events(&mut self.events);
+        self.finished = interp.is_finished();
+        self.arc_tangents.clear();
+        if !tangents {
+            return;
+        }
+        for ev in &self.events {
+            if let Event::Move {
+                geom: geom @ Geom::Arc(_),
+                ..
+            } = ev
+            {
+                self.arc_tangents
+                    .push((geom.start_tangent(), geom.end_tangent()));
+            }
+        }
+    }
+}
+
+/// The rest of the check after `first` (planned here) with the pipeline
+/// described at [`check`]; if no thread can be started, on this thread.
+fn check_concurrently<S: ProgramSource>(
+    interp: Interpreter<S>,
+    mut plan: Plan,
+    first: VecDeque<Event>,
+    dialect: Dialect,
+    lim: PlanLimits,
+) -> CheckReport {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::mpsc::{channel, sync_channel};
+    let (to_interp, interp_rx) = sync_channel::<Batch>(IN_FLIGHT);
+    let (interp_tx, from_interp) = channel::<Batch>();
+    let (start_tx, start_rx) = sync_channel::<Interpreter<Fed>>(1);
+    // The arcs' tangents can be computed on either thread (the same bits
+    // either way). The interpreting thread takes them on while it keeps up
+    // (no further batch waits for it), which evens out the work.
+    let queued = AtomicUsize::new(0);
+    let queued = &queued;
+    // (`move`: should this thread panic, the channels close as it unwinds
+    // and the other thread ends, so the scope can join it)
+    std::thread::scope(move |s| {
+        let spawned = std::thread::Builder::new()
+            .name("cnc-check-interp".into())
+            .spawn_scoped(s, move || {
+                let mut interp = start_rx.recv().ok()?;
+                for mut batch in interp_rx {
+                    // take work off the planner while keeping up with it
+                    let behind = queued.fetch_sub(1, Ordering::Relaxed) > 1;
+                    batch.interpret(&mut interp, !behind);
+                    if interp_tx.send(batch).is_err() {
+                        break;
+                    }
+                }
+                Some(interp)
+            });
+        let Ok(handle) = spawned else {
+            // no second thread: everything here, one batch of events at a time
+            let mut interp = interp;
+            let mut events = first;
+            loop {
+                plan.run(&events, &[]);
+                if !interp.fill(&mut events, FIRST_EVENTS) {
+                    plan.run(&events, &[]);
+                    return report(&interp, plan.finish(), lim);
+                }
+            }
+        };
+        let (mut source, interp) = interp.replace_source(Fed);
+        // the thread is waiting for it (a failed send means it panicked: `join` says so)
+        let _ = start_tx.send(interp);
+        plan.run(&first, &[]);
+        let mut line = Vec::with_capacity(256);
+        let mut spare: Vec<Batch> = Vec::with_capacity(IN_FLIGHT);
+        let (mut in_flight, mut reading) = (0, true);
+        loop {
+            let back = if reading && in_flight < IN_FLIGHT {
+                let mut batch = spare.pop().unwrap_or_default();
+                batch.read(&mut source, dialect, &mut line);
+                reading = batch.end.is_none();
+                // never blocks: at most IN_FLIGHT batches are out
+                queued.fetch_add(1, Ordering::Relaxed);
+                if to_interp.send(batch).is_err() {
+                    break;
+                }
+                in_flight += 1;
+                // plan what has come back meanwhile, without waiting
+                match from_interp.try_recv() {
+                    Ok(b) => b,
+                    Err(_) => continue,
+                }
+            } else if in_flight > 0 {
+                match from_interp.recv() {
+                    Ok(b) => b,
+                    Err(_) => break,
+                }
+            } else {
+                break;
+            };
+            in_flight -= 1;
+            reading &= !back.finished;
+            plan.run(&back.events, &back.arc_tangents);
+            spare.push(back);
+        }
+        drop(to_interp);
+        match handle.join() {
+            Ok(Some(interp)) => report(&interp, plan.finish(), lim),
+            Ok(None) => unreachable!("the interpreter was sent to the thread"),
+            Err(panic) => std::panic::resume_unwind(panic),
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::Planner;
+    use crate::source::{ReaderSource, StrSource};
+
+    /// The check as one thread does it: event by event through the
+    /// interpreter and the public planner.
+    fn one_thread<S: ProgramSource>(src: S, dialect: Dialect, machine: &Machine) -> CheckReport {
+        let lim = PlanLimits::from_machine(machine);
+        let mut interp = Interpreter::new(src, dialect, machine);
+        let mut planner = Planner::new(lim);
+        let mut tl = Timeline::new(lim.dt);
+        let mut moves = 0;
+        let mut ended = false;
+        while !ended {
+            let ev = interp.next();
+            match ev {
+                Some(e) => planner.push(e),
+                None => planner.flush(),
+            }
+            while let Some(item) = planner.pop() {
+                match item {
+                    Item::Move(m) => {
+                        moves += 1;
+                        tl.finish_move(&m);
+                    }
+                    Item::Dwell { seconds, .. } => tl.finish_dwell(seconds),
+                    Item::End { .. } => ended = true,
+                    Item::Spindle { .. } | Item::Tool { .. } => {}
+                }
+            }
+            ended |= ev.is_none();
+        }
+        report(&interp, Totals { tl, moves, ended }, lim)
+    }
+
+    /// A long program of every kind of block, errors included: arcs
+    /// (some that do not fit), lines, dwells, spindle and tool changes,
+    /// comments, blank lines and bad words.
+    fn program(lines: usize, seed: u64, dialect: Dialect) -> String {
+        let mut x = seed;
+        let mut next = move |n: u64| {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 33) % n
+        };
+        let comment = dialect.comment_char() as char;
+        let mut s = String::from("N1 G17 G90 G94 G00 X100 Y100 Z10 S1000 M03\nN2 F1500\n");
+        let (mut px, mut py) = (100.0f64, 100.0f64);
+        for k in 3..lines as u64 {
+            let line = match next(40) {
+                0 => format!("N{k} G04 P0.{}", next(9)),
+                1 => format!("N{k} S{} M0{}", next(3000), 3 + next(3)),
+                2 => format!("N{k} T{}", next(12)),
+                3 => format!("{comment} just a comment"),
+                4 => String::new(),
+                // errors (the position follows the block all the same)
+                5 => {
+                    px = 80.0 + next(50) as f64;
+                    format!("N{k} G01 X{px} Q{}", next(9))
+                }
+                6 => {
+                    px = -0.5 - next(9) as f64;
+                    format!("N{k} G01 X{px}")
+                }
+                7 => {
+                    py += 0.5;
+                    format!("N{k} G02 X{px:.4} Y{py:.4} I1 J0")
+                }
+                8 => {
+                    let (dx, dy) = (next(9), next(9));
+                    (px, py) = (px + dx as f64 / 10.0, py - dy as f64 / 10.0);
+                    format!("N{k} G91 G01 X0.{dx} Y-0.{dy}\nG90")
+                }
+                9 => format!("N{k} G01 Z{}.{}", next(20), next(99)),
+                10..=24 => {
+                    let (dx, dy) = (
+                        next(2000) as f64 / 1000.0 - 1.0,
+                        next(2000) as f64 / 1000.0 - 1.0,
+                    );
+                    (px, py) = (px + dx, py + dy);
+                    format!("N{k} G01 X{px:.4} Y{py:.4} F{}", 200 + next(3000))
+                }
+                _ => {
+                    // an arc about a centre 1..3 mm away, ending on the circle
+                    let (i, j) = (
+                        next(200) as f64 / 100.0 + 1.0,
+                        next(200) as f64 / 100.0 - 1.0,
+                    );
+                    let (cx, cy) = (px + i, py + j);
+                    let r = (i * i + j * j).sqrt();
+                    let a = (-j).atan2(-i) + next(600) as f64 / 100.0;
+                    let (ex, ey) = (cx + r * a.cos(), cy + r * a.sin());
+                    let g = if next(2) == 0 { "G02" } else { "G03" };
+                    let l = format!("N{k} {g} X{ex:.4} Y{ey:.4} I{i:.4} J{j:.4}");
+                    // the next block starts where this one ends, as written
+                    (px, py) = (
+                        format!("{ex:.4}").parse().unwrap(),
+                        format!("{ey:.4}").parse().unwrap(),
+                    );
+                    l
+                }
+            };
+            s.push_str(&line);
+            s.push('\n');
+        }
+        s
+    }
+
+    fn same(a: &CheckReport, b: &CheckReport) {
+        // Debug tells -0.0 from 0.0, so this is bit for bit
+        assert_eq!(format!("{a:?}"), format!("{b:?}"));
+    }
+
+    #[test]
+    fn two_threads_report_what_one_thread_does() {
+        let mill = Machine::builtin_mill();
+        let lathe = Machine::builtin_lathe();
+        for (seed, lines) in [(1, 20_000), (2, 3_000), (3, 700), (4, 50)] {
+            for dialect in Dialect::ALL {
+                let text = program(lines, seed, dialect);
+                for m in [&mill, &lathe] {
+                    let want = one_thread(StrSource::new(&text), dialect, m);
+                    assert!(want.moves > 0 && want.error_count > 0);
+                    same(&check(StrSource::new(&text), dialect, m), &want);
+                }
+                // the program end in the middle: nothing after it counts
+                let mid = text.len() / 2;
+                let cut = mid + text[mid..].find('\n').unwrap() + 1;
+                let ended = format!("{}M30\n{}", &text[..cut], &text[cut..]);
+                same(
+                    &check(StrSource::new(&ended), dialect, &mill),
+                    &one_thread(StrSource::new(&ended), dialect, &mill),
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn two_threads_keep_the_first_errors_and_count_all() {
+        let mill = Machine::builtin_mill();
+        let text = "G00 X1 Q1\n".repeat(3000);
+        let r = check(StrSource::new(&text), Dialect::Cnc836, &mill);
+        assert_eq!(
+            (r.errors.len(), r.error_count),
+            (mill.limits.max_errors, 3000)
+        );
+        same(
+            &r,
+            &one_thread(StrSource::new(&text), Dialect::Cnc836, &mill),
+        );
+    }
+
+    #[test]
+    fn two_threads_report_a_read_error_where_one_thread_does() {
+        let mut mill = Machine::builtin_mill();
+        mill.limits.max_errors = 100_000;
+        let mut text = program(5_000, 7, Dialect::Cnc836);
+        // line 4001 is too long for the reader
+        let at = text.match_indices('\n').nth(3999).unwrap().0 + 1;
+        text.insert_str(at, &"X".repeat(5000));
+        let reader = || ReaderSource::new(std::io::Cursor::new(text.as_bytes()), 4096);
+        let r = check(reader(), Dialect::Cnc836, &mill);
+        let last = r.errors.last().unwrap();
+        assert!(
+            last.line == 4001 && last.message.contains("longer than"),
+            "{last}"
+        );
+        same(&r, &one_thread(reader(), Dialect::Cnc836, &mill));
     }
 }

@@ -37,6 +37,8 @@ pub struct Sample {
     pub last: bool,
 }
 
+// one value at a time: boxing the move would only add an allocation
+#[allow(clippy::large_enum_variant)]
 enum Cur {
     Move(PlannedMove, Option<u64>),
     Dwell(u64),
@@ -97,7 +99,11 @@ impl<S: ProgramSource> Executor<S> {
     /// Sets the feed scale to head for: 0 holds (decelerating along the
     /// path), 1 runs at the programmed feed. Values are clamped to 0..=1.
     pub fn set_feed_target(&mut self, target: f64) {
-        self.target = if target.is_nan() { 0.0 } else { target.clamp(0.0, 1.0) };
+        self.target = if target.is_nan() {
+            0.0
+        } else {
+            target.clamp(0.0, 1.0)
+        };
     }
 
     /// The feed scale in force (0 when held still).
@@ -122,7 +128,11 @@ impl<S: ProgramSource> Executor<S> {
         let vp_next = m.profile.v_at(tau + self.scale * self.dt);
         let down = self.target < self.scale;
         let v_next = if down { v_now - step } else { v_now + step };
-        let s = if vp_next > 1e-9 { v_next / vp_next } else { self.target };
+        let s = if vp_next > 1e-9 {
+            v_next / vp_next
+        } else {
+            self.target
+        };
         self.scale = if down {
             s.min(self.scale).max(self.target)
         } else {

@@ -17,6 +17,7 @@ pub enum Plane {
 impl Plane {
     /// (first axis, second axis, normal axis) indices; angles run from the
     /// first towards the second axis, counter-clockwise seen from +normal.
+    #[inline]
     pub fn axes(self) -> (usize, usize, usize) {
         match self {
             Plane::XY => (0, 1, 2),
@@ -79,29 +80,33 @@ impl Arc {
             TAU
         } else {
             let theta1 = (ey - cy).atan2(ex - cx);
-            let mut s = theta1 - theta0;
-            if ccw {
-                while s <= 0.0 {
-                    s += TAU;
-                }
-                while s > TAU {
-                    s -= TAU;
-                }
-            } else {
-                while s >= 0.0 {
-                    s -= TAU;
-                }
-                while s < -TAU {
-                    s += TAU;
-                }
-                s = -s;
+            let d = theta1 - theta0;
+            // Both directions are worked out and one is picked, and the
+            // first turn of each loop is a select: programs mix G02 and G03
+            // at random, so branches on them mispredict. The operations are
+            // the same as in plain loops.
+            let mut up = if d <= 0.0 { d + TAU } else { d };
+            while up <= 0.0 {
+                up += TAU;
             }
-            s
+            while up > TAU {
+                up -= TAU;
+            }
+            let mut down = if d >= 0.0 { d - TAU } else { d };
+            while down >= 0.0 {
+                down -= TAU;
+            }
+            while down < -TAU {
+                down += TAU;
+            }
+            if ccw {
+                up
+            } else {
+                -down
+            }
         };
         sweep += TAU * turns as f64;
-        if !ccw {
-            sweep = -sweep;
-        }
+        sweep = if ccw { sweep } else { -sweep };
         let axial = end[n] - start[n];
         let plane_len = radius * sweep.abs();
         let length = (plane_len * plane_len + axial * axial).sqrt();
@@ -123,6 +128,7 @@ impl Arc {
     }
 
     /// Fraction of the in-plane speed in the path speed (1 for a flat arc).
+    #[inline]
     pub fn plane_fraction(&self) -> f64 {
         if self.length == 0.0 {
             1.0
@@ -141,6 +147,7 @@ impl Arc {
         v
     }
 
+    #[inline]
     fn tangent(&self, frac: f64) -> V3 {
         let (p, q, n) = self.plane.axes();
         let th = self.theta0 + self.sweep * frac;
@@ -166,18 +173,21 @@ pub enum Geom {
 }
 
 impl Geom {
+    #[inline]
     pub fn start(&self) -> V3 {
         match self {
             Geom::Line { start, .. } => *start,
             Geom::Arc(a) => a.start,
         }
     }
+    #[inline]
     pub fn end(&self) -> V3 {
         match self {
             Geom::Line { end, .. } => *end,
             Geom::Arc(a) => a.end,
         }
     }
+    #[inline]
     pub fn length(&self) -> f64 {
         match self {
             Geom::Line { start, end } => (end - start).norm(),
@@ -203,6 +213,7 @@ impl Geom {
     }
 
     /// Unit tangent at the start.
+    #[inline]
     pub fn start_tangent(&self) -> V3 {
         match self {
             Geom::Line { start, end } => (end - start).normalize(),
@@ -211,6 +222,7 @@ impl Geom {
     }
 
     /// Unit tangent at the end.
+    #[inline]
     pub fn end_tangent(&self) -> V3 {
         match self {
             Geom::Line { start, end } => (end - start).normalize(),
@@ -234,7 +246,7 @@ impl Geom {
             for k in 0..4 {
                 let ang = k as f64 * std::f64::consts::FRAC_PI_2;
                 // the first multiple ang + m*2pi at or above t0
-                let m = ((t0 - ang) / TAU).ceil();
+                let m = ceil((t0 - ang) / TAU);
                 let first = ang + m * TAU;
                 if first <= t1 {
                     let (axis, val) = match k {
@@ -249,6 +261,28 @@ impl Geom {
             }
         }
         (lo, hi)
+    }
+}
+
+/// `x.ceil()` up to the sign of a zero result, without the library call
+/// that `f64::ceil` becomes on baseline x86-64. Below 2^52 in magnitude the
+/// cast to `i64` truncates exactly, and truncation plus one where it went
+/// down is the ceiling; from 2^52 on every `f64` is whole already. Where
+/// `ceil` gives -0.0 this gives +0.0: equal, and the callers only compare
+/// it or add it (`ang + m * TAU` is the same for either zero; the tick
+/// count is 0 for either).
+#[inline]
+pub(crate) fn ceil(x: f64) -> f64 {
+    const WHOLE: f64 = 4_503_599_627_370_496.0; // 2^52
+    if x.abs() < WHOLE {
+        let t = x as i64 as f64;
+        if t < x {
+            t + 1.0
+        } else {
+            t
+        }
+    } else {
+        x // whole, infinite or NaN
     }
 }
 
@@ -349,6 +383,39 @@ mod tests {
         ));
         let (lo, _) = g.bbox();
         assert!((lo[1] + 100.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn fast_ceil_equals_ceil() {
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            1.0 - f64::EPSILON,
+            -1.0 + f64::EPSILON,
+            2.5,
+            -2.5,
+            4_503_599_627_370_495.5,
+            -4_503_599_627_370_495.5,
+            4_503_599_627_370_496.0,
+            1e300,
+            -1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+        ];
+        for k in -2000..2000 {
+            xs.push(k as f64 * 0.137);
+            xs.push(k as f64 / TAU);
+        }
+        for x in xs {
+            assert_eq!(ceil(x), x.ceil(), "{x}");
+        }
+        assert!(ceil(f64::NAN).is_nan());
     }
 
     #[test]

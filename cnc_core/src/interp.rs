@@ -7,8 +7,8 @@ use crate::diag::{num, Diagnostic};
 use crate::dialect::Dialect;
 use crate::geom::{Arc, Geom, Plane};
 use crate::machine::Machine;
-use crate::parse::{parse_line, Block, Word};
-use crate::source::ProgramSource;
+use crate::parse::{block_no, parse_line, Block, Word};
+use crate::source::{ProgramSource, SourceError};
 use crate::V3;
 use std::collections::VecDeque;
 
@@ -35,6 +35,7 @@ pub enum Feed {
 
 impl Feed {
     /// Path speed in mm/s (infinite for rapid: the axes limit it).
+    #[inline]
     pub fn speed_mm_s(&self) -> f64 {
         match *self {
             Feed::Rapid => f64::INFINITY,
@@ -133,24 +134,110 @@ impl Modal {
 }
 
 const AXIS_LETTERS: [u8; 3] = [b'X', b'Y', b'Z'];
+/// G00..G03
+const MOTIONS: [Motion; 4] = [Motion::Rapid, Motion::Linear, Motion::CwArc, Motion::CcwArc];
 const CENTER_LETTERS: [u8; 3] = [b'I', b'J', b'K'];
 
-/// The words of one block, sorted by meaning, each with its column.
-#[derive(Default)]
-struct Words {
-    motion: Option<(Motion, Word)>,
-    plane: Option<(Plane, Word)>,
-    distance: Option<(bool, Word)>,
-    feed_mode: Option<(bool, Word)>,
-    dwell: Option<Word>,
-    axis: [Option<Word>; 3],
-    center: [Option<Word>; 3],
-    f: Option<Word>,
-    s: Option<Word>,
-    t: Option<Word>,
-    p: Option<Word>,
-    spindle: Option<(SpindleDir, Word)>,
-    end: Option<Word>,
+/// Slots of [`Words`], one per meaning.
+mod slot {
+    pub const MOTION: usize = 0;
+    pub const PLANE: usize = 1;
+    pub const DISTANCE: usize = 2;
+    pub const FEED_MODE: usize = 3;
+    pub const DWELL: usize = 4;
+    pub const AXIS: usize = 5; // X, Y, Z
+    pub const CENTER: usize = 8; // I, J, K
+    pub const F: usize = 11;
+    pub const S: usize = 12;
+    pub const T: usize = 13;
+    pub const P: usize = 14;
+    pub const SPINDLE: usize = 15;
+    pub const END: usize = 16;
+    pub const COUNT: usize = 17;
+}
+
+/// The words of one block, sorted by meaning, each with its column. Each
+/// slot holds which of the block's words has that meaning (1 + its index,
+/// 0 for none), so sorting copies no words.
+struct Words<'b> {
+    all: &'b [Word],
+    at: [u8; slot::COUNT],
+    /// what the G/M code in the MOTION, PLANE, DISTANCE, FEED_MODE and
+    /// SPINDLE slots selects (kept apart from the word: tuples of an enum
+    /// and a word made slow copies)
+    motion: Motion,
+    plane: Plane,
+    absolute: bool,
+    per_rev: bool,
+    spindle: SpindleDir,
+}
+
+impl<'b> Words<'b> {
+    #[inline]
+    fn new(all: &'b [Word]) -> Self {
+        Words {
+            all,
+            at: [0; slot::COUNT],
+            motion: Motion::Rapid,
+            plane: Plane::XY,
+            absolute: true,
+            per_rev: false,
+            spindle: SpindleDir::Off,
+        }
+    }
+    #[inline]
+    fn get(&self, slot: usize) -> Option<Word> {
+        match self.at[slot] {
+            0 => None,
+            k => Some(self.all[k as usize - 1]),
+        }
+    }
+    #[inline]
+    fn has(&self, slot: usize) -> bool {
+        self.at[slot] != 0
+    }
+    #[inline]
+    fn dwell(&self) -> Option<Word> {
+        self.get(slot::DWELL)
+    }
+    #[inline]
+    fn axis(&self, i: usize) -> Option<Word> {
+        self.get(slot::AXIS + i)
+    }
+    #[inline]
+    fn center(&self, i: usize) -> Option<Word> {
+        self.get(slot::CENTER + i)
+    }
+    /// X, Y, Z in order
+    #[inline]
+    fn axes(&self) -> impl Iterator<Item = Option<Word>> + '_ {
+        (0..3).map(|i| self.axis(i))
+    }
+    /// I, J, K in order
+    #[inline]
+    fn centers(&self) -> impl Iterator<Item = Option<Word>> + '_ {
+        (0..3).map(|i| self.center(i))
+    }
+    #[inline]
+    fn f(&self) -> Option<Word> {
+        self.get(slot::F)
+    }
+    #[inline]
+    fn s(&self) -> Option<Word> {
+        self.get(slot::S)
+    }
+    #[inline]
+    fn t(&self) -> Option<Word> {
+        self.get(slot::T)
+    }
+    #[inline]
+    fn p(&self) -> Option<Word> {
+        self.get(slot::P)
+    }
+    #[inline]
+    fn end(&self) -> Option<Word> {
+        self.get(slot::END)
+    }
 }
 
 /// Interprets a program into [`Event`]s. Iterate it; afterwards read the
@@ -167,7 +254,9 @@ pub struct Interpreter<S> {
     pub modal: Modal,
     pos: V3,
     buf: Vec<u8>,
-    block: Block,
+    /// the block being executed (boxed: it is taken out while executing,
+    /// and moving the pointer is cheaper than moving 1 KiB of words)
+    block: Option<Box<Block>>,
     pending: VecDeque<Event>,
     errors: Vec<Diagnostic>,
     error_count: usize,
@@ -204,7 +293,7 @@ impl<S: ProgramSource> Interpreter<S> {
             },
             pos: machine.home(),
             buf: Vec::with_capacity(256),
-            block: Block::default(),
+            block: Some(Box::default()),
             pending: VecDeque::with_capacity(8),
             errors: Vec::new(),
             error_count: 0,
@@ -240,6 +329,18 @@ impl<S: ProgramSource> Interpreter<S> {
         self.last
     }
 
+    /// Interprets lines until at least `min` events wait or the program
+    /// has ended, then swaps the waiting events into `batch` (emptied
+    /// first). Returns false once the program has ended: no event follows.
+    pub(crate) fn fill(&mut self, batch: &mut VecDeque<Event>, min: usize) -> bool {
+        batch.clear();
+        while self.pending.len() < min && !self.finished {
+            self.step();
+        }
+        std::mem::swap(&mut self.pending, batch);
+        !self.finished
+    }
+
     fn error(&mut self, w: Option<&Word>, msg: String) {
         self.error_count += 1;
         if self.errors.len() >= self.max_errors {
@@ -268,32 +369,136 @@ impl<S: ProgramSource> Interpreter<S> {
                 return;
             }
             Err(e) => {
-                self.last = Src {
-                    line: self.last.line + 1,
-                    block_no: None,
-                };
-                self.buf.clear();
-                self.error(None, format!("cannot read the program: {}", e.0));
-                self.finish();
+                self.read_failed(&e);
                 return;
             }
         };
-        self.last = Src {
-            line: pos.line,
-            block_no: None,
-        };
-        let mut block = std::mem::take(&mut self.block);
+        let mut block = self.block.take().unwrap_or_default();
         let parsed = parse_line(self.dialect, pos.line, &self.buf, &mut block);
-        self.last.block_no = block.block_no();
+        self.exec_parsed(pos.line, parsed, &block.words);
+        self.block = Some(block);
+    }
+
+    /// Runs line `line`, held in `self.buf`, which `parse_line` made into
+    /// `words` (those before the error, if it failed).
+    #[inline]
+    fn exec_parsed(&mut self, line: u32, parsed: Result<(), Diagnostic>, words: &[Word]) {
+        self.last = Src {
+            line,
+            block_no: block_no(words),
+        };
         match parsed {
             Err(d) => self.push_diag(d),
-            Ok(()) if block.is_blank() => {}
+            Ok(()) if words.is_empty() => {}
             Ok(()) => {
                 self.blocks += 1;
-                self.exec_block(&block);
+                self.exec_block(words);
             }
         }
-        self.block = block;
+    }
+
+    /// Runs a line that was read and parsed elsewhere (by the check's
+    /// reading thread); `parse_error` and `words` are what `parse_line` made of
+    /// `text`. The same as [`Interpreter::step`] after its read.
+    pub(crate) fn exec_line(
+        &mut self,
+        line: u32,
+        text: &[u8],
+        parse_error: Option<Box<Diagnostic>>,
+        words: &[Word],
+    ) {
+        // Every error of a line quotes that line (`parse_line` and `error`
+        // both take it lossily as UTF-8), so the text is copied only into
+        // the errors found, not into `buf` for every line.
+        self.buf.clear();
+        let kept = self.errors.len();
+        match parse_error {
+            None => self.exec_parsed(line, Ok(()), words),
+            Some(d) => self.exec_parsed(line, Err(*d), words),
+        }
+        if self.errors.len() > kept {
+            let source = String::from_utf8_lossy(text).into_owned();
+            for d in &mut self.errors[kept..] {
+                d.source.clone_from(&source);
+            }
+        }
+    }
+
+    /// The source failed: the error is reported on the line after the last
+    /// one read, and the program ends.
+    pub(crate) fn read_failed(&mut self, e: &SourceError) {
+        self.last = Src {
+            line: self.last.line + 1,
+            block_no: None,
+        };
+        self.buf.clear();
+        self.error(None, format!("cannot read the program: {}", e.0));
+        self.finish();
+    }
+
+    /// The source has no more lines.
+    pub(crate) fn end_of_text(&mut self) {
+        self.finish();
+    }
+
+    /// The program has ended (end of text, M02/M30, or a read error): no
+    /// line is run after this.
+    pub(crate) fn is_finished(&self) -> bool {
+        self.finished
+    }
+
+    /// Moves the events waiting into `batch` (emptied first).
+    pub(crate) fn take_events(&mut self, batch: &mut VecDeque<Event>) {
+        batch.clear();
+        std::mem::swap(&mut self.pending, batch);
+    }
+
+    /// The same interpreter, reading from `src` from now on; returns the
+    /// old source (the check hands the source to its reading thread).
+    pub(crate) fn replace_source<T>(self, src: T) -> (S, Interpreter<T>) {
+        let Interpreter {
+            src: old,
+            dialect,
+            present,
+            lo,
+            hi,
+            diameter,
+            max_rpm,
+            max_errors,
+            modal,
+            pos,
+            buf,
+            block,
+            pending,
+            errors,
+            error_count,
+            blocks,
+            last,
+            finished,
+            bbox,
+        } = self;
+        let new = Interpreter {
+            src,
+            dialect,
+            present,
+            lo,
+            hi,
+            diameter,
+            max_rpm,
+            max_errors,
+            modal,
+            pos,
+            buf,
+            block,
+            pending,
+            errors,
+            error_count,
+            blocks,
+            last,
+            finished,
+            bbox,
+        };
+        (old, new)
     }
 
     fn finish(&mut self) {
@@ -304,30 +509,34 @@ impl<S: ProgramSource> Interpreter<S> {
     }
 
     /// Sorts the words of a block, reporting unknown and duplicate words.
-    fn classify(&mut self, block: &Block) -> Words {
-        let mut w = Words::default();
+    fn classify(&mut self, w: &mut Words) {
         let mut n_seen = false;
-        for word in block.words.iter() {
-            let word = *word;
+        for (k, word) in w.all.iter().enumerate() {
+            // claims `$slot` for this word (running `$set`), or reports a
+            // second word of that meaning
             macro_rules! once {
-                ($slot:expr, $val:expr, $what:expr) => {{
-                    if $slot.is_some() {
+                ($slot:expr, $what:expr) => {
+                    once!($slot, (), $what)
+                };
+                ($slot:expr, $set:expr, $what:expr) => {{
+                    if w.at[$slot] != 0 {
                         self.error(
-                            Some(&word),
+                            Some(word),
                             format!("{} programmed twice in one block", $what),
                         );
                     } else {
-                        $slot = Some($val);
+                        w.at[$slot] = k as u8 + 1;
+                        $set;
                     }
                 }};
             }
             match word.letter {
                 b'N' => {
                     if n_seen {
-                        self.error(Some(&word), "block number N programmed twice".into());
+                        self.error(Some(word), "block number N programmed twice".into());
                     } else if word.as_int().is_none_or(|n| n < 0) || !word.integer {
                         self.error(
-                            Some(&word),
+                            Some(word),
                             "block number N must be a whole number 0 or more".into(),
                         );
                     }
@@ -336,34 +545,28 @@ impl<S: ProgramSource> Interpreter<S> {
                 b'G' => {
                     let Some(code) = word.as_int().filter(|_| word.integer) else {
                         self.error(
-                            Some(&word),
+                            Some(word),
                             format!("G code must be a whole number, found G{}", num(word.value)),
                         );
                         continue;
                     };
                     match code {
-                        0 => once!(w.motion, (Motion::Rapid, word), "a motion G code (G00-G03)"),
-                        1 => once!(
-                            w.motion,
-                            (Motion::Linear, word),
+                        // one branch for all four (programs mix them at random)
+                        0..=3 => once!(
+                            slot::MOTION,
+                            w.motion = MOTIONS[code as usize],
                             "a motion G code (G00-G03)"
                         ),
-                        2 => once!(w.motion, (Motion::CwArc, word), "a motion G code (G00-G03)"),
-                        3 => once!(
-                            w.motion,
-                            (Motion::CcwArc, word),
-                            "a motion G code (G00-G03)"
-                        ),
-                        4 => once!(w.dwell, word, "G04"),
-                        17 => once!(w.plane, (Plane::XY, word), "a plane G code (G17-G19)"),
-                        18 => once!(w.plane, (Plane::ZX, word), "a plane G code (G17-G19)"),
-                        19 => once!(w.plane, (Plane::YZ, word), "a plane G code (G17-G19)"),
-                        90 => once!(w.distance, (true, word), "G90/G91"),
-                        91 => once!(w.distance, (false, word), "G90/G91"),
-                        94 => once!(w.feed_mode, (false, word), "G94/G95"),
-                        95 => once!(w.feed_mode, (true, word), "G94/G95"),
+                        4 => once!(slot::DWELL, "G04"),
+                        17 => once!(slot::PLANE, w.plane = Plane::XY, "a plane G code (G17-G19)"),
+                        18 => once!(slot::PLANE, w.plane = Plane::ZX, "a plane G code (G17-G19)"),
+                        19 => once!(slot::PLANE, w.plane = Plane::YZ, "a plane G code (G17-G19)"),
+                        90 => once!(slot::DISTANCE, w.absolute = true, "G90/G91"),
+                        91 => once!(slot::DISTANCE, w.absolute = false, "G90/G91"),
+                        94 => once!(slot::FEED_MODE, w.per_rev = false, "G94/G95"),
+                        95 => once!(slot::FEED_MODE, w.per_rev = true, "G94/G95"),
                         _ => self.error(
-                            Some(&word),
+                            Some(word),
                             format!(
                                 "unsupported G code G{code:02} in the {} dialect",
                                 self.dialect
@@ -374,20 +577,20 @@ impl<S: ProgramSource> Interpreter<S> {
                 b'M' => {
                     let Some(code) = word.as_int().filter(|_| word.integer) else {
                         self.error(
-                            Some(&word),
+                            Some(word),
                             format!("M code must be a whole number, found M{}", num(word.value)),
                         );
                         continue;
                     };
                     match code {
-                        3 => once!(w.spindle, (SpindleDir::Cw, word), "a spindle M code (M03-M05)"),
-                        4 => once!(w.spindle, (SpindleDir::Ccw, word), "a spindle M code (M03-M05)"),
-                        5 => once!(w.spindle, (SpindleDir::Off, word), "a spindle M code (M03-M05)"),
-                        2 | 30 => once!(w.end, word, "a program end (M02/M30)"),
+                        3 => once!(slot::SPINDLE, w.spindle = SpindleDir::Cw, "a spindle M code (M03-M05)"),
+                        4 => once!(slot::SPINDLE, w.spindle = SpindleDir::Ccw, "a spindle M code (M03-M05)"),
+                        5 => once!(slot::SPINDLE, w.spindle = SpindleDir::Off, "a spindle M code (M03-M05)"),
+                        2 | 30 => once!(slot::END, "a program end (M02/M30)"),
                         // tool change and coolant: accepted, nothing to simulate
                         6 | 8 | 9 => {}
                         _ => self.error(
-                            Some(&word),
+                            Some(word),
                             format!("unsupported M code M{code:02}: expected M02, M03, M04, M05, M06, M08, M09 or M30"),
                         ),
                     }
@@ -396,32 +599,31 @@ impl<S: ProgramSource> Interpreter<S> {
                     let i = (word.letter - b'X') as usize;
                     if !self.present[i] {
                         self.error(
-                            Some(&word),
+                            Some(word),
                             format!("axis {} is not on this machine", word.letter as char),
                         );
                     } else {
-                        once!(w.axis[i], word, format!("axis {}", word.letter as char));
+                        once!(slot::AXIS + i, format!("axis {}", word.letter as char));
                     }
                 }
                 b'I' | b'J' | b'K' => {
                     let i = (word.letter - b'I') as usize;
                     once!(
-                        w.center[i],
-                        word,
+                        slot::CENTER + i,
                         format!("centre offset {}", word.letter as char)
                     );
                 }
-                b'F' => once!(w.f, word, "F"),
-                b'S' => once!(w.s, word, "S"),
-                b'T' => once!(w.t, word, "T"),
-                b'P' => once!(w.p, word, "P"),
+                b'F' => once!(slot::F, "F"),
+                b'S' => once!(slot::S, "S"),
+                b'T' => once!(slot::T, "T"),
+                b'P' => once!(slot::P, "P"),
                 other => {
                     let axes: String = (0..3)
                         .filter(|&i| self.present[i])
                         .map(|i| format!(" {}", AXIS_LETTERS[i] as char))
                         .collect();
                     self.error(
-                        Some(&word),
+                        Some(word),
                         format!(
                             "unknown address '{}' in the {} dialect: expected one of N G M{axes} I J K F S T P",
                             other as char, self.dialect
@@ -430,18 +632,19 @@ impl<S: ProgramSource> Interpreter<S> {
                 }
             }
         }
-        w
     }
 
-    fn exec_block(&mut self, block: &Block) {
-        let w = self.classify(block);
+    fn exec_block(&mut self, block: &[Word]) {
+        let mut words = Words::new(block);
+        self.classify(&mut words);
+        let w = &words;
         let src = self.last;
         // --- feed, speed, tool -------------------------------------------------
-        if let Some((per_rev, _)) = w.feed_mode {
-            self.modal.per_rev = per_rev;
+        if w.has(slot::FEED_MODE) {
+            self.modal.per_rev = w.per_rev;
         }
-        if let Some(f) = w.f {
-            if w.dwell.is_none() || self.dialect != Dialect::Heidenhain {
+        if let Some(f) = w.f() {
+            if w.dwell().is_none() || self.dialect != Dialect::Heidenhain {
                 if f.value < 0.0 {
                     self.error(
                         Some(&f),
@@ -452,7 +655,7 @@ impl<S: ProgramSource> Interpreter<S> {
                 }
             }
         }
-        if let Some(s) = w.s {
+        if let Some(s) = w.s() {
             if s.value < 0.0 {
                 self.error(
                     Some(&s),
@@ -473,7 +676,7 @@ impl<S: ProgramSource> Interpreter<S> {
                 self.modal.speed = s.value;
             }
         }
-        if let Some(t) = w.t {
+        if let Some(t) = w.t() {
             match t.as_int().filter(|&n| t.integer && (0..=9999).contains(&n)) {
                 Some(n) => {
                     self.modal.tool = n as u32;
@@ -493,7 +696,8 @@ impl<S: ProgramSource> Interpreter<S> {
         }
         // --- spindle ---------------------------------------------------------------
         let before = self.modal.spindle_rpm();
-        if let Some((dir, m)) = w.spindle {
+        if let Some(m) = w.get(slot::SPINDLE) {
+            let dir = w.spindle;
             if dir != SpindleDir::Off && self.max_rpm.is_none() {
                 self.error(Some(&m), "this machine has no spindle".into());
             } else {
@@ -507,50 +711,49 @@ impl<S: ProgramSource> Interpreter<S> {
             });
         }
         // --- modal geometry state --------------------------------------------
-        if let Some((plane, _)) = w.plane {
-            self.modal.plane = plane;
+        if w.has(slot::PLANE) {
+            self.modal.plane = w.plane;
         }
-        if let Some((abs, _)) = w.distance {
-            self.modal.absolute = abs;
+        if w.has(slot::DISTANCE) {
+            self.modal.absolute = w.absolute;
         }
         // --- dwell -------------------------------------------------------------
-        if let Some(g4) = w.dwell {
-            self.exec_dwell(&w, &g4, src);
+        if let Some(g4) = w.dwell() {
+            self.exec_dwell(w, &g4, src);
         } else {
-            if let Some(p) = w.p {
+            if let Some(p) = w.p() {
                 self.error(Some(&p), "address P is only used with G04 (dwell)".into());
             }
-            if let Some((m, _)) = w.motion {
-                self.modal.motion = m;
+            if w.has(slot::MOTION) {
+                self.modal.motion = w.motion;
             }
-            self.exec_motion(&w, src);
+            self.exec_motion(w, src);
         }
-        if w.end.is_some() {
+        if w.end().is_some() {
             self.finish();
         }
     }
 
     fn exec_dwell(&mut self, w: &Words, g4: &Word, src: Src) {
-        let mut time: Option<Word> = w.p;
+        let mut time: Option<Word> = w.p();
         if self.dialect == Dialect::Heidenhain && time.is_none() {
-            time = w.f;
+            time = w.f();
         }
         if time.is_none() {
-            time = w.axis[0];
+            time = w.axis(0);
         }
         let first_other = w
-            .axis
-            .iter()
-            .skip(if w.p.is_none() { 1 } else { 0 })
+            .axes()
+            .skip(if w.p().is_none() { 1 } else { 0 })
             .flatten()
             .next();
-        if let Some(o) = first_other.filter(|o| Some(**o) != time) {
+        if let Some(o) = first_other.filter(|o| Some(*o) != time) {
             self.error(
-                Some(o),
+                Some(&o),
                 "G04 (dwell) cannot move an axis; the dwell time is P (seconds)".into(),
             );
         }
-        if let Some((_, m)) = w.motion {
+        if let Some(m) = w.get(slot::MOTION) {
             self.error(
                 Some(&m),
                 "G04 (dwell) and a motion G code cannot share a block".into(),
@@ -574,12 +777,12 @@ impl<S: ProgramSource> Interpreter<S> {
     }
 
     fn exec_motion(&mut self, w: &Words, src: Src) {
-        let has_axis = w.axis.iter().any(|a| a.is_some());
-        let has_center = w.center.iter().any(|c| c.is_some());
+        let has_axis = w.axes().any(|a| a.is_some());
+        let has_center = w.centers().any(|c| c.is_some());
         let motion = self.modal.motion;
         let arc = matches!(motion, Motion::CwArc | Motion::CcwArc);
         if has_center && !arc {
-            let c = w.center.iter().flatten().next().copied();
+            let c = w.centers().flatten().next();
             self.error(
                 c.as_ref(),
                 format!(
@@ -588,13 +791,13 @@ impl<S: ProgramSource> Interpreter<S> {
                 ),
             );
         }
-        if !has_axis && !(arc && has_center) {
+        if !(has_axis || arc && has_center) {
             return;
         }
         // target position
         let mut target = self.pos;
         for i in 0..3 {
-            if let Some(a) = w.axis[i] {
+            if let Some(a) = w.axis(i) {
                 let v = if i == 0 && self.diameter {
                     a.value * 0.5
                 } else {
@@ -607,44 +810,60 @@ impl<S: ProgramSource> Interpreter<S> {
                 };
             }
         }
-        let anchor = w
-            .motion
-            .map(|m| m.1)
-            .or_else(|| w.axis.iter().flatten().next().copied());
+        let anchor = w.get(slot::MOTION).or_else(|| w.axes().flatten().next());
         // feed
         let feed = match motion {
             Motion::Rapid => Some(Feed::Rapid),
             _ => self.feed_for(anchor.as_ref(), w),
         };
-        // geometry
-        let geom = if arc {
-            self.arc_geom(w, target, motion == Motion::CcwArc, anchor.as_ref())
-        } else {
-            Some(Geom::Line {
-                start: self.pos,
-                end: target,
-            })
-        };
+        // geometry (built in place and passed on by reference: moving the
+        // large `Geom` values around cost more than computing them)
         let start = self.pos;
-        self.pos = target;
-        let Some(geom) = geom else { return };
+        if arc {
+            let arc = self.arc_geom(w, target, motion == Motion::CcwArc, anchor.as_ref());
+            self.pos = target;
+            if let Some(arc) = arc {
+                self.add_move(&Geom::Arc(arc), feed, w, anchor.as_ref(), src);
+            }
+        } else {
+            self.pos = target;
+            let line = Geom::Line { start, end: target };
+            self.add_move(&line, feed, w, anchor.as_ref(), src);
+        }
+    }
+
+    /// Checks a move's travel, adds it to the bounding box and queues it
+    /// (if it has a feed).
+    fn add_move(
+        &mut self,
+        geom: &Geom,
+        feed: Option<Feed>,
+        w: &Words,
+        anchor: Option<&Word>,
+        src: Src,
+    ) {
         if geom.length() == 0.0 {
             return;
         }
-        self.check_travel(&geom, w, anchor.as_ref());
-        let (lo, hi) = geom.bbox();
-        self.bbox = Some(match self.bbox {
-            None => (lo, hi),
-            Some((a, b)) => (a.inf(&lo), b.sup(&hi)),
-        });
-        debug_assert_eq!(geom.start(), start);
+        if !self.changes_nothing(geom) {
+            let (lo, hi) = geom.bbox();
+            self.check_travel(geom, (lo, hi), w, anchor);
+            self.bbox = Some(match self.bbox {
+                None => (lo, hi),
+                Some((a, b)) => (a.inf(&lo), b.sup(&hi)),
+            });
+        }
         if let Some(feed) = feed {
-            self.pending.push_back(Event::Move { geom, feed, src });
+            self.pending.push_back(Event::Move {
+                geom: *geom,
+                feed,
+                src,
+            });
         }
     }
 
     fn feed_for(&mut self, anchor: Option<&Word>, w: &Words) -> Option<Feed> {
-        let fw = w.f;
+        let fw = w.f();
         let f = match self.modal.feed {
             Some(f) if f > 0.0 => f,
             _ => {
@@ -673,16 +892,10 @@ impl<S: ProgramSource> Interpreter<S> {
         }
     }
 
-    fn arc_geom(
-        &mut self,
-        w: &Words,
-        target: V3,
-        ccw: bool,
-        anchor: Option<&Word>,
-    ) -> Option<Geom> {
+    fn arc_geom(&mut self, w: &Words, target: V3, ccw: bool, anchor: Option<&Word>) -> Option<Arc> {
         let plane = self.modal.plane;
         let (p, q, n) = plane.axes();
-        if let Some(c) = w.center[n] {
+        if let Some(c) = w.center(n) {
             self.error(
                 Some(&c),
                 format!(
@@ -694,7 +907,7 @@ impl<S: ProgramSource> Interpreter<S> {
                 ),
             );
         }
-        if w.center[p].is_none() && w.center[q].is_none() {
+        if w.center(p).is_none() && w.center(q).is_none() {
             self.error(
                 anchor,
                 format!(
@@ -708,14 +921,14 @@ impl<S: ProgramSource> Interpreter<S> {
         }
         let mut center = self.pos;
         for i in [p, q] {
-            if let Some(c) = w.center[i] {
+            if let Some(c) = w.center(i) {
                 center[i] += c.value;
             }
         }
         let start = self.pos;
         let r0 = ((start[p] - center[p]).powi(2) + (start[q] - center[q]).powi(2)).sqrt();
         let r1 = ((target[p] - center[p]).powi(2) + (target[q] - center[q]).powi(2)).sqrt();
-        let at = w.center[p].or(w.center[q]);
+        let at = w.center(p).or(w.center(q));
         if r0 < 1e-6 {
             self.error(
                 at.as_ref(),
@@ -730,11 +943,39 @@ impl<S: ProgramSource> Interpreter<S> {
             ));
             return None;
         }
-        Some(Geom::Arc(Arc::new(start, target, center, plane, ccw, 0)))
+        Some(Arc::new(start, target, center, plane, ccw, 0))
     }
 
-    fn check_travel(&mut self, geom: &Geom, w: &Words, anchor: Option<&Word>) {
-        let (lo, hi) = geom.bbox();
+    /// True for an arc whose whole circle (and end points) lies strictly
+    /// inside the bounding box so far and within the travel limits: its
+    /// exact box (four divisions) then changes neither the bounding box nor
+    /// the errors, so the caller may skip it. Every value `Geom::bbox` can
+    /// return is one of start, end and centre ± radius, exactly as computed
+    /// here, so the exact box lies within this one; and `min`/`max` against
+    /// a strictly smaller/larger value return that value unchanged.
+    #[inline]
+    fn changes_nothing(&self, geom: &Geom) -> bool {
+        let (Geom::Arc(a), Some((box_lo, box_hi))) = (geom, self.bbox) else {
+            return false;
+        };
+        let (p, q, _) = a.plane.axes();
+        let mut lo = a.start.inf(&a.end);
+        let mut hi = a.start.sup(&a.end);
+        for i in [p, q] {
+            lo[i] = lo[i].min(a.center[i] - a.radius);
+            hi[i] = hi[i].max(a.center[i] + a.radius);
+        }
+        let eps = 1e-9; // as in check_travel
+        (0..3).all(|i| {
+            lo[i] > box_lo[i]
+                && hi[i] < box_hi[i]
+                && (!self.present[i] || (lo[i] >= self.lo[i] - eps && hi[i] <= self.hi[i] + eps))
+        })
+    }
+
+    /// Reports the first point of `geom` (bounding box `lo`, `hi`) outside
+    /// each axis's travel.
+    fn check_travel(&mut self, geom: &Geom, (lo, hi): (V3, V3), w: &Words, anchor: Option<&Word>) {
         let is_arc = matches!(geom, Geom::Arc(_));
         for i in 0..3 {
             if !self.present[i] {
@@ -756,7 +997,7 @@ impl<S: ProgramSource> Interpreter<S> {
                 } else {
                     ""
                 };
-                let at = w.axis[i].or(anchor.copied());
+                let at = w.axis(i).or(anchor.copied());
                 let how = if is_arc && v != geom.end()[i] {
                     "the arc reaches"
                 } else {

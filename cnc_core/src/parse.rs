@@ -27,12 +27,18 @@ pub struct Word {
 
 impl Word {
     /// The value as a whole number, if it is one (e.g. `G01`, `N120`).
+    #[inline]
     pub fn as_int(&self) -> Option<i64> {
-        if self.value.fract() == 0.0 && self.value.abs() <= MAX_NUMBER {
-            Some(self.value as i64)
-        } else {
-            None
+        // Within ±MAX_NUMBER the cast truncates exactly, so the round trip
+        // is equal just when the fraction is zero (no `fract` call needed);
+        // NaN and infinities fail the range test.
+        if self.value.abs() <= MAX_NUMBER {
+            let n = self.value as i64;
+            if n as f64 == self.value {
+                return Some(n);
+            }
         }
+        None
     }
 }
 
@@ -57,12 +63,18 @@ impl Block {
     }
     /// The `N` number, if any.
     pub fn block_no(&self) -> Option<u64> {
-        self.words
-            .iter()
-            .find(|w| w.letter == b'N')
-            .and_then(|w| w.as_int())
-            .and_then(|n| u64::try_from(n).ok())
+        block_no(&self.words)
     }
+}
+
+/// The `N` number among `words`, if any.
+#[inline]
+pub(crate) fn block_no(words: &[Word]) -> Option<u64> {
+    words
+        .iter()
+        .find(|w| w.letter == b'N')
+        .and_then(|w| w.as_int())
+        .and_then(|n| u64::try_from(n).ok())
 }
 
 /// Parses one line into `block` (reused to avoid allocation). On a syntax
@@ -77,6 +89,56 @@ pub fn parse_line(
     block.line = line_no;
     block.words.clear();
     block.has_comment = false;
+    parse_words(
+        dialect,
+        line_no,
+        text,
+        &mut block.words,
+        &mut block.has_comment,
+    )
+}
+
+/// Where [`parse_words`] puts the words of a line.
+pub(crate) trait WordList {
+    /// Adds a word; false (and nothing added) if the line has
+    /// [`MAX_WORDS`] already.
+    fn add(&mut self, word: Word) -> bool;
+}
+
+impl WordList for ArrayVec<Word, MAX_WORDS> {
+    #[inline]
+    fn add(&mut self, word: Word) -> bool {
+        self.try_push(word).is_ok()
+    }
+}
+
+/// The words of a line appended to those of the lines before it (the
+/// check's batches of lines), from index `start` on.
+pub(crate) struct Appended<'a> {
+    pub words: &'a mut Vec<Word>,
+    pub start: usize,
+}
+
+impl WordList for Appended<'_> {
+    #[inline]
+    fn add(&mut self, word: Word) -> bool {
+        if self.words.len() - self.start >= MAX_WORDS {
+            return false;
+        }
+        self.words.push(word);
+        true
+    }
+}
+
+/// [`parse_line`], putting the words into `words` and setting
+/// `has_comment` if the line has a comment.
+pub(crate) fn parse_words(
+    dialect: Dialect,
+    line_no: u32,
+    text: &[u8],
+    words: &mut impl WordList,
+    has_comment: &mut bool,
+) -> Result<(), Diagnostic> {
     let comment = dialect.comment_char();
     let block_end = dialect.block_end_char();
     let n = text.len();
@@ -96,30 +158,9 @@ pub fn parse_line(
     let mut ended = false;
     while i < n {
         let c = text[i];
-        if c == b' ' || c == b'\t' || c == b'\r' {
-            i += 1;
-            continue;
-        }
-        if c == comment {
-            block.has_comment = true;
-            break;
-        }
-        if ended {
-            return Err(err(
-                i,
-                char_len(text, i),
-                format!(
-                    "text after the block end '*': expected only a comment ('{}') or nothing",
-                    comment as char
-                ),
-            ));
-        }
-        if Some(c) == block_end {
-            ended = true;
-            i += 1;
-            continue;
-        }
-        if c.is_ascii_alphabetic() {
+        // A word, the common case, first: a letter is never blank, a
+        // comment or the block end, so testing it first changes nothing.
+        if c.is_ascii_alphabetic() && !ended {
             let start = i;
             let letter = c.to_ascii_uppercase();
             i += 1;
@@ -128,19 +169,11 @@ pub fn parse_line(
                 i += 1;
             }
             let digits_start = i;
-            let mut digits = 0;
-            let mut dot = false;
-            while i < n {
-                let d = text[i];
-                if d.is_ascii_digit() {
-                    digits += 1;
-                } else if d == b'.' && !dot {
-                    dot = true;
-                } else {
-                    break;
-                }
-                i += 1;
-            }
+            // digits [. digits]: where it ends, all digits as one integer
+            // (meaningful only for up to 19 digits), how many digits, how
+            // many after the point, and whether there is a point
+            let (end, mantissa, digits, frac_digits, dot) = lex_number(text, i);
+            i = end;
             if digits == 0 {
                 let what = if i < n {
                     format!("'{}'", char_at(text, i))
@@ -157,9 +190,15 @@ pub fn parse_line(
                     ),
                 ));
             }
-            // Safe: the slice holds only ASCII sign, digits and one dot.
-            let s = std::str::from_utf8(&text[num_start..i]).unwrap_or("0");
-            let value: f64 = s.parse().unwrap_or(f64::INFINITY);
+            let value = match exact_decimal(mantissa, digits, frac_digits) {
+                Some(v) if text[num_start] == b'-' => -v,
+                Some(v) => v,
+                // Safe: the slice holds only ASCII sign, digits and one dot.
+                None => std::str::from_utf8(&text[num_start..i])
+                    .unwrap_or("0")
+                    .parse()
+                    .unwrap_or(f64::INFINITY),
+            };
             if !value.is_finite() || value.abs() > MAX_NUMBER {
                 return Err(err(
                     start,
@@ -170,20 +209,43 @@ pub fn parse_line(
                     ),
                 ));
             }
-            if block.words.is_full() {
+            let word = Word {
+                letter,
+                value,
+                col: start as u32 + 1,
+                len: (i - start) as u32,
+                integer: !dot,
+            };
+            if !words.add(word) {
                 return Err(err(
                     start,
                     i - start,
                     format!("too many words in one block (at most {MAX_WORDS})"),
                 ));
             }
-            block.words.push(Word {
-                letter,
-                value,
-                col: start as u32 + 1,
-                len: (i - start) as u32,
-                integer: !dot,
-            });
+            continue;
+        }
+        if c == b' ' || c == b'\t' || c == b'\r' {
+            i += 1;
+            continue;
+        }
+        if c == comment {
+            *has_comment = true;
+            break;
+        }
+        if ended {
+            return Err(err(
+                i,
+                char_len(text, i),
+                format!(
+                    "text after the block end '*': expected only a comment ('{}') or nothing",
+                    comment as char
+                ),
+            ));
+        }
+        if Some(c) == block_end {
+            ended = true;
+            i += 1;
             continue;
         }
         let hint = if c == b'"' || c == b';' || c == b'(' {
@@ -203,6 +265,56 @@ pub fn parse_line(
         ));
     }
     Ok(())
+}
+
+/// A lexed number: (end, mantissa, digits, fraction digits, has a point).
+type Lexed = (usize, u64, u32, u32, bool);
+
+/// Lexes `digits [. [digits]]` from `i`.
+#[inline]
+fn lex_number(text: &[u8], mut i: usize) -> Lexed {
+    let start = i;
+    let mut mantissa = 0u64;
+    while let Some(d) = text.get(i).filter(|d| d.is_ascii_digit()) {
+        mantissa = mantissa.wrapping_mul(10).wrapping_add((d - b'0') as u64);
+        i += 1;
+    }
+    let mut digits = (i - start) as u32;
+    let dot = text.get(i) == Some(&b'.');
+    let mut frac_digits = 0;
+    if dot {
+        i += 1;
+        let frac_start = i;
+        while let Some(d) = text.get(i).filter(|d| d.is_ascii_digit()) {
+            mantissa = mantissa.wrapping_mul(10).wrapping_add((d - b'0') as u64);
+            i += 1;
+        }
+        frac_digits = (i - frac_start) as u32;
+        digits += frac_digits;
+    }
+    (i, mantissa, digits, frac_digits, dot)
+}
+
+/// Powers of ten that an `f64` holds exactly (5^22 < 2^53).
+const EXACT_POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
+/// The value of an unsigned decimal `mantissa / 10^frac_digits` (written
+/// with `digits` digits), when it can be had with one division: Clinger's
+/// fast path. The mantissa (below 2^53) and the power of ten (at most 10^22)
+/// are both exact `f64`s, and IEEE division rounds correctly, so the result
+/// is the correctly rounded value of the decimal: bit for bit what
+/// `str::parse::<f64>` returns. `None` (more than 19 digits, a mantissa
+/// over 2^53, more than 22 decimals) leaves the number to `str::parse`.
+#[inline]
+fn exact_decimal(mantissa: u64, digits: u32, frac_digits: u32) -> Option<f64> {
+    if digits <= 19 && mantissa <= 1 << 53 && frac_digits <= 22 {
+        Some(mantissa as f64 / EXACT_POW10[frac_digits as usize])
+    } else {
+        None
+    }
 }
 
 fn char_len(text: &[u8], i: usize) -> usize {
@@ -230,6 +342,7 @@ fn char_at(text: &[u8], i: usize) -> String {
 }
 
 #[cfg(test)]
+#[allow(clippy::bool_comparison)]
 mod tests {
     use super::*;
 
@@ -324,6 +437,82 @@ mod tests {
         let long = "X1 ".repeat(40);
         let e = p(Dialect::Cnc836, &long).unwrap_err();
         assert!(e.message.starts_with("too many words"));
+    }
+
+    #[test]
+    fn numbers_match_str_parse() {
+        // every number goes through the fast path or str::parse; both must
+        // give the same bits
+        let mut cases: Vec<String> = [
+            "0",
+            "-0",
+            "+0",
+            "0.",
+            "-0.",
+            ".0",
+            "-.0",
+            "1",
+            "1.",
+            ".5",
+            "+.5",
+            "-.5",
+            "0.1",
+            "0.2",
+            "0.3",
+            "-1.2345",
+            "123456789",
+            "999999999.9999999",
+            "9007199254740992",
+            "9007199254740993",
+            "0.9007199254740993",
+            "9999999999999999999",
+            "0.0000000000000000000001",
+            "0.00000000000000000000001",
+            "00000000000000000000000001.5",
+            "1.00000000000000000000000000000000000001",
+            "2.675",
+            "100.0001",
+            "0.30000000000000004",
+            "4.35",
+            "8.325",
+            "1000000000",
+            "1000000000.0000001",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        // pseudo-random decimals of every shape
+        let mut x = 0x2545_F491_4F6C_DD1Du64;
+        for _ in 0..20_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let int_len = (x % 12) as usize;
+            let frac_len = ((x >> 8) % 24) as usize;
+            let digs = format!("{:020}{:020}", x >> 1, x.rotate_left(29) >> 1);
+            let mut s = String::new();
+            if x & (1 << 40) != 0 {
+                s.push('-');
+            }
+            s.push_str(&digs[..int_len]);
+            if frac_len > 0 || int_len == 0 {
+                s.push('.');
+                s.push_str(&digs[12..12 + frac_len.max(1)]);
+            }
+            cases.push(s);
+        }
+        for c in &cases {
+            let want: f64 = c.parse().unwrap();
+            let b = p(Dialect::Cnc836, &format!("X{c}"));
+            match b {
+                Ok(b) => assert_eq!(b.words[0].value.to_bits(), want.to_bits(), "X{c}"),
+                Err(e) => assert!(
+                    want.abs() > MAX_NUMBER && e.message.starts_with("number out of range"),
+                    "X{c}: {}",
+                    e.message
+                ),
+            }
+        }
     }
 
     #[test]

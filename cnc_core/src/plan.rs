@@ -10,7 +10,7 @@
 //! reserves [`KINK_SHARE`] of every axis's acceleration for such jumps and
 //! plans path acceleration with the rest.
 
-use crate::geom::Geom;
+use crate::geom::{ceil, Geom};
 use crate::interp::{Event, Feed, Src};
 use crate::machine::Machine;
 use crate::V3;
@@ -45,6 +45,7 @@ pub struct Profile {
 impl Profile {
     /// Fastest profile from `v0` to `v1` over `length` with acceleration
     /// `a` and speed cap `vcap` (`v0, v1 <= vcap`, `|v1²-v0²| <= 2 a length`).
+    #[inline]
     pub fn new(v0: f64, v1: f64, vcap: f64, a: f64, length: f64) -> Profile {
         let peak = ((2.0 * a * length + v0 * v0 + v1 * v1) * 0.5).sqrt();
         let vp = peak.min(vcap).max(v0).max(v1);
@@ -114,6 +115,8 @@ pub struct PlannedMove {
 }
 
 /// What the planner hands on, in order.
+// Moves are nearly all items: boxing them would allocate for each.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Item {
     Move(PlannedMove),
@@ -124,10 +127,11 @@ pub enum Item {
 }
 
 #[derive(Clone, Copy, Debug)]
-struct QSeg {
-    geom: Geom,
-    feed: Feed,
-    src: Src,
+struct QSeg<K> {
+    /// what the sink keeps of the move
+    kept: K,
+    /// unit tangent at the end (for the junction with the next move)
+    t_end: V3,
     length: f64,
     vcap: f64,
     a: f64,
@@ -158,12 +162,12 @@ impl PlanLimits {
         }
     }
 
-    /// (speed cap, path acceleration) of a move.
-    fn move_limits(&self, geom: &Geom, feed: &Feed) -> (f64, f64) {
+    /// (speed cap, path acceleration) of a move of length `len`.
+    #[inline]
+    fn move_limits(&self, geom: &Geom, len: f64, feed: &Feed) -> (f64, f64) {
         let f = feed.speed_mm_s();
         match geom {
             Geom::Line { start, end } => {
-                let len = (end - start).norm();
                 let mut v = f;
                 let mut a = f64::INFINITY;
                 for i in 0..3 {
@@ -198,11 +202,12 @@ impl PlanLimits {
         }
     }
 
-    /// Largest speed at which the path may pass from `prev` into `next`.
-    fn junction(&self, prev: &QSeg, next_geom: &Geom, next_vcap: f64) -> f64 {
-        let t1 = prev.geom.end_tangent();
-        let t2 = next_geom.start_tangent();
-        if t1.dot(&t2) < self.exact_stop_cos {
+    /// Largest speed at which the path may pass from `prev` into a move
+    /// with start tangent `t2`.
+    #[inline]
+    fn junction<K>(&self, prev: &QSeg<K>, t2: &V3, next_vcap: f64) -> f64 {
+        let t1 = prev.t_end;
+        if t1.dot(t2) < self.exact_stop_cos {
             return 0.0;
         }
         let mut v = prev.vcap.min(next_vcap);
@@ -216,68 +221,133 @@ impl PlanLimits {
     }
 }
 
-/// The look-ahead queue.
-pub struct Planner {
-    lim: PlanLimits,
-    queue: VecDeque<QSeg>,
-    /// fixed entry speed of the queue's head
-    v_head: f64,
-    out: VecDeque<Item>,
+/// Where the look-ahead hands its finished items, and what its queue keeps
+/// of each move until the move's profile is final: the executor needs the
+/// whole move, the check only the profile.
+pub(crate) trait ItemSink {
+    /// What the queue keeps of a move.
+    type Kept: Copy;
+    fn keep(geom: &Geom, feed: Feed, src: Src) -> Self::Kept;
+    /// A move, with its final profile.
+    fn planned(&mut self, kept: Self::Kept, profile: Profile);
+    /// Any other item.
+    fn item(&mut self, item: Item);
 }
 
-impl Planner {
-    pub fn new(lim: PlanLimits) -> Self {
-        Planner {
-            lim,
-            queue: VecDeque::with_capacity(lim.lookahead + 2),
-            v_head: 0.0,
-            out: VecDeque::with_capacity(16),
-        }
+impl ItemSink for VecDeque<Item> {
+    type Kept = (Geom, Feed, Src);
+    #[inline]
+    fn keep(geom: &Geom, feed: Feed, src: Src) -> Self::Kept {
+        (*geom, feed, src)
     }
-
-    /// Feeds one event in.
-    pub fn push(&mut self, ev: Event) {
-        match ev {
-            Event::Move { geom, feed, src } => self.push_move(geom, feed, src),
-            Event::Dwell { seconds, src } => {
-                self.flush();
-                self.out.push_back(Item::Dwell { seconds, src });
-            }
-            Event::Spindle { rpm, src } => {
-                self.flush();
-                self.out.push_back(Item::Spindle { rpm, src });
-            }
-            Event::Tool { number, src } => {
-                self.flush();
-                self.out.push_back(Item::Tool { number, src });
-            }
-            Event::End { src } => {
-                self.flush();
-                self.out.push_back(Item::End { src });
-            }
-        }
-    }
-
-    /// Takes the next finished item.
-    pub fn pop(&mut self) -> Option<Item> {
-        self.out.pop_front()
-    }
-
-    fn push_move(&mut self, geom: Geom, feed: Feed, src: Src) {
-        let length = geom.length();
-        if length <= 0.0 {
-            return;
-        }
-        let (vcap, a) = self.lim.move_limits(&geom, &feed);
-        let j = match self.queue.back() {
-            Some(prev) => self.lim.junction(prev, &geom, vcap),
-            None => self.v_head,
-        };
-        let entry_b = j.min((2.0 * a * length).sqrt());
-        self.queue.push_back(QSeg {
+    #[inline]
+    fn planned(&mut self, (geom, feed, src): Self::Kept, profile: Profile) {
+        self.push_back(Item::Move(PlannedMove {
             geom,
             feed,
             src,
+            profile,
+        }));
+    }
+    #[inline]
+    fn item(&mut self, item: Item) {
+        self.push_back(item);
+    }
+}
+
+/// The look-ahead queue proper; finished items go to a sink passed in, so
+/// the check can consume them in place. `K`: what the sink keeps of a move.
+#[derive(Debug)]
+pub(crate) struct Lookahead<K> {
+    lim: PlanLimits,
+    queue: VecDeque<QSeg<K>>,
+    /// fixed entry speed of the queue's head
+    v_head: f64,
+}
+
+impl<K: Copy> Lookahead<K> {
+    pub(crate) fn new(lim: PlanLimits) -> Self {
+        Lookahead {
+            lim,
+            queue: VecDeque::with_capacity(lim.lookahead + 2),
+            v_head: 0.0,
+        }
+    }
+
+    /// Feeds one event in. `tangents`: the move's start and end tangents
+    /// if the caller has them already (the check computes those of arcs on
+    /// another thread).
+    #[inline]
+    pub(crate) fn push<O: ItemSink<Kept = K>>(
+        &mut self,
+        ev: &Event,
+        tangents: Option<(V3, V3)>,
+        out: &mut O,
+    ) {
+        match *ev {
+            Event::Move {
+                ref geom,
+                feed,
+                src,
+            } => self.push_move(geom, tangents, feed, src, out),
+            Event::Dwell { seconds, src } => {
+                self.flush(out);
+                out.item(Item::Dwell { seconds, src });
+            }
+            Event::Spindle { rpm, src } => {
+                self.flush(out);
+                out.item(Item::Spindle { rpm, src });
+            }
+            Event::Tool { number, src } => {
+                self.flush(out);
+                out.item(Item::Tool { number, src });
+            }
+            Event::End { src } => {
+                self.flush(out);
+                out.item(Item::End { src });
+            }
+        }
+    }
+
+    fn push_move<O: ItemSink<Kept = K>>(
+        &mut self,
+        geom: &Geom,
+        tangents: Option<(V3, V3)>,
+        feed: Feed,
+        src: Src,
+        out: &mut O,
+    ) {
+        // The tangents are computed once per move, as the geometry would:
+        // a line's tangent is `normalize()`, i.e. the difference divided by
+        // its norm, which is the length.
+        let (length, line_dir) = match geom {
+            Geom::Line { start, end } => {
+                let d = end - start;
+                let len = d.norm();
+                (len, Some(d.unscale(len)))
+            }
+            Geom::Arc(a) => (a.length, None),
+        };
+        if length <= 0.0 {
+            return;
+        }
+        let (vcap, a) = self.lim.move_limits(geom, length, &feed);
+        let j = match self.queue.back() {
+            Some(prev) => {
+                let t2 = line_dir
+                    .or(tangents.map(|t| t.0))
+                    .unwrap_or_else(|| geom.start_tangent());
+                self.lim.junction(prev, &t2, vcap)
+            }
+            None => self.v_head,
+        };
+        let t_end = line_dir
+            .or(tangents.map(|t| t.1))
+            .unwrap_or_else(|| geom.end_tangent());
+        let entry_b = j.min((2.0 * a * length).sqrt());
+        self.queue.push_back(QSeg {
+            kept: O::keep(geom, feed, src),
+            t_end,
             length,
             vcap,
             a,
@@ -295,15 +365,16 @@ impl Planner {
             }
             s.entry_b = nb;
         }
-        self.commit(false);
+        self.commit(false, out);
     }
 
     /// Commits every head whose exit speed can no longer change.
-    fn commit(&mut self, all: bool) {
-        while let Some(h) = self.queue.front().copied() {
-            let reach = (self.v_head * self.v_head + 2.0 * h.a * h.length).sqrt();
+    fn commit(&mut self, all: bool, out: &mut impl ItemSink<Kept = K>) {
+        while let Some(h) = self.queue.front() {
             let v1 = match self.queue.get(1) {
                 Some(nx) => {
+                    // (only here: a lone head waits without it)
+                    let reach = (self.v_head * self.v_head + 2.0 * h.a * h.length).sqrt();
                     let final_exit = nx.entry_b >= nx.j || reach <= nx.entry_b;
                     if !(all || final_exit || self.queue.len() > self.lim.lookahead) {
                         return;
@@ -314,12 +385,7 @@ impl Planner {
                 None => return,
             };
             let profile = Profile::new(self.v_head, v1, h.vcap, h.a, h.length);
-            self.out.push_back(Item::Move(PlannedMove {
-                geom: h.geom,
-                feed: h.feed,
-                src: h.src,
-                profile,
-            }));
+            out.planned(h.kept, profile);
             self.v_head = v1;
             self.queue.pop_front();
         }
@@ -329,8 +395,38 @@ impl Planner {
     }
 
     /// Plans everything queued to a stop.
+    pub(crate) fn flush(&mut self, out: &mut impl ItemSink<Kept = K>) {
+        self.commit(true, out);
+    }
+}
+
+/// The look-ahead queue.
+pub struct Planner {
+    look: Lookahead<(Geom, Feed, Src)>,
+    out: VecDeque<Item>,
+}
+
+impl Planner {
+    pub fn new(lim: PlanLimits) -> Self {
+        Planner {
+            look: Lookahead::new(lim),
+            out: VecDeque::with_capacity(16),
+        }
+    }
+
+    /// Feeds one event in.
+    pub fn push(&mut self, ev: Event) {
+        self.look.push(&ev, None, &mut self.out);
+    }
+
+    /// Takes the next finished item.
+    pub fn pop(&mut self) -> Option<Item> {
+        self.out.pop_front()
+    }
+
+    /// Plans everything queued to a stop.
     pub fn flush(&mut self) {
-        self.commit(true);
+        self.look.flush(&mut self.out);
     }
 }
 
@@ -357,8 +453,9 @@ impl Timeline {
     }
 
     /// Whole ticks covering `seconds` (a hair of rounding is forgiven).
+    #[inline]
     pub fn ticks(&self, seconds: f64) -> u64 {
-        let t = (seconds / self.dt - 1e-9).ceil();
+        let t = ceil(seconds / self.dt - 1e-9);
         if t > 0.0 {
             t as u64
         } else {
@@ -378,12 +475,18 @@ impl Timeline {
 
     /// Advances past a finished move.
     pub fn finish_move(&mut self, m: &PlannedMove) {
-        match self.stop_tick(m) {
-            Some(k) => {
-                self.group_k0 = k;
-                self.seg_t0 = 0.0;
-            }
-            None => self.seg_t0 += m.profile.duration,
+        self.finish_profile(&m.profile);
+    }
+
+    /// Advances past a finished move with profile `p`.
+    #[inline]
+    pub(crate) fn finish_profile(&mut self, p: &Profile) {
+        // as `stop_tick`
+        if p.v1 == 0.0 {
+            self.group_k0 += self.ticks(self.seg_t0 + p.duration);
+            self.seg_t0 = 0.0;
+        } else {
+            self.seg_t0 += p.duration;
         }
     }
 

@@ -58,7 +58,7 @@ impl ProgramSource for StrSource<'_> {
             return Ok(None);
         }
         let rest = &self.text[self.offset..];
-        let end = rest.iter().position(|&b| b == b'\n');
+        let end = memchr::memchr(b'\n', rest);
         let (line, next) = match end {
             Some(e) => (&rest[..e], self.offset + e + 1),
             None => (rest, self.text.len()),
@@ -107,18 +107,37 @@ impl<R: std::io::BufRead + std::io::Seek> ReaderSource<R> {
 
 impl<R: std::io::BufRead + std::io::Seek> ProgramSource for ReaderSource<R> {
     fn read_line(&mut self, buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError> {
-        use std::io::{BufRead, Read};
         buf.clear();
+        // `read_until(b'\n')` on `take(limit)`, searching the reader's
+        // buffer directly (with a vectorised memchr; lines are short)
         let limit = self.max_line as u64 + 2;
-        let n = (&mut self.reader)
-            .take(limit)
-            .read_until(b'\n', buf)
-            .map_err(|e| SourceError(e.to_string()))?;
+        let mut n = 0u64;
+        while n < limit {
+            let avail = match self.reader.fill_buf() {
+                Ok(b) => b,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(SourceError(e.to_string())),
+            };
+            if avail.is_empty() {
+                break;
+            }
+            let room = &avail[..avail.len().min((limit - n) as usize)];
+            let (used, found) = match memchr::memchr(b'\n', room) {
+                Some(i) => (i + 1, true),
+                None => (room.len(), false),
+            };
+            buf.extend_from_slice(&room[..used]);
+            self.reader.consume(used);
+            n += used as u64;
+            if found {
+                break;
+            }
+        }
         if n == 0 {
             return Ok(None);
         }
         self.line += 1;
-        if buf.last() != Some(&b'\n') && n as u64 == limit {
+        if buf.last() != Some(&b'\n') && n == limit {
             return Err(SourceError(format!(
                 "line {} is longer than {} bytes",
                 self.line, self.max_line
@@ -128,7 +147,7 @@ impl<R: std::io::BufRead + std::io::Seek> ProgramSource for ReaderSource<R> {
             offset: self.offset,
             line: self.line,
         };
-        self.offset += n as u64;
+        self.offset += n;
         trim_line_end(buf);
         Ok(Some(pos))
     }

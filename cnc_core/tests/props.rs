@@ -32,7 +32,12 @@ fn mv() -> impl Strategy<Value = Mv> {
             prop::bool::weighted(0.2)
         )
             .prop_map(|(dx, dy, dz, rapid)| Mv::Line { dx, dy, dz, rapid }),
-        (0.5..25.0f64, 0.0..6.28f64, 0.1..6.2f64, any::<bool>())
+        (
+            0.5..25.0f64,
+            0.0..std::f64::consts::TAU,
+            0.1..6.2f64,
+            any::<bool>()
+        )
             .prop_map(|(r, a0, sweep, ccw)| Mv::Arc { r, a0, sweep, ccw }),
     ]
 }
