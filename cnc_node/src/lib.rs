@@ -7,3 +7,4 @@ pub mod controller;
 pub mod files;
 pub mod offline;
 pub mod program;
+pub mod record;

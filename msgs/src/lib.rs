@@ -194,3 +194,127 @@ mod tests {
         );
     }
 }
+
+// ---------------------------------------------------------------------------
+// Standard types of recordings (MCAP, `ros2 bag`, Foxglove, Rerun): texts in
+// `definitions_std`, complete schema texts in `schema`.
+
+pub mod definitions_std;
+pub mod schema;
+
+ros_message!(
+    /// `std_msgs/msg/String` (named `StringMsg` so that it does not shadow `String`)
+    StringMsg = "std_msgs/msg/String" { data: String = "string" }
+);
+
+ros_message!(
+    /// `geometry_msgs/msg/Vector3`
+    #[derive(Copy)]
+    Vector3 = "geometry_msgs/msg/Vector3" { x: f64 = "float64", y: f64 = "float64", z: f64 = "float64" }
+);
+
+ros_message!(
+    /// `geometry_msgs/msg/Quaternion`. The .msg default is the identity
+    /// (w = 1); `Default` here gives all zeros: use [`Quaternion::IDENTITY`].
+    #[derive(Copy)]
+    Quaternion = "geometry_msgs/msg/Quaternion" {
+        x: f64 = "float64",
+        y: f64 = "float64",
+        z: f64 = "float64",
+        w: f64 = "float64",
+    }
+);
+
+impl Quaternion {
+    /// No rotation (the .msg file's default value).
+    pub const IDENTITY: Quaternion = Quaternion {
+        x: 0.0,
+        y: 0.0,
+        z: 0.0,
+        w: 1.0,
+    };
+}
+
+ros_message!(
+    /// `geometry_msgs/msg/Transform`
+    #[derive(Copy)]
+    Transform = "geometry_msgs/msg/Transform" { translation: Vector3 = "Vector3", rotation: Quaternion = "Quaternion" }
+);
+
+ros_message!(
+    /// `geometry_msgs/msg/TransformStamped`: `child_frame_id` in `header.frame_id`
+    TransformStamped = "geometry_msgs/msg/TransformStamped" {
+        header: Header = "std_msgs/Header",
+        child_frame_id: String = "string",
+        transform: Transform = "Transform",
+    }
+);
+
+ros_message!(
+    /// `tf2_msgs/msg/TFMessage` (the `/tf` and `/tf_static` topics)
+    TFMessage = "tf2_msgs/msg/TFMessage" { transforms: Vec<TransformStamped> = "geometry_msgs/TransformStamped[]" }
+);
+
+ros_message!(
+    /// `geometry_msgs/msg/Point`
+    #[derive(Copy)]
+    Point = "geometry_msgs/msg/Point" { x: f64 = "float64", y: f64 = "float64", z: f64 = "float64" }
+);
+
+ros_message!(
+    /// `geometry_msgs/msg/Pose`
+    #[derive(Copy)]
+    Pose = "geometry_msgs/msg/Pose" { position: Point = "Point", orientation: Quaternion = "Quaternion" }
+);
+
+ros_message!(
+    /// `geometry_msgs/msg/PoseStamped`
+    PoseStamped = "geometry_msgs/msg/PoseStamped" { header: Header = "std_msgs/Header", pose: Pose = "Pose" }
+);
+
+ros_message!(
+    /// `sensor_msgs/msg/PointField`: one channel of a [`PointCloud2`] point
+    PointField = "sensor_msgs/msg/PointField" {
+        name: String = "string",
+        offset: u32 = "uint32",
+        datatype: u8 = "uint8",
+        count: u32 = "uint32",
+    }
+);
+
+impl PointField {
+    pub const INT8: u8 = 1;
+    pub const UINT8: u8 = 2;
+    pub const INT16: u8 = 3;
+    pub const UINT16: u8 = 4;
+    pub const INT32: u8 = 5;
+    pub const UINT32: u8 = 6;
+    pub const FLOAT32: u8 = 7;
+    pub const FLOAT64: u8 = 8;
+    /// (name, value) of the constants, as in the .msg file
+    pub const CONSTANTS: &'static [(&'static str, u8)] = &[
+        ("INT8", 1),
+        ("UINT8", 2),
+        ("INT16", 3),
+        ("UINT16", 4),
+        ("INT32", 5),
+        ("UINT32", 6),
+        ("FLOAT32", 7),
+        ("FLOAT64", 8),
+    ];
+}
+
+ros_message!(
+    /// `sensor_msgs/msg/PointCloud2`: points as a binary blob laid out by `fields`
+    PointCloud2 = "sensor_msgs/msg/PointCloud2" {
+        header: Header = "std_msgs/Header",
+        height: u32 = "uint32",
+        width: u32 = "uint32",
+        fields: Vec<PointField> = "PointField[]",
+        is_bigendian: bool = "bool",
+        point_step: u32 = "uint32",
+        row_step: u32 = "uint32",
+        data: Vec<u8> = "uint8[]",
+        is_dense: bool = "bool",
+    }
+);
