@@ -133,6 +133,8 @@ pub struct Lateness {
     bins: Vec<u64>,
     n: u64,
     max_us: f64,
+    /// the record number of the worst one
+    max_at: u64,
 }
 
 impl Default for Lateness {
@@ -149,6 +151,7 @@ impl Lateness {
             bins: vec![0; Self::BINS],
             n: 0,
             max_us: 0.0,
+            max_at: 0,
         }
     }
 
@@ -157,7 +160,10 @@ impl Lateness {
         let b = (us as usize).min(Self::BINS - 1);
         self.bins[b] += 1;
         self.n += 1;
-        self.max_us = self.max_us.max(us);
+        if us > self.max_us {
+            self.max_us = us;
+            self.max_at = self.n;
+        }
     }
 
     /// The `p`-th percentile in µs (bin upper edge).
@@ -183,12 +189,13 @@ impl Lateness {
     /// `n=…, p50 … µs, p99 …, p99.9 …, max …`
     pub fn summary(&self) -> String {
         format!(
-            "n={} p50<={:.0} us p99<={:.0} us p99.9<={:.0} us max={:.1} us",
+            "n={} p50<={:.0} us p99<={:.0} us p99.9<={:.0} us max={:.1} us (cycle {})",
             self.n,
             self.percentile(50.0),
             self.percentile(99.0),
             self.percentile(99.9),
-            self.max_us
+            self.max_us,
+            self.max_at
         )
     }
 }
@@ -371,4 +378,21 @@ pub fn keep_announcing(ctx: &Context) -> Result<(), String> {
         })
         .map_err(|e| e.to_string())?;
     Ok(())
+}
+
+/// Puts the calling thread under the real-time FIFO policy at `priority`
+/// (1..=99), as a control loop should run; `Err` says why not (e.g. no
+/// permission: then it keeps the normal policy).
+pub fn set_realtime(priority: i32) -> Result<(), String> {
+    let param = libc::sched_param {
+        sched_priority: priority.clamp(1, 99),
+    };
+    // SAFETY: sched_setscheduler on pid 0 changes only the calling thread's
+    // scheduling policy; `param` is a valid, initialised struct.
+    let r = unsafe { libc::sched_setscheduler(0, libc::SCHED_FIFO, &param) };
+    if r == 0 {
+        Ok(())
+    } else {
+        Err(std::io::Error::last_os_error().to_string())
+    }
 }

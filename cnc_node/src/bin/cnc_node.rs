@@ -44,6 +44,10 @@ struct Args {
     /// file's program_dir, relative to the machine file)
     #[arg(long)]
     program_dir: Option<PathBuf>,
+    /// real-time (SCHED_FIFO) priority of the control loop, 1-99; 0 keeps
+    /// the normal policy
+    #[arg(long, default_value_t = 80)]
+    rt_priority: i32,
     /// log the control loop's wake-up lateness percentiles every N seconds
     #[arg(long, value_name = "SECONDS")]
     loop_stats: Option<f64>,
@@ -124,9 +128,17 @@ fn run(args: Args) -> Result<(), String> {
             .loop_stats
             .filter(|s| *s > 0.0)
             .map(Duration::from_secs_f64);
+        let rt = args.rt_priority;
         std::thread::Builder::new()
             .name("control".into())
-            .spawn(move || control_loop(m, cmd_rx, out_tx, here, state, stats))
+            .spawn(move || {
+                if rt > 0 {
+                    if let Err(e) = ros::set_realtime(rt) {
+                        eprintln!("cnc_node: control loop stays at normal priority (SCHED_FIFO {rt}: {e})");
+                    }
+                }
+                control_loop(m, cmd_rx, out_tx, here, state, stats)
+            })
             .map_err(|e| e.to_string())?;
     }
     {

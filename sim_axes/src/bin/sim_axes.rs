@@ -43,6 +43,10 @@ struct Args {
     /// seed of the spindle noise
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// real-time (SCHED_FIFO) priority of the simulation loop, 1-99; 0 keeps
+    /// the normal policy
+    #[arg(long, default_value_t = 70)]
+    rt_priority: i32,
     /// stop after this many seconds (default: run until killed)
     #[arg(long)]
     duration: Option<f64>,
@@ -85,6 +89,11 @@ fn run(a: Args) -> Result<(), String> {
     let mut set: Vec<f64> = machine.axes.iter().map(|x| x.home_mm).collect();
     let mut act = vec![0.0; set.len()];
     let mut spindle_rpm = 0.0;
+    if a.rt_priority > 0 {
+        if let Err(e) = ros::set_realtime(a.rt_priority) {
+            eprintln!("sim_axes: loop stays at normal priority (SCHED_FIFO {}: {e})", a.rt_priority);
+        }
+    }
     let mut ticker = Ticker::new(Duration::from_secs_f64(dt));
     let start = Instant::now();
     eprintln!(
