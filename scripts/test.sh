@@ -23,4 +23,5 @@ bash scripts/ros_peer/setup.sh
 # shellcheck disable=SC1091
 . .venv-ros/env.sh
 cargo build --locked -p cnc_node -p sim_axes --bins
-CNC_SKIP_BUILD=1 python3 -m pytest tests/ros -q -p no:cacheprovider
+cargo build --locked -p cnc_node --example record_example
+CNC_SKIP_BUILD=1 python3 -m pytest tests/ros tests/mcap -q -p no:cacheprovider

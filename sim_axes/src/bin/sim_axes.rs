@@ -91,7 +91,10 @@ fn run(a: Args) -> Result<(), String> {
     let mut spindle_rpm = 0.0;
     if a.rt_priority > 0 {
         if let Err(e) = ros::set_realtime(a.rt_priority) {
-            eprintln!("sim_axes: loop stays at normal priority (SCHED_FIFO {}: {e})", a.rt_priority);
+            eprintln!(
+                "sim_axes: loop stays at normal priority (SCHED_FIFO {}: {e})",
+                a.rt_priority
+            );
         }
     }
     let mut ticker = Ticker::new(Duration::from_secs_f64(dt));
