@@ -23,20 +23,36 @@ pub trait ProgramSource {
     fn seek(&mut self, pos: SourcePos) -> Result<(), SourceError>;
 }
 
-/// A program held in memory.
+/// A program held in memory: borrowed ([`StrSource`]) or owned
+/// ([`OwnedSource`]).
 #[derive(Clone, Debug)]
-pub struct StrSource<'a> {
-    text: &'a [u8],
+pub struct TextSource<T> {
+    text: T,
     offset: usize,
     line: u32,
 }
 
-impl<'a> StrSource<'a> {
+/// A program borrowed from a string.
+pub type StrSource<'a> = TextSource<&'a [u8]>;
+/// A program owned by its source (it outlives the request that brought it).
+pub type OwnedSource = TextSource<Vec<u8>>;
+
+impl<'a> TextSource<&'a [u8]> {
     pub fn new(text: &'a str) -> Self {
         Self::from_bytes(text.as_bytes())
     }
     pub fn from_bytes(text: &'a [u8]) -> Self {
-        StrSource {
+        TextSource {
+            text,
+            offset: 0,
+            line: 0,
+        }
+    }
+}
+
+impl TextSource<Vec<u8>> {
+    pub fn owned(text: Vec<u8>) -> Self {
+        TextSource {
             text,
             offset: 0,
             line: 0,
@@ -51,17 +67,18 @@ pub fn trim_line_end(buf: &mut Vec<u8>) {
     }
 }
 
-impl ProgramSource for StrSource<'_> {
+impl<T: AsRef<[u8]>> ProgramSource for TextSource<T> {
     fn read_line(&mut self, buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError> {
         buf.clear();
-        if self.offset >= self.text.len() {
+        let text = self.text.as_ref();
+        if self.offset >= text.len() {
             return Ok(None);
         }
-        let rest = &self.text[self.offset..];
+        let rest = &text[self.offset..];
         let end = memchr::memchr(b'\n', rest);
         let (line, next) = match end {
             Some(e) => (&rest[..e], self.offset + e + 1),
-            None => (rest, self.text.len()),
+            None => (rest, text.len()),
         };
         buf.extend_from_slice(line);
         trim_line_end(buf);
@@ -75,7 +92,7 @@ impl ProgramSource for StrSource<'_> {
     }
 
     fn seek(&mut self, pos: SourcePos) -> Result<(), SourceError> {
-        if pos.offset as usize > self.text.len() || pos.line == 0 {
+        if pos.offset as usize > self.text.as_ref().len() || pos.line == 0 {
             return Err(SourceError(format!("cannot seek to offset {}", pos.offset)));
         }
         self.offset = pos.offset as usize;

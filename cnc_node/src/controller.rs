@@ -131,7 +131,7 @@ impl Controller {
                 a.home_mm = self.positions[j];
             }
         }
-        let exec = Executor::new(OwnedSource::new(job.text), job.dialect, &m);
+        let exec = Executor::new(OwnedSource::owned(job.text), job.dialect, &m);
         self.job = Some(Running {
             id: job.id,
             exec,

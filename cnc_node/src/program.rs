@@ -1,57 +1,9 @@
 //! Programs as the node receives them: text in the request, or a path that
 //! must stay inside the machine's program directory.
 
-use cnc_core::source::{trim_line_end, ProgramSource, SourceError, SourcePos};
 use std::path::{Component, Path, PathBuf};
 
-/// A program held in memory, owned (the executor outlives the request).
-pub struct OwnedSource {
-    text: Vec<u8>,
-    offset: usize,
-    line: u32,
-}
-
-impl OwnedSource {
-    pub fn new(text: Vec<u8>) -> Self {
-        OwnedSource {
-            text,
-            offset: 0,
-            line: 0,
-        }
-    }
-}
-
-impl ProgramSource for OwnedSource {
-    fn read_line(&mut self, buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError> {
-        buf.clear();
-        if self.offset >= self.text.len() {
-            return Ok(None);
-        }
-        let rest = &self.text[self.offset..];
-        let (line, next) = match rest.iter().position(|&b| b == b'\n') {
-            Some(e) => (&rest[..e], self.offset + e + 1),
-            None => (rest, self.text.len()),
-        };
-        buf.extend_from_slice(line);
-        trim_line_end(buf);
-        self.line += 1;
-        let pos = SourcePos {
-            offset: self.offset as u64,
-            line: self.line,
-        };
-        self.offset = next;
-        Ok(Some(pos))
-    }
-
-    fn seek(&mut self, pos: SourcePos) -> Result<(), SourceError> {
-        if pos.offset as usize > self.text.len() || pos.line == 0 {
-            return Err(SourceError(format!("cannot seek to offset {}", pos.offset)));
-        }
-        self.offset = pos.offset as usize;
-        self.line = pos.line - 1;
-        Ok(())
-    }
-}
+pub use cnc_core::source::OwnedSource;
 
 /// Resolves `rel` inside `dir`: no absolute paths, no `..`, no symlinks
 /// that lead out. Nothing is read.
@@ -152,7 +104,8 @@ mod tests {
 
     #[test]
     fn owned_source_reads_lines() {
-        let mut s = OwnedSource::new(b"A\r\nB".to_vec());
+        use cnc_core::source::ProgramSource;
+        let mut s = OwnedSource::owned(b"A\r\nB".to_vec());
         let mut b = Vec::new();
         assert_eq!(s.read_line(&mut b).unwrap().unwrap().line, 1);
         assert_eq!(b, b"A");
