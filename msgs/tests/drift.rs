@@ -2,37 +2,8 @@
 
 use cnc_msgs::*;
 
-/// (name, type) of the fields, and (name, value) of the constants, of one
-/// section of a .msg/.srv file.
-type Pairs = Vec<(String, String)>;
-
-fn parse(section: &str) -> (Pairs, Pairs) {
-    let mut fields = Vec::new();
-    let mut consts = Vec::new();
-    for line in section.lines() {
-        let line = line.split('#').next().unwrap_or("").trim();
-        if line.is_empty() {
-            continue;
-        }
-        let mut it = line.split_whitespace();
-        let ty = it.next().unwrap().to_string();
-        let rest: String = it.collect::<Vec<_>>().join(" ");
-        if let Some((name, value)) = rest.split_once('=') {
-            consts.push((name.trim().to_string(), value.trim().to_string()));
-        } else {
-            let name = rest.split_whitespace().next().unwrap().to_string();
-            fields.push((name, ty));
-        }
-    }
-    (fields, consts)
-}
-
-fn fields_of<T: RosType>() -> Pairs {
-    T::FIELDS
-        .iter()
-        .map(|(n, t)| (n.to_string(), t.to_string()))
-        .collect()
-}
+mod common;
+use common::{fields_of, parse, Pairs};
 
 fn file(rel: &str) -> String {
     std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)).unwrap()

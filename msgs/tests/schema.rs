@@ -5,36 +5,8 @@ use cnc_msgs::definitions_std as d;
 use cnc_msgs::schema::{full_text, RosSchema, MESSAGE_DEFINITIONS, PRIMITIVE_TYPES, SEPARATOR};
 use cnc_msgs::*;
 
-type Pairs = Vec<(String, String)>;
-
-/// (name, type) of the fields and (name, value) of the constants of a .msg text.
-fn parse(text: &str) -> (Pairs, Pairs) {
-    let mut fields = Vec::new();
-    let mut consts = Vec::new();
-    for line in text.lines() {
-        let line = line.split('#').next().unwrap_or("").trim();
-        if line.is_empty() {
-            continue;
-        }
-        let (ty, rest) = line.split_once(char::is_whitespace).unwrap();
-        let rest = rest.trim();
-        if let Some((name, value)) = rest.split_once('=') {
-            consts.push((name.trim().to_string(), value.trim().to_string()));
-        } else {
-            // "float64 w 1": a default value may follow the name
-            let name = rest.split_whitespace().next().unwrap();
-            fields.push((name.to_string(), ty.to_string()));
-        }
-    }
-    (fields, consts)
-}
-
-fn fields_of<T: RosType>() -> Pairs {
-    T::FIELDS
-        .iter()
-        .map(|(n, t)| (n.to_string(), t.to_string()))
-        .collect()
-}
+mod common;
+use common::{fields_of, parse, Pairs};
 
 fn check<T: RosType + RosSchema>(text: &str) {
     assert_eq!(parse(text).0, fields_of::<T>(), "{}", T::ROS_NAME);
