@@ -14,6 +14,8 @@ pub struct RunRequest {
     pub program_path: String,
     pub dialect: String,
     pub dry_run: bool,
+    /// ask the node to record the job
+    pub record: bool,
     /// how long to wait for the service to appear
     pub connect_timeout: Duration,
 }
@@ -30,6 +32,8 @@ pub enum RunOutcome {
         estimated: f64,
         wall: f64,
         lines: u32,
+        /// the node's recording of the job, if it was recorded
+        recording: String,
     },
     Failed {
         job_id: u32,
@@ -62,6 +66,7 @@ pub fn run(req: RunRequest) -> Result<RunOutcome, String> {
         program_path: req.program_path,
         dialect: req.dialect,
         dry_run: req.dry_run,
+        record: req.record,
     };
     let resp = timeout(Duration::from_secs(60), client.async_call_service(request))
         .ok_or("the controller did not answer within 60 s")?
@@ -106,6 +111,7 @@ pub fn run(req: RunRequest) -> Result<RunOutcome, String> {
                         estimated: resp.estimated_duration,
                         wall: start.elapsed().as_secs_f64(),
                         lines,
+                        recording: resp.recording.clone(),
                     });
                 }
                 _ => {}

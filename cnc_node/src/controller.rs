@@ -111,6 +111,11 @@ impl Controller {
         self.state
     }
 
+    /// The running job's id, 0 when idle.
+    pub fn job_id(&self) -> u32 {
+        self.job.as_ref().map_or(0, |r| r.id)
+    }
+
     /// Starts a checked job; refused while another runs.
     pub fn start(&mut self, job: Job) -> Result<(), String> {
         if let Some(r) = &self.job {

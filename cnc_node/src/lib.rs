@@ -2,9 +2,12 @@
 //! offline simulation loop shared by `cnc simulate` and the tests, and (later)
 //! the ROS 2 node.
 
+pub mod bag;
 pub mod client;
 pub mod controller;
 pub mod files;
+pub mod live;
 pub mod offline;
+pub mod plot;
 pub mod program;
 pub mod record;

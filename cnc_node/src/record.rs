@@ -616,6 +616,7 @@ pub mod topics {
     pub const STATUS: &str = "/cnc/status";
     pub const TF: &str = "/tf";
     pub const TOOL_POSE: &str = "/cnc/tool_pose";
+    pub const SPINDLE_ENCODER: &str = "/sim/spindle_encoder";
     pub const TOOLPATH: &str = "/cnc/toolpath";
     pub const PROGRAM: &str = "/cnc/program";
     pub const MACHINE_FILE: &str = "/cnc/machine_file";
@@ -837,36 +838,10 @@ impl<W: Write + Seek> SimRecorder<W> {
         }
         let (x, y, z) = (s.pos[0] / 1000.0, s.pos[1] / 1000.0, s.pos[2] / 1000.0);
         if s.k.is_multiple_of(POSE_EVERY) || s.last {
-            self.rec.write(
-                self.tf,
-                ns,
-                &TFMessage {
-                    transforms: vec![TransformStamped {
-                        header: header(ns, WORLD_FRAME),
-                        child_frame_id: TOOL_FRAME.to_string(),
-                        transform: Transform {
-                            translation: Vector3 { x, y, z },
-                            rotation: Quaternion::IDENTITY,
-                        },
-                    }],
-                },
-            )?;
-            self.rec.write(
-                self.tool_pose,
-                ns,
-                &PoseStamped {
-                    header: header(ns, WORLD_FRAME),
-                    pose: Pose {
-                        position: Point { x, y, z },
-                        orientation: Quaternion::IDENTITY,
-                    },
-                },
-            )?;
+            write_tool(&mut self.rec, self.tf, self.tool_pose, ns, [x, y, z])?;
         }
         if s.k.is_multiple_of(self.path_every) || s.last {
-            for v in [x, y, z] {
-                self.path.extend_from_slice(&(v as f32).to_le_bytes());
-            }
+            push_point(&mut self.path, [x, y, z]);
         }
         Ok(())
     }
@@ -875,24 +850,166 @@ impl<W: Write + Seek> SimRecorder<W> {
         if let Some(e) = self.error.take() {
             return Err(e);
         }
-        let n = (self.path.len() / 12) as u32;
-        let field = |name: &str, offset: u32| PointField {
-            name: name.to_string(),
-            offset,
-            datatype: PointField::FLOAT32,
-            count: 1,
-        };
-        let cloud = PointCloud2 {
-            header: header(self.last_ns, WORLD_FRAME),
-            height: 1,
-            width: n,
-            fields: vec![field("x", 0), field("y", 4), field("z", 8)],
-            is_bigendian: false,
-            point_step: 12,
-            row_step: 12 * n,
-            data: std::mem::take(&mut self.path),
-            is_dense: true,
-        };
+        let cloud = toolpath_cloud(std::mem::take(&mut self.path), self.last_ns);
+        self.rec.write(self.toolpath, self.last_ns, &cloud)?;
+        self.rec.finish()
+    }
+}
+
+/// `/tf` (`world` → `tool`) and `/cnc/tool_pose` at `pos` (m).
+fn write_tool<W: Write + Seek>(
+    rec: &mut Recorder<W>,
+    tf: ChannelId<TFMessage>,
+    pose: ChannelId<PoseStamped>,
+    ns: u64,
+    [x, y, z]: [f64; 3],
+) -> Result<(), String> {
+    rec.write(
+        tf,
+        ns,
+        &TFMessage {
+            transforms: vec![TransformStamped {
+                header: header(ns, WORLD_FRAME),
+                child_frame_id: TOOL_FRAME.to_string(),
+                transform: Transform {
+                    translation: Vector3 { x, y, z },
+                    rotation: Quaternion::IDENTITY,
+                },
+            }],
+        },
+    )?;
+    rec.write(
+        pose,
+        ns,
+        &PoseStamped {
+            header: header(ns, WORLD_FRAME),
+            pose: Pose {
+                position: Point { x, y, z },
+                orientation: Quaternion::IDENTITY,
+            },
+        },
+    )
+}
+
+/// Appends one x, y, z float32 point (m) to a tool path cloud's data.
+fn push_point(path: &mut Vec<u8>, p: [f64; 3]) {
+    for v in p {
+        path.extend_from_slice(&(v as f32).to_le_bytes());
+    }
+}
+
+/// The `/cnc/toolpath` cloud of the points pushed by [`push_point`].
+fn toolpath_cloud(data: Vec<u8>, ns: u64) -> PointCloud2 {
+    let n = (data.len() / 12) as u32;
+    let field = |name: &str, offset: u32| PointField {
+        name: name.to_string(),
+        offset,
+        datatype: PointField::FLOAT32,
+        count: 1,
+    };
+    PointCloud2 {
+        header: header(ns, WORLD_FRAME),
+        height: 1,
+        width: n,
+        fields: vec![field("x", 0), field("y", 4), field("z", 8)],
+        is_bigendian: false,
+        point_step: 12,
+        row_step: 12 * n,
+        data,
+        is_dense: true,
+    }
+}
+
+/// ns since the Unix epoch of a stamp.
+pub fn stamp_ns(t: &Time) -> u64 {
+    (t.sec.max(0) as u64) * 1_000_000_000 + t.nanosec as u64
+}
+
+/// A job recorded live by the node: the setpoints, spindle command and
+/// status as the node publishes them, and the simulator's joint states
+/// and encoder as the node receives them, stamped with their header times.
+/// The tool path (`/tf`, `/cnc/tool_pose` every 10th setpoint,
+/// `/cnc/toolpath` at the end) is derived from the setpoints, so Rerun
+/// shows the job in 3D as it shows offline recordings.
+pub struct JobRecorder {
+    rec: Recorder<BufWriter<File>>,
+    setpoints: ChannelId<JointState>,
+    joint_states: ChannelId<JointState>,
+    spindle: ChannelId<Float64>,
+    status: ChannelId<ControllerStatus>,
+    encoder: ChannelId<cnc_msgs::SpindleEncoder>,
+    tf: ChannelId<TFMessage>,
+    tool_pose: ChannelId<PoseStamped>,
+    toolpath: ChannelId<PointCloud2>,
+    /// machine coordinate (0 X, 1 Y, 2 Z) of each joint
+    joints: Vec<usize>,
+    k: u64,
+    path: Vec<u8>,
+    last_ns: u64,
+    /// where the file is
+    pub file: std::path::PathBuf,
+}
+
+impl JobRecorder {
+    pub fn create(file: &Path, info: RecordingInfo, machine: &Machine) -> Result<Self, String> {
+        let mut rec = Recorder::create(file, info)?;
+        Ok(JobRecorder {
+            setpoints: rec.channel(topics::JOINT_SETPOINTS)?,
+            joint_states: rec.channel(topics::JOINT_STATES)?,
+            spindle: rec.channel(topics::SPINDLE_COMMAND)?,
+            status: rec.channel(topics::STATUS)?,
+            encoder: rec.channel(topics::SPINDLE_ENCODER)?,
+            tf: rec.channel(topics::TF)?,
+            tool_pose: rec.channel(topics::TOOL_POSE)?,
+            toolpath: rec.channel(topics::TOOLPATH)?,
+            rec,
+            joints: machine.joint_indices(),
+            k: 0,
+            path: Vec::new(),
+            last_ns: 0,
+            file: file.to_path_buf(),
+        })
+    }
+
+    /// One published setpoint sample (m).
+    pub fn setpoints(&mut self, m: &JointState) -> Result<(), String> {
+        let ns = stamp_ns(&m.header.stamp);
+        self.last_ns = self.last_ns.max(ns);
+        self.rec.write(self.setpoints, ns, m)?;
+        let mut p = [0.0; 3];
+        for (&i, v) in self.joints.iter().zip(&m.position) {
+            p[i] = *v;
+        }
+        if self.k.is_multiple_of(POSE_EVERY) {
+            write_tool(&mut self.rec, self.tf, self.tool_pose, ns, p)?;
+        }
+        if (self.path.len() as u64) < TOOLPATH_MAX_POINTS * 12 {
+            push_point(&mut self.path, p);
+        }
+        self.k += 1;
+        Ok(())
+    }
+
+    pub fn joint_states(&mut self, m: &JointState) -> Result<(), String> {
+        self.rec
+            .write(self.joint_states, stamp_ns(&m.header.stamp), m)
+    }
+
+    pub fn encoder(&mut self, m: &cnc_msgs::SpindleEncoder) -> Result<(), String> {
+        self.rec.write(self.encoder, stamp_ns(&m.stamp), m)
+    }
+
+    pub fn spindle(&mut self, ns: u64, m: &Float64) -> Result<(), String> {
+        self.rec.write(self.spindle, ns, m)
+    }
+
+    pub fn status(&mut self, m: &ControllerStatus) -> Result<(), String> {
+        self.rec.write(self.status, stamp_ns(&m.header.stamp), m)
+    }
+
+    /// Writes the tool path and the summary.
+    pub fn finish(mut self) -> Result<RecordSummary, String> {
+        let cloud = toolpath_cloud(std::mem::take(&mut self.path), self.last_ns);
         self.rec.write(self.toolpath, self.last_ns, &cloud)?;
         self.rec.finish()
     }

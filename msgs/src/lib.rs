@@ -101,6 +101,7 @@ ros_message!(
         program_path: String = "string",
         dialect: String = "string",
         dry_run: bool = "bool",
+        record: bool = "bool",
     }
 );
 ros_message!(
@@ -110,6 +111,7 @@ ros_message!(
         message: String = "string",
         job_id: u32 = "uint32",
         estimated_duration: f64 = "float64",
+        recording: String = "string",
     }
 );
 

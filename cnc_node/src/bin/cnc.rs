@@ -46,6 +46,29 @@ enum Cmd {
         /// write one row per sample: t, setpoint per joint, actual per joint (mm)
         #[arg(long)]
         csv: Option<PathBuf>,
+        /// record the run to an MCAP file (ROS 2 profile, as `ros2 bag record -s mcap`)
+        #[arg(long)]
+        mcap: Option<PathBuf>,
+    },
+    /// Plot the programmed path, the setpoints and the simulated actual path
+    /// of a program or a recording (.mcap) to SVG or PNG.
+    Plot {
+        /// a program, or a recording (.mcap)
+        file: PathBuf,
+        /// output file, .svg or .png
+        #[arg(short, long)]
+        out: PathBuf,
+        /// (programs) cnc836 or heidenhain (default: the machine file's)
+        #[arg(long)]
+        dialect: Option<Dialect>,
+        /// (programs) machine file, or a bundled machine: mill, lathe
+        #[arg(long, default_value = "mill")]
+        machine: String,
+    },
+    /// MCAP recordings: record, compare, replay, rerun.
+    Bag {
+        #[command(subcommand)]
+        cmd: BagCmd,
     },
     /// Send a program to a running controller node (ROS 2 service
     /// <namespace>/run_program), follow its status to the end, print a summary.
@@ -65,9 +88,57 @@ enum Cmd {
         /// check and estimate only
         #[arg(long)]
         dry_run: bool,
+        /// ask the node to record the job (MCAP, in its recording directory)
+        #[arg(long)]
+        record: bool,
         /// seconds to wait for the node
         #[arg(long, default_value_t = 30.0)]
         wait: f64,
+    },
+}
+
+#[derive(Subcommand)]
+enum BagCmd {
+    /// Record the live topics of a controller and its simulator (like
+    /// `ros2 bag record`) until Ctrl-C or --duration.
+    Record {
+        #[arg(short, long)]
+        out: PathBuf,
+        #[arg(long, default_value = "/cnc")]
+        namespace: String,
+        #[arg(long, default_value = "/sim")]
+        sim_namespace: String,
+        #[arg(long)]
+        domain: Option<u16>,
+        /// seconds
+        #[arg(long)]
+        duration: Option<f64>,
+    },
+    /// Compare two recordings: per topic and joint the largest deviation,
+    /// where it first exceeds the tolerance (time, source line), missing or
+    /// extra messages. Exit 0 only when within tolerance.
+    Compare {
+        a: PathBuf,
+        b: PathBuf,
+        /// mm; 0 means identical
+        #[arg(long, default_value_t = 0.0)]
+        tolerance: f64,
+    },
+    /// Republish a recording on DDS at its own pace.
+    Replay {
+        file: PathBuf,
+        /// playback speed factor
+        #[arg(long, default_value_t = 1.0)]
+        rate: f64,
+        #[arg(long)]
+        domain: Option<u16>,
+    },
+    /// Run the controller again on the recorded program and machine file and
+    /// write a new recording (identical setpoints for the same code).
+    Rerun {
+        file: PathBuf,
+        #[arg(short, long)]
+        out: PathBuf,
     },
 }
 
@@ -85,7 +156,22 @@ fn main() -> ExitCode {
             machine,
             rate,
             csv,
-        } => cmd_simulate(&file, dialect, &machine, rate, csv.as_deref()),
+            mcap,
+        } => cmd_simulate(
+            &file,
+            dialect,
+            &machine,
+            rate,
+            csv.as_deref(),
+            mcap.as_deref(),
+        ),
+        Cmd::Plot {
+            file,
+            out,
+            dialect,
+            machine,
+        } => cmd_plot(&file, &out, dialect, &machine),
+        Cmd::Bag { cmd } => cmd_bag(cmd),
         Cmd::Run {
             file,
             path,
@@ -93,6 +179,7 @@ fn main() -> ExitCode {
             namespace,
             domain,
             dry_run,
+            record,
             wait,
         } => cmd_run(
             file.as_deref(),
@@ -100,7 +187,7 @@ fn main() -> ExitCode {
             dialect,
             namespace,
             domain,
-            dry_run,
+            (dry_run, record),
             wait,
         ),
     };
@@ -213,12 +300,31 @@ fn cmd_simulate(
     machine: &str,
     rate: Option<f64>,
     csv: Option<&Path>,
+    mcap: Option<&Path>,
 ) -> Result<ExitCode, String> {
     let m = load(machine, rate)?;
     let d = dialect.unwrap_or(m.dialect);
     let r = run_check(file, d, &m)?;
     if !report_errors(file, &r) {
         return Ok(ExitCode::from(1));
+    }
+    if let Some(out) = mcap {
+        // the recording is a run of its own (a simulation costs a fraction
+        // of a second per ten minutes of motion), from the program in memory
+        let text = std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
+        let name = file
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let sum = cnc_node::record::record_simulation(&m, &name, &text, d, out)?;
+        println!(
+            "{}: recorded {} messages on {} topics to {} ({} bytes)",
+            file.display(),
+            sum.messages,
+            sum.topics.len(),
+            out.display(),
+            sum.bytes
+        );
     }
     let mut out = match csv {
         Some(p) => {
@@ -303,7 +409,7 @@ fn cmd_run(
     dialect: Option<Dialect>,
     namespace: String,
     domain: Option<u16>,
-    dry_run: bool,
+    (dry_run, record): (bool, bool),
     wait: f64,
 ) -> Result<ExitCode, String> {
     use cnc_node::client::{run, RunOutcome, RunRequest};
@@ -323,6 +429,7 @@ fn cmd_run(
         program_path: path.unwrap_or_default(),
         dialect: dialect.map(|d| d.to_string()).unwrap_or_default(),
         dry_run,
+        record,
         connect_timeout: std::time::Duration::from_secs_f64(wait.clamp(0.1, 3600.0)),
     })?;
     match outcome {
@@ -342,17 +449,98 @@ fn cmd_run(
             estimated,
             wall,
             lines,
+            recording,
         } => {
             println!(
-                "{what}: job {job_id} done: estimated {}, took {} on the node, up to line {lines}",
+                "{what}: job {job_id} done: estimated {}, took {} on the node, up to line {lines}{}",
                 fmt_duration(estimated),
-                fmt_duration(wall)
+                fmt_duration(wall),
+                if recording.is_empty() { String::new() } else { format!(", recorded to {recording}") }
             );
             Ok(ExitCode::SUCCESS)
         }
         RunOutcome::Failed { job_id, error } => {
             eprintln!("{what}: job {job_id} failed: {error}");
             Ok(ExitCode::from(1))
+        }
+    }
+}
+
+fn cmd_plot(
+    file: &Path,
+    out: &Path,
+    dialect: Option<Dialect>,
+    machine: &str,
+) -> Result<ExitCode, String> {
+    if file.extension().is_some_and(|e| e == "mcap") {
+        cnc_node::plot::plot_recording(file, out)?;
+    } else {
+        let m = load(machine, None)?;
+        let d = dialect.unwrap_or(m.dialect);
+        let text = std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
+        let name = file
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        cnc_node::plot::plot_program(&m, d, &name, &text, out)?;
+    }
+    println!("{}: plotted to {}", file.display(), out.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn cmd_bag(cmd: BagCmd) -> Result<ExitCode, String> {
+    let domain = |d: Option<u16>| d.unwrap_or_else(cnc_msgs::ros::domain_from_env);
+    match cmd {
+        BagCmd::Record {
+            out,
+            namespace,
+            sim_namespace,
+            domain: d,
+            duration,
+        } => {
+            let opts = cnc_node::live::LiveOpts {
+                namespace,
+                sim_namespace,
+                domain: domain(d),
+                duration: duration.map(|s| std::time::Duration::from_secs_f64(s.clamp(0.0, 1e9))),
+            };
+            let s = cnc_node::live::record_live(&opts, &out)?;
+            println!(
+                "{}: {} messages on {} topics, {} bytes",
+                out.display(),
+                s.messages,
+                s.topics.len(),
+                s.bytes
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        BagCmd::Compare { a, b, tolerance } => {
+            let r = cnc_node::bag::compare(&a, &b, tolerance)?;
+            println!("{r}");
+            Ok(if r.within() {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            })
+        }
+        BagCmd::Replay {
+            file,
+            rate,
+            domain: d,
+        } => {
+            let n = cnc_node::live::replay(&file, rate, domain(d))?;
+            println!("{}: {n} messages republished", file.display());
+            Ok(ExitCode::SUCCESS)
+        }
+        BagCmd::Rerun { file, out } => {
+            let s = cnc_node::bag::rerun(&file, &out)?;
+            println!(
+                "{}: rerun recorded to {} ({} messages)",
+                file.display(),
+                out.display(),
+                s.messages
+            );
+            Ok(ExitCode::SUCCESS)
         }
     }
 }

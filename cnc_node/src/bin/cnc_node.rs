@@ -16,6 +16,7 @@ use cnc_msgs::*;
 use cnc_node::controller::{Controller, Job, State, Status, Tick};
 use cnc_node::files::load_machine;
 use cnc_node::program::{read_limited, resolve_in};
+use cnc_node::record::{stamp_ns, JobRecorder, RecordingInfo};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, Sender, SyncSender, TryRecvError};
@@ -44,6 +45,12 @@ struct Args {
     /// file's program_dir, relative to the machine file)
     #[arg(long)]
     program_dir: Option<PathBuf>,
+    /// directory of job recordings (MCAP)
+    #[arg(long, default_value = "recordings")]
+    record_dir: PathBuf,
+    /// record every job (else only those whose request sets `record`)
+    #[arg(long)]
+    record_all: bool,
     /// real-time (SCHED_FIFO) priority of the control loop, 1-99; 0 keeps
     /// the normal policy
     #[arg(long, default_value_t = 80)]
@@ -53,8 +60,11 @@ struct Args {
     loop_stats: Option<f64>,
 }
 
+type Rec = Box<JobRecorder>;
+
 enum Cmd {
-    Start(Job, Sender<Result<(), String>>),
+    /// a checked job, with its recorder when it is recorded
+    Start(Job, Option<Rec>, Sender<Result<(), String>>),
     Abort(Sender<Result<String, String>>),
     Hold(bool, Sender<Result<String, String>>),
 }
@@ -63,6 +73,10 @@ struct Out {
     stamp: Time,
     tick: Tick,
     status: Option<Status>,
+    /// the running job, 0 if none
+    job: u32,
+    /// a job's recorder, handed on with the job's first sample
+    recorder: Option<(u32, Rec)>,
 }
 
 fn main() {
@@ -86,6 +100,10 @@ fn program_dir(args: &Args, m: &Machine) -> PathBuf {
 
 fn run(args: Args) -> Result<(), String> {
     let mut machine = load_machine(&args.machine)?;
+    // recordings attach the machine file as written (or, for a bundled
+    // machine, as the core reads it)
+    let machine_text = std::fs::read_to_string(&args.machine)
+        .or_else(|_| cnc_node::record::machine_toml(&machine))?;
     if let Some(r) = args.rate {
         if !(r.is_finite() && (10.0..=20_000.0).contains(&r)) {
             return Err(format!("--rate {r}: must be between 10 and 20000 Hz"));
@@ -101,6 +119,7 @@ fn run(args: Args) -> Result<(), String> {
     let pub_set = ros::publisher::<JointState>(&mut node, ns, "joint_setpoints")?;
     let pub_spin = ros::publisher::<Float64>(&mut node, ns, "spindle_command")?;
     let pub_status = ros::publisher::<ControllerStatus>(&mut node, ns, "status")?;
+    let sub_js = ros::subscription::<JointState>(&mut node, &args.sim_namespace, "joint_states")?;
     let sub_enc =
         ros::subscription::<SpindleEncoder>(&mut node, &args.sim_namespace, "spindle_encoder")?;
     let srv_run =
@@ -144,9 +163,14 @@ fn run(args: Args) -> Result<(), String> {
     {
         let m = machine.clone();
         let cmd_tx = cmd_tx.clone();
+        let rec_opts = RecordOpts {
+            dir: args.record_dir.clone(),
+            all: args.record_all,
+            machine_toml: machine_text.clone(),
+        };
         std::thread::Builder::new()
             .name("check".into())
-            .spawn(move || check_worker(m, dir, chk_rx, resp_tx, cmd_tx, here))
+            .spawn(move || check_worker(m, dir, rec_opts, chk_rx, resp_tx, cmd_tx, here))
             .map_err(|e| e.to_string())?;
     }
     let names: Vec<String> = machine.axes.iter().map(|a| a.name.clone()).collect();
@@ -159,6 +183,7 @@ fn run(args: Args) -> Result<(), String> {
     );
     let mut last_spindle = f64::NAN;
     let mut encoder: Option<SpindleEncoder> = None;
+    let mut recording: Option<(u32, Rec)> = None;
     loop {
         // services
         while let Ok(Some((id, req))) = srv_run.receive_request() {
@@ -176,15 +201,28 @@ fn run(args: Args) -> Result<(), String> {
             let _ = srv_run.send_response(id, resp);
         }
         while let Ok(Some((m, _))) = sub_enc.take() {
+            if let Some((_, rec)) = recording.as_mut() {
+                let _ = rec.encoder(&m);
+            }
             encoder = Some(m);
         }
         let _ = &encoder;
+        while let Ok(Some((m, _))) = sub_js.take() {
+            if let Some((_, rec)) = recording.as_mut() {
+                let _ = rec.joint_states(&m);
+            }
+        }
         // samples from the control loop
         let first = out_rx.recv_timeout(Duration::from_millis(2));
         let mut next = first.ok();
-        while let Some(o) = next {
+        while let Some(mut o) = next {
+            if let Some(r) = o.recorder.take() {
+                recording = Some(r);
+                // the recording starts with the spindle command in force
+                last_spindle = f64::NAN;
+            }
             let t = &o.tick;
-            let _ = pub_set.publish(JointState {
+            let js = JointState {
                 header: Header {
                     stamp: o.stamp,
                     frame_id: String::new(),
@@ -193,15 +231,35 @@ fn run(args: Args) -> Result<(), String> {
                 position: t.positions[..t.n].iter().map(|p| p / 1000.0).collect(),
                 velocity: Vec::new(),
                 effort: Vec::new(),
-            });
-            if t.spindle_rpm != last_spindle {
+            };
+            let spindle = (t.spindle_rpm != last_spindle).then(|| {
                 last_spindle = t.spindle_rpm;
-                let _ = pub_spin.publish(Float64 {
+                Float64 {
                     data: t.spindle_rpm * std::f64::consts::TAU / 60.0,
-                });
+                }
+            });
+            let status = o.status.as_ref().map(|s| to_msg(s, o.stamp));
+            if let Some((id, rec)) = recording.as_mut() {
+                let r = rec
+                    .setpoints(&js)
+                    .and_then(|_| match &spindle {
+                        Some(f) => rec.spindle(stamp_ns(&o.stamp), f),
+                        None => Ok(()),
+                    })
+                    .and_then(|_| status.as_ref().map_or(Ok(()), |s| rec.status(s)));
+                let over = o.job != *id;
+                if r.is_err() || over {
+                    if let Some((id, rec)) = recording.take() {
+                        finish_recording(id, rec, r.err());
+                    }
+                }
             }
-            if let Some(s) = o.status {
-                let _ = pub_status.publish(to_msg(&s, o.stamp));
+            let _ = pub_set.publish(js);
+            if let Some(f) = spindle {
+                let _ = pub_spin.publish(f);
+            }
+            if let Some(s) = status {
+                let _ = pub_status.publish(s);
             }
             next = out_rx.try_recv().ok();
         }
@@ -224,6 +282,23 @@ fn ask(
         Ok(Ok(m)) => (true, m),
         Ok(Err(m)) => (false, m),
         Err(_) => (false, "the control loop did not answer".into()),
+    }
+}
+
+/// Closes a job's recording (file I/O on the DDS thread, never the loop's).
+fn finish_recording(id: u32, rec: Rec, err: Option<String>) {
+    let file = rec.file.clone();
+    match err.map_or_else(|| rec.finish(), Err) {
+        Ok(s) => eprintln!(
+            "cnc_node: job {id} recorded to {} ({} messages, {} bytes)",
+            file.display(),
+            s.messages,
+            s.bytes
+        ),
+        Err(e) => eprintln!(
+            "cnc_node: recording of job {id} to {} failed: {e}",
+            file.display()
+        ),
     }
 }
 
@@ -262,6 +337,7 @@ fn control_loop(
     let mut last_status = Instant::now() - Duration::from_secs(1);
     let mut line_changes = Instant::now();
     let mut dropped = 0u64;
+    let mut pending_rec: Option<(u32, Rec)> = None;
     loop {
         let deadline = ticker.wait();
         // the stamp is the wake-up time: stamp differences are the loop's period
@@ -275,8 +351,13 @@ fn control_loop(
         }
         loop {
             match cmds.try_recv() {
-                Ok(Cmd::Start(job, reply)) => {
-                    let _ = reply.send(ctl.start(job));
+                Ok(Cmd::Start(job, rec, reply)) => {
+                    let id = job.id;
+                    let r = ctl.start(job);
+                    if r.is_ok() {
+                        pending_rec = rec.map(|r| (id, r));
+                    }
+                    let _ = reply.send(r);
                 }
                 Ok(Cmd::Abort(reply)) => {
                     let _ = reply.send(ctl.abort());
@@ -309,6 +390,8 @@ fn control_loop(
             stamp,
             tick,
             status,
+            job: ctl.job_id(),
+            recorder: pending_rec.take(),
         };
         if out.try_send(o).is_err() {
             dropped += 1;
@@ -319,9 +402,18 @@ fn control_loop(
     }
 }
 
+/// Where and what the node records.
+struct RecordOpts {
+    dir: PathBuf,
+    all: bool,
+    /// the machine file's text (what recordings attach)
+    machine_toml: String,
+}
+
 fn check_worker(
     machine: Machine,
     dir: PathBuf,
+    rec: RecordOpts,
     reqs: Receiver<(ros2_client::RmwRequestId, RunProgramRequest)>,
     resps: Sender<(ros2_client::RmwRequestId, RunProgramResponse)>,
     cmds: Sender<Cmd>,
@@ -329,7 +421,7 @@ fn check_worker(
 ) {
     let mut next_id = 1u32;
     while let Ok((id, req)) = reqs.recv() {
-        let resp = handle_run(&machine, &dir, &req, &mut next_id, &cmds, &here);
+        let resp = handle_run(&machine, &dir, &rec, &req, &mut next_id, &cmds, &here);
         let _ = resps.send((id, resp));
     }
 }
@@ -340,12 +432,14 @@ fn refuse(message: String) -> RunProgramResponse {
         message,
         job_id: 0,
         estimated_duration: 0.0,
+        recording: String::new(),
     }
 }
 
 fn handle_run(
     machine: &Machine,
     dir: &Path,
+    rec_opts: &RecordOpts,
     req: &RunProgramRequest,
     next_id: &mut u32,
     cmds: &Sender<Cmd>,
@@ -400,17 +494,58 @@ fn handle_run(
             message: String::new(),
             job_id: 0,
             estimated_duration: report.duration_s,
+            recording: String::new(),
         };
     }
     let job_id = *next_id;
     let (tx, rx) = mpsc::channel();
+    // the recorder is made here (file I/O off the loop) and travels with
+    // the job, so the recording starts with the job's first sample
+    let recorder = if req.record || rec_opts.all {
+        let name = if req.program_path.is_empty() {
+            "program.nc"
+        } else {
+            req.program_path.as_str()
+        };
+        let stem: String = Path::new(name)
+            .file_stem()
+            .map(|s| {
+                s.to_string_lossy()
+                    .chars()
+                    .filter(|c| c.is_ascii_alphanumeric() || *c == '_' || *c == '-')
+                    .collect()
+            })
+            .unwrap_or_default();
+        let file = rec_opts.dir.join(format!("job_{job_id}_{stem}.mcap"));
+        let info = RecordingInfo {
+            program_name: name.to_string(),
+            program_text: String::from_utf8_lossy(&text).into_owned(),
+            dialect: dialect.id().to_string(),
+            machine_toml: rec_opts.machine_toml.clone(),
+            machine_name: machine.name.clone(),
+            rate_hz: machine.interpolation.rate_hz,
+        };
+        let made = std::fs::create_dir_all(&rec_opts.dir)
+            .map_err(|e| format!("{}: {e}", rec_opts.dir.display()))
+            .and_then(|_| JobRecorder::create(&file, info, machine));
+        match made {
+            Ok(r) => Some(Box::new(r)),
+            Err(e) => return refuse(format!("cannot record the job: {e}")),
+        }
+    } else {
+        None
+    };
+    let recording = recorder
+        .as_ref()
+        .map(|r| r.file.display().to_string())
+        .unwrap_or_default();
     let job = Job {
         id: job_id,
         text,
         dialect,
         ticks: report.ticks,
     };
-    if cmds.send(Cmd::Start(job, tx)).is_err() {
+    if cmds.send(Cmd::Start(job, recorder, tx)).is_err() {
         return refuse("the control loop is not running".into());
     }
     match rx.recv_timeout(Duration::from_secs(2)) {
@@ -421,6 +556,7 @@ fn handle_run(
                 message: String::new(),
                 job_id,
                 estimated_duration: report.duration_s,
+                recording,
             }
         }
         Ok(Err(m)) => refuse(m),

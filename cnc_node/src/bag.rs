@@ -1,0 +1,864 @@
+//! Recordings after the fact: `cnc bag compare` and `cnc bag rerun`.
+//!
+//! [`compare`] reads two MCAP recordings (as [`crate::record`] writes them,
+//! or any ROS 2 MCAP with CDR payloads) and reports, per topic, missing and
+//! extra messages, log-time differences and payload differences; for
+//! topics with positions it reports the largest deviation per value and
+//! where it first exceeds the tolerance, with the source line:
+//!
+//! | type | values compared with the tolerance (mm) |
+//! |---|---|
+//! | sensor_msgs/JointState | `position` per joint name (m in the file) |
+//! | geometry_msgs/PoseStamped | `pose.position` x, y, z |
+//! | tf2_msgs/TFMessage | `translation` x, y, z per child frame |
+//! | sensor_msgs/PointCloud2 | every float32/float64 field of every point |
+//!
+//! Messages are paired by their index on the topic. The source line of a
+//! message is that of the last `/cnc/status` of file B stamped at or before
+//! it (file A's if B has none). Offline recordings
+//! ([`record::record_simulation`]) have a status on every line change (and
+//! at 10 Hz), so there this is the exact line of the sample; in a live
+//! recording it is as exact as the node's status rate.
+//!
+//! Tolerance 0 means exact equality: every payload byte-identical. With a
+//! tolerance > 0 the values above may differ by up to the tolerance; the
+//! rest of such a message (names, stamps, frames, sizes) must be equal, and
+//! velocities and efforts (finite differences of the positions in
+//! `/sim/joint_states`) are not compared. Other topics must be
+//! byte-identical either way. Log times must always be equal.
+//!
+//! [`rerun`] runs the controller again on the program and the machine file
+//! a recording carries and writes a new recording.
+
+use crate::record::{self, from_cdr, topics, RecordSummary};
+use cnc_core::{Dialect, Machine};
+use cnc_msgs::schema::RosSchema;
+use cnc_msgs::{
+    ControllerStatus, JointState, PointCloud2, PointField, PoseStamped, StringMsg, TFMessage,
+};
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// The messages of one topic.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TopicData {
+    /// schema name, e.g. `sensor_msgs/msg/JointState` (empty if none)
+    pub type_name: String,
+    /// (log time in ns, payload) in file order
+    pub messages: Vec<(u64, Vec<u8>)>,
+}
+
+/// An MCAP recording read into memory.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Bag {
+    pub path: PathBuf,
+    /// topics in the order of their channel ids
+    pub topics: Vec<(String, TopicData)>,
+    /// metadata records by name (`cnc`, `rosbag2`)
+    pub metadata: BTreeMap<String, BTreeMap<String, String>>,
+    /// attachments by name (`program.nc`, `machine.toml`)
+    pub attachments: BTreeMap<String, Vec<u8>>,
+    /// the earliest log time, ns (0 if there is no message)
+    pub start_ns: u64,
+}
+
+impl Bag {
+    /// Reads a whole recording. A file without a summary section (a
+    /// recording that was killed) is read as far as it goes.
+    pub fn read(path: &Path) -> Result<Bag, String> {
+        let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        Bag::from_bytes(path, &bytes).map_err(|e| format!("{}: {e}", path.display()))
+    }
+
+    /// A recording from its bytes; `path` is only kept for the reports.
+    pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<Bag, String> {
+        let mut bag = Bag {
+            path: path.to_path_buf(),
+            ..Default::default()
+        };
+        let mut channels: BTreeMap<u16, (String, TopicData)> = BTreeMap::new();
+        // top-level records: metadata and attachments (chunks stay compressed)
+        let reader = mcap::read::LinearReader::new(bytes).map_err(|e| format!("MCAP: {e}"))?;
+        for r in reader {
+            match r.map_err(|e| format!("MCAP: {e}"))? {
+                mcap::records::Record::Metadata(m) => {
+                    bag.metadata.insert(m.name, m.metadata);
+                }
+                mcap::records::Record::Attachment { header, data, .. } => {
+                    bag.attachments.insert(header.name, data.into_owned());
+                }
+                _ => {}
+            }
+        }
+        // channels without messages are only in the summary
+        if let Ok(Some(summary)) = mcap::Summary::read(bytes) {
+            for c in summary.channels.values() {
+                channels.insert(c.id, (c.topic.clone(), topic_data(c)));
+            }
+        }
+        let stream = mcap::MessageStream::new(bytes).map_err(|e| format!("MCAP: {e}"))?;
+        let mut start: Option<u64> = None;
+        for m in stream {
+            let m = m.map_err(|e| format!("MCAP: {e}"))?;
+            start = Some(start.map_or(m.log_time, |s| s.min(m.log_time)));
+            channels
+                .entry(m.channel.id)
+                .or_insert_with(|| (m.channel.topic.clone(), topic_data(&m.channel)))
+                .1
+                .messages
+                .push((m.log_time, m.data.into_owned()));
+        }
+        bag.start_ns = start.unwrap_or(0);
+        bag.topics = channels.into_values().collect();
+        Ok(bag)
+    }
+
+    /// The messages of a topic.
+    pub fn topic(&self, name: &str) -> Option<&TopicData> {
+        self.topics.iter().find(|(t, _)| t == name).map(|(_, d)| d)
+    }
+
+    /// A text attachment, or else the one `std_msgs/String` message of a
+    /// latched topic (`/cnc/program`, `/cnc/machine_file`).
+    fn text(&self, attachment: &str, topic: &str) -> Result<String, String> {
+        if let Some(a) = self.attachments.get(attachment) {
+            return String::from_utf8(a.clone()).map_err(|_| format!("{attachment}: not UTF-8"));
+        }
+        let t = self
+            .topic(topic)
+            .and_then(|d| d.messages.first())
+            .ok_or_else(|| {
+                format!("neither an attachment {attachment} nor a message on {topic}")
+            })?;
+        from_cdr::<StringMsg>(&t.1)
+            .map(|s| s.data)
+            .map_err(|e| format!("{topic}: {e}"))
+    }
+
+    /// The job the recording is of: program, dialect, machine file.
+    pub fn job(&self) -> Result<Job, String> {
+        let program_text = self.text("program.nc", topics::PROGRAM)?;
+        let machine_toml = self.text("machine.toml", topics::MACHINE_FILE)?;
+        let machine =
+            Machine::from_toml(&machine_toml).map_err(|e| format!("machine.toml: {e}"))?;
+        let cnc = self.metadata.get("cnc");
+        let get = |k: &str| cnc.and_then(|m| m.get(k)).filter(|v| !v.is_empty());
+        let dialect = match get("dialect") {
+            Some(d) => d.parse::<Dialect>()?,
+            None => machine.dialect,
+        };
+        if let Some(rate) = get("rate_hz") {
+            let r: f64 = rate
+                .parse()
+                .map_err(|_| format!("metadata cnc.rate_hz: not a number: {rate}"))?;
+            if r != machine.interpolation.rate_hz {
+                return Err(format!(
+                    "metadata cnc.rate_hz {r} differs from the machine file's interpolation.rate_hz {}",
+                    machine.interpolation.rate_hz
+                ));
+            }
+        }
+        Ok(Job {
+            program_name: get("program_name")
+                .cloned()
+                .unwrap_or_else(|| "program.nc".into()),
+            program_text,
+            dialect,
+            machine,
+        })
+    }
+}
+
+fn topic_data(c: &mcap::Channel) -> TopicData {
+    TopicData {
+        type_name: c
+            .schema
+            .as_ref()
+            .map(|s| s.name.clone())
+            .unwrap_or_default(),
+        messages: Vec::new(),
+    }
+}
+
+/// What a recording ran: enough to run it again.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Job {
+    pub program_name: String,
+    pub program_text: String,
+    pub dialect: Dialect,
+    pub machine: Machine,
+}
+
+/// Runs the controller again on the program and the machine file recorded
+/// in `recording` (attachments `program.nc` and `machine.toml`, else the
+/// `/cnc/program` and `/cnc/machine_file` messages; dialect and program
+/// name from the `cnc` metadata) and records the run to `out` with
+/// [`record::record_simulation`].
+///
+/// The controller does not consume encoder data yet: once synchronized
+/// moves exist (G95 coupling to the measured spindle, G33 threading), the
+/// recorded encoder stream will drive them here instead of the simulated
+/// spindle. Today the simulated spindle is seeded deterministically, so a
+/// rerun with the same code reproduces the original recording's messages
+/// exactly ([`compare`] with tolerance 0 passes).
+pub fn rerun(recording: &Path, out: &Path) -> Result<RecordSummary, String> {
+    let job = Bag::read(recording)?
+        .job()
+        .map_err(|e| format!("{}: {e}", recording.display()))?;
+    record::record_simulation(
+        &job.machine,
+        &job.program_name,
+        &job.program_text,
+        job.dialect,
+        out,
+    )
+}
+
+/// Where a deviation was found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct At {
+    /// index of the message on its topic
+    pub index: usize,
+    /// index of the point (PointCloud2 only)
+    pub point: Option<usize>,
+    /// s from the first message of file B
+    pub t: f64,
+    /// source line and block number (-1: none) from `/cnc/status`
+    pub line: Option<(u32, i64)>,
+}
+
+impl fmt::Display for At {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let Some(p) = self.point {
+            write!(f, "point {p}, ")?;
+        }
+        write!(f, "t={:.3} s", self.t)?;
+        match self.line {
+            Some((l, b)) if b >= 0 => write!(f, ", line {l} (N{b})"),
+            Some((l, _)) => write!(f, ", line {l}"),
+            None => Ok(()),
+        }
+    }
+}
+
+/// One compared value of a topic (a joint, a coordinate).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ValueDiff {
+    /// joint name, `x`/`y`/`z`, or `frame.x` for `/tf`
+    pub name: String,
+    /// largest |a - b|, mm (NaN if a value was NaN on one side only)
+    pub max_mm: f64,
+    /// where the largest deviation is (None while it is 0)
+    pub max_at: Option<At>,
+    /// where it first exceeds the tolerance
+    pub first_over: Option<At>,
+    /// messages (or points) where it exceeds the tolerance
+    pub over: u64,
+}
+
+/// The comparison of one topic.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TopicDiff {
+    pub topic: String,
+    pub type_name: String,
+    /// messages in A and in B; None: the topic is not in that file
+    pub count_a: Option<usize>,
+    pub count_b: Option<usize>,
+    /// compared values (empty for topics compared byte by byte)
+    pub values: Vec<ValueDiff>,
+    /// paired messages whose payloads are not byte-identical
+    pub payload_diffs: u64,
+    pub first_payload_diff: Option<At>,
+    /// paired messages that differ in more than the compared values (for
+    /// topics without values: the same as the payload differences)
+    pub other_diffs: u64,
+    pub first_other_diff: Option<At>,
+    /// paired messages with different log times
+    pub time_diffs: u64,
+    pub first_time_diff: Option<At>,
+}
+
+impl TopicDiff {
+    /// A topic in both files, with as many messages, equal log times and
+    /// equal payloads (within the tolerance where values are compared).
+    pub fn within(&self, tolerance_mm: f64) -> bool {
+        self.count_a.is_some()
+            && self.count_a == self.count_b
+            && self.time_diffs == 0
+            && self.other_diffs == 0
+            && self.values.iter().all(|v| v.first_over.is_none())
+            && (tolerance_mm > 0.0 || self.payload_diffs == 0)
+    }
+}
+
+/// What [`compare`] found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CompareReport {
+    pub a: PathBuf,
+    pub b: PathBuf,
+    pub tolerance_mm: f64,
+    /// topics of A in channel order, then those only in B
+    pub topics: Vec<TopicDiff>,
+    /// differences of the `cnc` metadata and of the attachments (notes:
+    /// they do not count against [`within`](Self::within))
+    pub notes: Vec<String>,
+}
+
+impl CompareReport {
+    /// Every topic within the tolerance (`cnc bag compare` exits 0).
+    pub fn within(&self) -> bool {
+        self.topics.iter().all(|t| t.within(self.tolerance_mm))
+    }
+
+    /// The earliest place (in B's time) where a value exceeds the
+    /// tolerance: (topic, value name, where).
+    pub fn first_divergence(&self) -> Option<(&str, &str, &At)> {
+        self.topics
+            .iter()
+            .flat_map(|t| {
+                t.values.iter().filter_map(move |v| {
+                    v.first_over
+                        .as_ref()
+                        .map(|at| (t.topic.as_str(), v.name.as_str(), at))
+                })
+            })
+            .min_by(|x, y| x.2.t.total_cmp(&y.2.t))
+    }
+
+    /// The comparison of a topic.
+    pub fn topic(&self, name: &str) -> Option<&TopicDiff> {
+        self.topics.iter().find(|t| t.topic == name)
+    }
+}
+
+/// `1 message`, `2 messages`
+fn messages(n: usize) -> String {
+    if n == 1 {
+        "1 message".into()
+    } else {
+        format!("{n} messages")
+    }
+}
+
+impl fmt::Display for CompareReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let tol = self.tolerance_mm;
+        writeln!(
+            f,
+            "A: {}\nB: {}\ntolerance: {} mm{}",
+            self.a.display(),
+            self.b.display(),
+            tol,
+            if tol > 0.0 { "" } else { " (exact)" }
+        )?;
+        for t in &self.topics {
+            let name = &t.topic;
+            match (t.count_a, t.count_b) {
+                (Some(_), None) => writeln!(f, "{name}: missing in B")?,
+                (None, Some(n)) => writeln!(f, "{name}: extra in B ({})", messages(n))?,
+                (Some(a), Some(b)) if a > b => {
+                    writeln!(f, "{name}: {} missing in B (A {a}, B {b})", messages(a - b))?
+                }
+                (Some(a), Some(b)) if b > a => {
+                    writeln!(f, "{name}: {} extra in B (A {a}, B {b})", messages(b - a))?
+                }
+                _ => {}
+            }
+            for v in &t.values {
+                write!(f, "{name} {}: max {:.6} mm", v.name, v.max_mm)?;
+                if let Some(at) = &v.max_at {
+                    write!(f, " at {}", at_paren(at))?;
+                }
+                if let Some(at) = &v.first_over {
+                    write!(
+                        f,
+                        "; first over {tol} mm at {at}; over in {} {}",
+                        v.over,
+                        if t.type_name == PointCloud2::schema_name() {
+                            "point(s)"
+                        } else {
+                            "message(s)"
+                        }
+                    )?;
+                }
+                writeln!(f)?;
+            }
+            if t.time_diffs > 0 {
+                writeln!(
+                    f,
+                    "{name}: {} message(s) with other log times, first at index {} ({})",
+                    t.time_diffs,
+                    t.first_time_diff.as_ref().map_or(0, |a| a.index),
+                    t.first_time_diff
+                        .as_ref()
+                        .map_or(String::new(), |a| a.to_string())
+                )?;
+            }
+            if t.values.is_empty() || t.other_diffs > 0 {
+                let (n, first, what) = if t.values.is_empty() {
+                    (t.payload_diffs, &t.first_payload_diff, "payload")
+                } else {
+                    (
+                        t.other_diffs,
+                        &t.first_other_diff,
+                        "content besides the positions",
+                    )
+                };
+                if n > 0 {
+                    writeln!(
+                        f,
+                        "{name}: {what} differs in {n} message(s), first at {}",
+                        first.as_ref().map_or(String::new(), |a| a.to_string())
+                    )?;
+                } else if t.count_a.is_some() && t.count_b.is_some() {
+                    writeln!(f, "{name}: {}, equal", messages(t.count_b.unwrap_or(0)))?;
+                }
+            } else if tol == 0.0 && t.payload_diffs > 0 {
+                writeln!(
+                    f,
+                    "{name}: payload differs in {} message(s), first at {}",
+                    t.payload_diffs,
+                    t.first_payload_diff
+                        .as_ref()
+                        .map_or(String::new(), |a| a.to_string())
+                )?;
+            }
+        }
+        for n in &self.notes {
+            writeln!(f, "note: {n}")?;
+        }
+        if let Some((topic, value, at)) = self.first_divergence() {
+            writeln!(f, "first divergence: {topic} {value} at {at}")?;
+        }
+        write!(
+            f,
+            "{}",
+            if self.within() {
+                "result: within tolerance"
+            } else {
+                "result: NOT within tolerance"
+            }
+        )
+    }
+}
+
+/// `t=3.217 s (line 7, N60)`
+fn at_paren(at: &At) -> String {
+    let mut s = String::new();
+    if let Some(p) = at.point {
+        s.push_str(&format!("point {p}, "));
+    }
+    s.push_str(&format!("t={:.3} s", at.t));
+    match at.line {
+        Some((l, b)) if b >= 0 => s.push_str(&format!(" (line {l}, N{b})")),
+        Some((l, _)) => s.push_str(&format!(" (line {l})")),
+        None => {}
+    }
+    s
+}
+
+/// The compared values of a message, mm, and the message with those
+/// values (and velocities, efforts) zeroed, for comparing the rest.
+type Values = (Vec<(String, Vec<f64>)>, Vec<u8>);
+
+fn kind_has_values(type_name: &str) -> bool {
+    [
+        JointState::schema_name(),
+        PoseStamped::schema_name(),
+        TFMessage::schema_name(),
+        PointCloud2::schema_name(),
+    ]
+    .contains(&type_name)
+}
+
+fn values(type_name: &str, data: &[u8]) -> Result<Values, String> {
+    let mm = |m: f64| m * 1000.0;
+    if type_name == JointState::schema_name() {
+        let mut js: JointState = from_cdr(data)?;
+        let v = js
+            .name
+            .iter()
+            .zip(&js.position)
+            .map(|(n, p)| (n.clone(), vec![mm(*p)]))
+            .collect();
+        js.position.iter_mut().for_each(|p| *p = 0.0);
+        js.velocity.iter_mut().for_each(|p| *p = 0.0);
+        js.effort.iter_mut().for_each(|p| *p = 0.0);
+        Ok((v, record::to_cdr(&js)?))
+    } else if type_name == PoseStamped::schema_name() {
+        let mut p: PoseStamped = from_cdr(data)?;
+        let q = p.pose.position;
+        let v = vec![
+            ("x".into(), vec![mm(q.x)]),
+            ("y".into(), vec![mm(q.y)]),
+            ("z".into(), vec![mm(q.z)]),
+        ];
+        p.pose.position = Default::default();
+        Ok((v, record::to_cdr(&p)?))
+    } else if type_name == TFMessage::schema_name() {
+        let mut m: TFMessage = from_cdr(data)?;
+        let mut v = Vec::new();
+        for t in &mut m.transforms {
+            let c = &t.child_frame_id;
+            let q = t.transform.translation;
+            v.push((format!("{c}.x"), vec![mm(q.x)]));
+            v.push((format!("{c}.y"), vec![mm(q.y)]));
+            v.push((format!("{c}.z"), vec![mm(q.z)]));
+            t.transform.translation = Default::default();
+        }
+        Ok((v, record::to_cdr(&m)?))
+    } else if type_name == PointCloud2::schema_name() {
+        let mut c: PointCloud2 = from_cdr(data)?;
+        let step = c.point_step as usize;
+        let n = c.data.len().checked_div(step).unwrap_or(0);
+        let mut v = Vec::new();
+        for fld in &c.fields {
+            let size = match fld.datatype {
+                PointField::FLOAT32 => 4,
+                PointField::FLOAT64 => 8,
+                _ => continue,
+            };
+            let off = fld.offset as usize;
+            if fld.count != 1 || off + size > step {
+                continue;
+            }
+            let mut vals = Vec::with_capacity(n);
+            for i in 0..n {
+                let b = &c.data[i * step + off..i * step + off + size];
+                let x = if size == 4 {
+                    let a: [u8; 4] = b.try_into().unwrap_or_default();
+                    if c.is_bigendian {
+                        f32::from_be_bytes(a) as f64
+                    } else {
+                        f32::from_le_bytes(a) as f64
+                    }
+                } else {
+                    let a: [u8; 8] = b.try_into().unwrap_or_default();
+                    if c.is_bigendian {
+                        f64::from_be_bytes(a)
+                    } else {
+                        f64::from_le_bytes(a)
+                    }
+                };
+                vals.push(mm(x));
+            }
+            v.push((fld.name.clone(), vals));
+            for i in 0..n {
+                c.data[i * step + off..i * step + off + size].fill(0);
+            }
+        }
+        Ok((v, record::to_cdr(&c)?))
+    } else {
+        Err(format!("{type_name}: no values to compare"))
+    }
+}
+
+/// (log time, line, block) of every `/cnc/status`
+fn status_lines(bag: &Bag) -> Vec<(u64, u32, i64)> {
+    bag.topic(topics::STATUS)
+        .map(|d| {
+            d.messages
+                .iter()
+                .filter_map(|(t, data)| {
+                    from_cdr::<ControllerStatus>(data)
+                        .ok()
+                        .map(|s| (*t, s.source_line, s.block_number))
+                })
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+struct Locator {
+    lines: Vec<(u64, u32, i64)>,
+    start_ns: u64,
+}
+
+impl Locator {
+    fn at(&self, index: usize, point: Option<usize>, ns: u64) -> At {
+        let k = self.lines.partition_point(|(t, _, _)| *t <= ns);
+        At {
+            index,
+            point,
+            t: ns.saturating_sub(self.start_ns) as f64 * 1e-9,
+            line: k.checked_sub(1).map(|k| (self.lines[k].1, self.lines[k].2)),
+        }
+    }
+}
+
+fn compare_topic(
+    topic: &str,
+    a: Option<&TopicData>,
+    b: Option<&TopicData>,
+    tol: f64,
+    loc: &Locator,
+) -> TopicDiff {
+    let type_name = b.or(a).map(|d| d.type_name.clone()).unwrap_or_default();
+    let mut d = TopicDiff {
+        topic: topic.to_string(),
+        type_name: type_name.clone(),
+        count_a: a.map(|d| d.messages.len()),
+        count_b: b.map(|d| d.messages.len()),
+        values: Vec::new(),
+        payload_diffs: 0,
+        first_payload_diff: None,
+        other_diffs: 0,
+        first_other_diff: None,
+        time_diffs: 0,
+        first_time_diff: None,
+    };
+    let (Some(a), Some(b)) = (a, b) else {
+        return d;
+    };
+    let numeric = a.type_name == b.type_name && kind_has_values(&type_name);
+    let mut index_of: BTreeMap<String, usize> = BTreeMap::new();
+    let mut value = |d: &mut TopicDiff, name: &str| -> usize {
+        *index_of.entry(name.to_string()).or_insert_with(|| {
+            d.values.push(ValueDiff {
+                name: name.to_string(),
+                max_mm: 0.0,
+                max_at: None,
+                first_over: None,
+                over: 0,
+            });
+            d.values.len() - 1
+        })
+    };
+    // the value names, also when all messages are equal
+    if numeric {
+        for msg in [a.messages.first(), b.messages.first()]
+            .into_iter()
+            .flatten()
+        {
+            if let Ok((v, _)) = values(&type_name, &msg.1) {
+                for (n, _) in v {
+                    value(&mut d, &n);
+                }
+            }
+        }
+    }
+    for (i, ((ta, pa), (tb, pb))) in a.messages.iter().zip(&b.messages).enumerate() {
+        if ta != tb {
+            d.time_diffs += 1;
+            if d.first_time_diff.is_none() {
+                d.first_time_diff = Some(loc.at(i, None, *tb));
+            }
+        }
+        if pa == pb {
+            continue;
+        }
+        d.payload_diffs += 1;
+        if d.first_payload_diff.is_none() {
+            d.first_payload_diff = Some(loc.at(i, None, *tb));
+        }
+        let parsed = if numeric {
+            values(&type_name, pa)
+                .and_then(|va| values(&type_name, pb).map(|vb| (va, vb)))
+                .ok()
+        } else {
+            None
+        };
+        let Some(((va, ra), (vb, rb))) = parsed else {
+            d.other_diffs += 1;
+            if d.first_other_diff.is_none() {
+                d.first_other_diff = Some(loc.at(i, None, *tb));
+            }
+            continue;
+        };
+        let names_a: Vec<&String> = va.iter().map(|(n, _)| n).collect();
+        let names_b: Vec<&String> = vb.iter().map(|(n, _)| n).collect();
+        if ra != rb || names_a != names_b {
+            d.other_diffs += 1;
+            if d.first_other_diff.is_none() {
+                d.first_other_diff = Some(loc.at(i, None, *tb));
+            }
+        }
+        let cloud = type_name == PointCloud2::schema_name();
+        for ((name, xa), (_, xb)) in va.iter().zip(&vb) {
+            let j = value(&mut d, name);
+            let v = &mut d.values[j];
+            let mut counted = false;
+            for (p, (x, y)) in xa.iter().zip(xb).enumerate() {
+                let dev = if x == y || x.to_bits() == y.to_bits() {
+                    0.0
+                } else {
+                    (x - y).abs()
+                };
+                let point = cloud.then_some(p);
+                if dev > v.max_mm || (dev.is_nan() && !v.max_mm.is_nan()) {
+                    v.max_mm = dev;
+                    v.max_at = Some(loc.at(i, point, *tb));
+                }
+                // NaN counts as over; tolerance 0: any difference
+                if dev.is_nan() || dev > tol || (tol == 0.0 && x.to_bits() != y.to_bits()) {
+                    if cloud || !counted {
+                        v.over += 1;
+                        counted = true;
+                    }
+                    if v.first_over.is_none() {
+                        v.first_over = Some(loc.at(i, point, *tb));
+                    }
+                }
+            }
+        }
+    }
+    d
+}
+
+/// Compares recording `b` against recording `a` (see the module
+/// documentation for what is compared). Errors only when a file cannot be
+/// read as MCAP.
+pub fn compare(a: &Path, b: &Path, tolerance_mm: f64) -> Result<CompareReport, String> {
+    if !(tolerance_mm >= 0.0 && tolerance_mm.is_finite()) {
+        return Err(format!(
+            "tolerance must be a finite number >= 0, not {tolerance_mm}"
+        ));
+    }
+    let ba = Bag::read(a)?;
+    let bb = Bag::read(b)?;
+    Ok(compare_bags(&ba, &bb, tolerance_mm))
+}
+
+/// [`compare`] of recordings already read.
+pub fn compare_bags(a: &Bag, b: &Bag, tolerance_mm: f64) -> CompareReport {
+    let mut lines = status_lines(b);
+    if lines.is_empty() {
+        lines = status_lines(a);
+    }
+    let loc = Locator {
+        lines,
+        start_ns: if b.topics.iter().any(|(_, d)| !d.messages.is_empty()) {
+            b.start_ns
+        } else {
+            a.start_ns
+        },
+    };
+    let mut names: Vec<&str> = a.topics.iter().map(|(t, _)| t.as_str()).collect();
+    for (t, _) in &b.topics {
+        if !names.contains(&t.as_str()) {
+            names.push(t);
+        }
+    }
+    let topics = names
+        .iter()
+        .map(|t| compare_topic(t, a.topic(t), b.topic(t), tolerance_mm, &loc))
+        .collect();
+    let mut notes = Vec::new();
+    let empty = BTreeMap::new();
+    let (ma, mb) = (
+        a.metadata.get("cnc").unwrap_or(&empty),
+        b.metadata.get("cnc").unwrap_or(&empty),
+    );
+    let mut keys: Vec<&String> = ma.keys().chain(mb.keys()).collect();
+    keys.sort();
+    keys.dedup();
+    for k in keys {
+        if ma.get(k) != mb.get(k) {
+            notes.push(format!(
+                "metadata cnc.{k}: A {:?}, B {:?}",
+                ma.get(k).map_or("", |s| s.as_str()),
+                mb.get(k).map_or("", |s| s.as_str())
+            ));
+        }
+    }
+    let mut att: Vec<&String> = a.attachments.keys().chain(b.attachments.keys()).collect();
+    att.sort();
+    att.dedup();
+    for k in att {
+        match (a.attachments.get(k), b.attachments.get(k)) {
+            (Some(x), Some(y)) if x != y => notes.push(format!("attachment {k} differs")),
+            (Some(_), None) => notes.push(format!("attachment {k} missing in B")),
+            (None, Some(_)) => notes.push(format!("attachment {k} only in B")),
+            _ => {}
+        }
+    }
+    CompareReport {
+        a: a.path.clone(),
+        b: b.path.clone(),
+        tolerance_mm,
+        topics,
+        notes,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::record::{Recorder, RecordingInfo};
+    use cnc_msgs::Header;
+    use std::io::Cursor;
+
+    /// A recording of `/j` (JointState, joint `x`, positions in m, one
+    /// every ms) and a `/cnc/status` at line 3 then line 4 from 2 ms on.
+    fn bag(positions: &[f64]) -> Bag {
+        let mut rec =
+            Recorder::new(Cursor::new(Vec::new()), "m.mcap", RecordingInfo::default()).unwrap();
+        let j = rec.channel::<JointState>("/j").unwrap();
+        let st = rec.channel::<ControllerStatus>(topics::STATUS).unwrap();
+        for (k, p) in positions.iter().enumerate() {
+            let ns = 1_000_000_000 + k as u64 * 1_000_000;
+            let js = JointState {
+                header: Header {
+                    stamp: record::time_from_ns(ns),
+                    frame_id: String::new(),
+                },
+                name: vec!["x".into()],
+                position: vec![*p],
+                ..Default::default()
+            };
+            rec.write(j, ns, &js).unwrap();
+            if k == 0 || k == 2 {
+                let s = ControllerStatus {
+                    source_line: 3 + (k as u32) / 2,
+                    block_number: if k == 0 { -1 } else { 40 },
+                    ..Default::default()
+                };
+                rec.write(st, ns, &s).unwrap();
+            }
+        }
+        let (_, w) = rec.finish_into_inner().unwrap();
+        Bag::from_bytes(Path::new("m.mcap"), &w.into_inner()).unwrap()
+    }
+
+    #[test]
+    fn tolerance_zero_is_exact() {
+        let a = bag(&[0.0, 0.0, 0.0]);
+        let b = bag(&[0.0, 0.0, -0.0]);
+        let r = compare_bags(&a, &b, 0.0);
+        assert!(!r.within(), "{r}");
+        let at = r.first_divergence().unwrap().2;
+        assert_eq!((at.index, at.line), (2, Some((4, 40))));
+        assert!((at.t - 0.002).abs() < 1e-12);
+        assert!(compare_bags(&a, &b, 1e-9).within());
+        assert!(compare_bags(&a, &a, 0.0).within());
+    }
+
+    #[test]
+    fn nan_and_lines_without_block_numbers() {
+        let a = bag(&[0.0, 0.001, 0.0]);
+        let b = bag(&[0.0, f64::NAN, 0.0]);
+        let r = compare_bags(&a, &b, 1.0);
+        assert!(!r.within(), "{r}");
+        let v = &r.topic("/j").unwrap().values[0];
+        assert!(v.max_mm.is_nan());
+        let at = v.first_over.as_ref().unwrap();
+        assert_eq!((at.index, at.line), (1, Some((3, -1))));
+        assert_eq!(at.to_string(), "t=0.001 s, line 3");
+        // 1 mm at the second sample
+        let b = bag(&[0.0, 0.0, 0.0]);
+        let r = compare_bags(&a, &b, 0.5);
+        let v = &r.topic("/j").unwrap().values[0];
+        assert!((v.max_mm - 1.0).abs() < 1e-12);
+        assert!(r.to_string().contains(
+            "/j x: max 1.000000 mm at t=0.001 s (line 3); first over 0.5 mm at t=0.001 s, line 3; over in 1 message(s)"
+        ), "{r}");
+        assert!(compare_bags(&a, &b, 1.5).within());
+    }
+
+    #[test]
+    fn a_job_needs_program_and_machine() {
+        let e = bag(&[0.0]).job().unwrap_err();
+        assert!(e.contains("machine.toml") || e.contains("program"), "{e}");
+    }
+}

@@ -1,0 +1,959 @@
+//! Plots of programs and recordings (`cnc plot`), as SVG or PNG.
+//!
+//! Two layers:
+//! - A small reusable one: a [`Figure`] is a title, a legend row and
+//!   [`Panel`]s stacked vertically; a panel holds [`Series`] of 2D
+//!   polylines (label, colour, width, solid or dashed), axes with ticks and
+//!   labels, optionally with an equal aspect ratio (1 mm is as long on both
+//!   axes). [`render`] writes it by the output's extension ([`Format`]).
+//!   [`Decimator`] thins a stream of points to a bounded number, so that a
+//!   long run does not grow memory or the file.
+//! - The CNC plots on top: [`plot_program`] (the programmed path from the
+//!   interpreter's moves, the setpoints and the simulated actual positions
+//!   of an offline run) and [`plot_recording`] (the same from an MCAP
+//!   recording).
+//!
+//! Text is drawn with DejaVu Sans embedded in the binary (plotters'
+//! `ab_glyph` feature), so PNG output needs no system fonts; SVG output
+//! names the family `sans-serif`.
+
+use crate::offline::simulate;
+use crate::record::{self, topics};
+use cnc_core::exec::Sample;
+use cnc_core::geom::Geom;
+use cnc_core::interp::{Event, Feed, Interpreter};
+use cnc_core::machine::{axis_index, MachineKind};
+use cnc_core::source::StrSource;
+use cnc_core::{check, Dialect, Machine, V3};
+use plotters::coord::Shift;
+use plotters::element::DashedPathElement;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use plotters::style::FontStyle;
+use std::path::Path;
+use std::sync::Once;
+
+/// A point of a 2D plot, in data units (mm for paths).
+pub type Point = (f64, f64);
+
+/// Most points of one series of [`plot_program`] and [`plot_recording`].
+pub const MAX_SERIES_POINTS: usize = 20_000;
+
+/// An RGB colour.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Rgb(pub u8, pub u8, pub u8);
+
+impl Rgb {
+    pub const BLACK: Rgb = Rgb(0, 0, 0);
+    pub const GREY: Rgb = Rgb(160, 160, 160);
+    pub const DARK_GREY: Rgb = Rgb(60, 60, 60);
+    pub const BLUE: Rgb = Rgb(31, 119, 180);
+    pub const RED: Rgb = Rgb(214, 39, 40);
+    pub const GREEN: Rgb = Rgb(44, 160, 44);
+    pub const ORANGE: Rgb = Rgb(255, 127, 14);
+
+    fn color(self) -> RGBColor {
+        RGBColor(self.0, self.1, self.2)
+    }
+}
+
+/// How a series' lines are drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Dash {
+    Solid,
+    Dashed,
+}
+
+/// One labelled series: any number of polylines drawn alike.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Series {
+    /// the legend entry; empty: none
+    pub label: String,
+    pub color: Rgb,
+    /// line width, pixels
+    pub width: u32,
+    pub dash: Dash,
+    pub polylines: Vec<Vec<Point>>,
+}
+
+impl Series {
+    pub fn new(label: &str, color: Rgb, width: u32, dash: Dash) -> Series {
+        Series {
+            label: label.to_string(),
+            color,
+            width,
+            dash,
+            polylines: Vec::new(),
+        }
+    }
+
+    /// Adds polylines (those with fewer than 1 point are dropped).
+    pub fn with(mut self, polylines: impl IntoIterator<Item = Vec<Point>>) -> Series {
+        self.polylines
+            .extend(polylines.into_iter().filter(|p| !p.is_empty()));
+        self
+    }
+
+    /// Points over all polylines.
+    pub fn points(&self) -> usize {
+        self.polylines.iter().map(Vec::len).sum()
+    }
+}
+
+/// One chart: axes, ticks and series.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Panel {
+    /// drawn above the chart; empty: none
+    pub caption: String,
+    pub x_label: String,
+    pub y_label: String,
+    /// one data unit is as long on the x axis as on the y axis
+    pub equal_aspect: bool,
+    /// height relative to the other panels of the figure
+    pub weight: f64,
+    pub series: Vec<Series>,
+}
+
+impl Panel {
+    pub fn new(x_label: &str, y_label: &str) -> Panel {
+        Panel {
+            caption: String::new(),
+            x_label: x_label.to_string(),
+            y_label: y_label.to_string(),
+            equal_aspect: false,
+            weight: 1.0,
+            series: Vec::new(),
+        }
+    }
+
+    /// The bounding box of all points, `((x0, x1), (y0, y1))`.
+    pub fn bounds(&self) -> Option<(Point, Point)> {
+        let mut it = self
+            .series
+            .iter()
+            .flat_map(|s| s.polylines.iter().flatten())
+            .filter(|p| p.0.is_finite() && p.1.is_finite());
+        let first = it.next()?;
+        let mut b = ((first.0, first.0), (first.1, first.1));
+        for p in it {
+            b.0 .0 = b.0 .0.min(p.0);
+            b.0 .1 = b.0 .1.max(p.0);
+            b.1 .0 = b.1 .0.min(p.1);
+            b.1 .1 = b.1 .1.max(p.1);
+        }
+        Some(b)
+    }
+}
+
+/// A titled figure: a legend row (every distinct label of its panels) and
+/// the panels stacked top to bottom.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Figure {
+    pub title: String,
+    /// pixels (SVG: user units)
+    pub width: u32,
+    pub height: u32,
+    pub panels: Vec<Panel>,
+}
+
+/// Output formats, by the file's extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Svg,
+    Png,
+}
+
+impl Format {
+    /// The format for `path`'s extension (case-insensitive), or an error
+    /// naming the allowed ones.
+    pub fn from_path(path: &Path) -> Result<Format, String> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("svg") => Ok(Format::Svg),
+            Some("png") => Ok(Format::Png),
+            _ => Err(format!(
+                "{}: unknown plot format (the output's extension must be .svg or .png)",
+                path.display()
+            )),
+        }
+    }
+}
+
+const FONT: &str = "sans-serif";
+
+/// Registers the embedded font once (plotters' `ab_glyph` backend has no
+/// system fonts).
+fn fonts() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // the bundled fonts are valid; a failure would only lose text
+        let _ = plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular());
+        let _ = plotters::style::register_font(FONT, FontStyle::Bold, dejavu::sans::bold());
+    });
+}
+
+/// Writes `fig` to `out` in the format of its extension.
+pub fn render(fig: &Figure, out: &Path) -> Result<(), String> {
+    let format = Format::from_path(out)?;
+    let err = |e: String| format!("{}: {e}", out.display());
+    match format {
+        Format::Svg => {
+            let svg = render_svg(fig)?;
+            std::fs::write(out, svg).map_err(|e| err(e.to_string()))
+        }
+        Format::Png => {
+            let png = render_png(fig)?;
+            std::fs::write(out, png).map_err(|e| err(e.to_string()))
+        }
+    }
+}
+
+/// The figure as SVG text.
+pub fn render_svg(fig: &Figure) -> Result<String, String> {
+    fonts();
+    let (w, h) = size(fig)?;
+    let mut text = String::new();
+    {
+        let root = SVGBackend::with_string(&mut text, (w, h)).into_drawing_area();
+        draw_figure(fig, &root)?;
+        root.present().map_err(|e| format!("drawing: {e}"))?;
+    }
+    Ok(text)
+}
+
+/// The figure as a PNG file's bytes (8-bit RGB).
+pub fn render_png(fig: &Figure) -> Result<Vec<u8>, String> {
+    fonts();
+    let (w, h) = size(fig)?;
+    let mut rgb = vec![0u8; w as usize * h as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
+        draw_figure(fig, &root)?;
+        root.present().map_err(|e| format!("drawing: {e}"))?;
+    }
+    let mut out = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut out, w, h);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut wr = enc
+            .write_header()
+            .map_err(|e| format!("PNG encoding: {e}"))?;
+        wr.write_image_data(&rgb)
+            .map_err(|e| format!("PNG encoding: {e}"))?;
+    }
+    Ok(out)
+}
+
+fn size(fig: &Figure) -> Result<(u32, u32), String> {
+    if !(200..=10_000).contains(&fig.width) || !(200..=10_000).contains(&fig.height) {
+        return Err(format!(
+            "figure size {}x{}: each side must be 200 to 10000 pixels",
+            fig.width, fig.height
+        ));
+    }
+    if fig.panels.is_empty() {
+        return Err("figure without panels".to_string());
+    }
+    Ok((fig.width, fig.height))
+}
+
+const TITLE_PX: u32 = 22;
+const TEXT_PX: u32 = 14;
+const LEGEND_ROW_PX: u32 = 26;
+const MARGIN_PX: u32 = 12;
+const X_LABEL_AREA_PX: u32 = 44;
+const Y_LABEL_AREA_PX: u32 = 70;
+/// Least distance between drawn points of a polyline (Chebyshev), pixels.
+const MIN_STEP_PX: i32 = 3;
+
+fn draw_figure<DB: DrawingBackend>(
+    fig: &Figure,
+    root: &DrawingArea<DB, Shift>,
+) -> Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| format!("drawing: {e}");
+    root.fill(&WHITE).map_err(e)?;
+    let (w, _) = root.dim_in_pixel();
+    let (title_area, rest) = root.split_vertically(TITLE_PX + 16);
+    title_area
+        .draw(&Text::new(
+            fig.title.clone(),
+            (w as i32 / 2, 8),
+            (FONT, TITLE_PX as f64)
+                .into_font()
+                .style(FontStyle::Bold)
+                .color(&BLACK)
+                .pos(Pos::new(HPos::Center, VPos::Top)),
+        ))
+        .map_err(e)?;
+    let (legend_area, rest) = rest.split_vertically(LEGEND_ROW_PX);
+    draw_legend(fig, &legend_area)?;
+    let total: f64 = fig.panels.iter().map(|p| p.weight.max(0.01)).sum();
+    let (_, h) = rest.dim_in_pixel();
+    let mut y = 0.0;
+    let mut breaks = Vec::new();
+    for p in &fig.panels[..fig.panels.len() - 1] {
+        y += p.weight.max(0.01) / total * h as f64;
+        breaks.push(y.round() as i32);
+    }
+    let areas = rest.split_by_breakpoints::<i32, i32, _, _>(Vec::<i32>::new(), breaks);
+    for (panel, area) in fig.panels.iter().zip(&areas) {
+        draw_panel(panel, area)?;
+    }
+    Ok(())
+}
+
+/// Every distinct (label, colour, dash) of the figure, in order.
+fn legend_entries(fig: &Figure) -> Vec<&Series> {
+    let mut out: Vec<&Series> = Vec::new();
+    for s in fig.panels.iter().flat_map(|p| &p.series) {
+        if !s.label.is_empty()
+            && !out
+                .iter()
+                .any(|o| o.label == s.label && o.color == s.color && o.dash == s.dash)
+        {
+            out.push(s);
+        }
+    }
+    out
+}
+
+fn draw_legend<DB: DrawingBackend>(
+    fig: &Figure,
+    area: &DrawingArea<DB, Shift>,
+) -> Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| format!("drawing: {e}");
+    let font = (FONT, TEXT_PX as f64)
+        .into_font()
+        .color(&BLACK)
+        .pos(Pos::new(HPos::Left, VPos::Center));
+    let y = LEGEND_ROW_PX as i32 / 2;
+    let mut x = Y_LABEL_AREA_PX as i32 + MARGIN_PX as i32;
+    for s in legend_entries(fig) {
+        let style = s.color.color().stroke_width(s.width.max(1));
+        match s.dash {
+            Dash::Solid => area
+                .draw(&PathElement::new(vec![(x, y), (x + 30, y)], style))
+                .map_err(e)?,
+            Dash::Dashed => {
+                for k in 0..3 {
+                    let x0 = x + k * 11;
+                    area.draw(&PathElement::new(vec![(x0, y), (x0 + 7, y)], style))
+                        .map_err(e)?;
+                }
+            }
+        }
+        x += 36;
+        let (tw, _) = area.estimate_text_size(&s.label, &font).map_err(e)?;
+        area.draw(&Text::new(s.label.clone(), (x, y), font.clone()))
+            .map_err(e)?;
+        x += tw as i32 + 24;
+    }
+    Ok(())
+}
+
+/// `(lo, hi)` widened by 4 % and to a non-zero span.
+fn pad(lo: f64, hi: f64) -> (f64, f64) {
+    let span = hi - lo;
+    if span <= 1e-9 * lo.abs().max(hi.abs()).max(1.0) {
+        let d = (lo.abs() * 0.05).max(1.0);
+        (lo - d, hi + d)
+    } else {
+        (lo - 0.04 * span, hi + 0.04 * span)
+    }
+}
+
+/// Widens the ranges so that one unit has the same length in pixels on
+/// both axes of a `w` x `h` plotting area.
+fn equalize(x: (f64, f64), y: (f64, f64), w: u32, h: u32) -> ((f64, f64), (f64, f64)) {
+    let (w, h) = (w.max(1) as f64, h.max(1) as f64);
+    let scale = ((x.1 - x.0) / w).max((y.1 - y.0) / h); // units per pixel
+    let grow = |r: (f64, f64), px: f64| {
+        let c = 0.5 * (r.0 + r.1);
+        let half = 0.5 * scale * px;
+        (c - half, c + half)
+    };
+    (grow(x, w), grow(y, h))
+}
+
+/// A tick label: no trailing zeros, no `-0`.
+fn tick(v: f64) -> String {
+    let r = (v * 1000.0).round() / 1000.0;
+    let r = if r == 0.0 { 0.0 } else { r };
+    let s = format!("{r:.3}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    s.to_string()
+}
+
+fn draw_panel<DB: DrawingBackend>(
+    panel: &Panel,
+    area: &DrawingArea<DB, Shift>,
+) -> Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| format!("drawing: {e}");
+    let ((x0, x1), (y0, y1)) = panel.bounds().unwrap_or(((0.0, 1.0), (0.0, 1.0)));
+    let (mut xr, mut yr) = (pad(x0, x1), pad(y0, y1));
+    if panel.equal_aspect {
+        // the plotting area's size is known only once a chart is built;
+        // a chart without a caption draws nothing when built
+        let probe = if panel.caption.is_empty() {
+            area.clone()
+        } else {
+            // the caption's height, as plotters splits it off
+            let font = TextStyle::from((FONT, TEXT_PX as f64 + 2.0).into_font());
+            let (_, th) = area.estimate_text_size(&panel.caption, &font).map_err(e)?;
+            let (_, a) = area.split_vertically(th + MARGIN_PX);
+            a
+        };
+        let (pw, ph) = {
+            let mut b = ChartBuilder::on(&probe);
+            b.margin(MARGIN_PX)
+                .x_label_area_size(X_LABEL_AREA_PX)
+                .y_label_area_size(Y_LABEL_AREA_PX);
+            let c = b.build_cartesian_2d(xr.0..xr.1, yr.0..yr.1).map_err(e)?;
+            c.plotting_area().dim_in_pixel()
+        };
+        (xr, yr) = equalize(xr, yr, pw, ph);
+    }
+    let mut b = ChartBuilder::on(area);
+    b.margin(MARGIN_PX)
+        .x_label_area_size(X_LABEL_AREA_PX)
+        .y_label_area_size(Y_LABEL_AREA_PX);
+    if !panel.caption.is_empty() {
+        b.caption(&panel.caption, (FONT, TEXT_PX as f64 + 2.0));
+    }
+    let mut chart = b.build_cartesian_2d(xr.0..xr.1, yr.0..yr.1).map_err(e)?;
+    let label_font = (FONT, TEXT_PX as f64).into_font();
+    chart
+        .configure_mesh()
+        .x_desc(panel.x_label.as_str())
+        .y_desc(panel.y_label.as_str())
+        .x_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| tick(*v))
+        .label_style(label_font.clone())
+        .axis_desc_style(label_font)
+        .x_max_light_lines(1)
+        .y_max_light_lines(1)
+        .light_line_style(RGBColor(240, 240, 240))
+        .bold_line_style(RGBColor(215, 215, 215))
+        .draw()
+        .map_err(e)?;
+    let plot = chart.plotting_area();
+    for s in &panel.series {
+        let style = s.color.color().stroke_width(s.width.max(1));
+        for line in &s.polylines {
+            // points closer than MIN_STEP_PX to the previous one add
+            // nothing but bytes (and ragged thick lines in bitmaps)
+            let mut px: Vec<(i32, i32)> = Vec::with_capacity(line.len());
+            let mut skipped = None;
+            for p in line {
+                if !(p.0.is_finite() && p.1.is_finite()) {
+                    continue;
+                }
+                let q = chart.backend_coord(p);
+                match px.last() {
+                    Some(l) if (l.0 - q.0).abs().max((l.1 - q.1).abs()) < MIN_STEP_PX => {
+                        skipped = Some(q)
+                    }
+                    _ => {
+                        px.push(q);
+                        skipped = None;
+                    }
+                }
+            }
+            px.extend(skipped);
+            if px.len() == 1 {
+                px.push(px[0]);
+            }
+            let root = plot.strip_coord_spec();
+            match s.dash {
+                Dash::Solid => root
+                    .draw(&PathElement::new(shift(&px, &root), style))
+                    .map_err(e)?,
+                Dash::Dashed => root
+                    .draw(&DashedPathElement::new(shift(&px, &root), 6, 5, style))
+                    .map_err(e)?,
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Backend coordinates relative to `area` (whose drawing clips to it).
+fn shift<DB: DrawingBackend>(px: &[(i32, i32)], area: &DrawingArea<DB, Shift>) -> Vec<(i32, i32)> {
+    let (ox, oy) = area.get_base_pixel();
+    px.iter().map(|&(x, y)| (x - ox, y - oy)).collect()
+}
+
+/// Thins a stream of points to at most `max` kept points (plus the last
+/// of each run), with bounded memory: every `stride`-th point is kept, and
+/// when more than `max` are kept every other one is dropped and the stride
+/// doubles. Points carry a tag; a change of tag starts a new run (a new
+/// polyline) that begins at the previous run's last point, so runs join.
+#[derive(Clone, Debug)]
+pub struct Decimator<T> {
+    max: usize,
+    stride: u64,
+    count: u64,
+    kept: usize,
+    runs: Vec<(u8, Vec<T>)>,
+    /// the newest point of the current run if it was not kept
+    pending: Option<T>,
+}
+
+impl<T: Copy> Decimator<T> {
+    pub fn new(max: usize) -> Self {
+        Decimator {
+            max: max.max(4),
+            stride: 1,
+            count: 0,
+            kept: 0,
+            runs: Vec::new(),
+            pending: None,
+        }
+    }
+
+    pub fn push(&mut self, tag: u8, p: T) {
+        let new_run = self.runs.last().is_none_or(|r| r.0 != tag);
+        if new_run {
+            let join = self.close_run();
+            let mut v = Vec::with_capacity(16);
+            v.extend(join);
+            v.push(p);
+            self.kept += v.len();
+            self.runs.push((tag, v));
+            self.count = 0;
+        } else {
+            self.count += 1;
+            if self.count.is_multiple_of(self.stride) {
+                self.pending = None;
+                if let Some(r) = self.runs.last_mut() {
+                    r.1.push(p);
+                }
+                self.kept += 1;
+            } else {
+                self.pending = Some(p);
+            }
+        }
+        if self.kept > self.max && self.stride < 1 << 40 {
+            self.thin();
+        }
+    }
+
+    /// Ends the current run (keeping its newest point); its last point.
+    fn close_run(&mut self) -> Option<T> {
+        let r = self.runs.last_mut()?;
+        if let Some(p) = self.pending.take() {
+            r.1.push(p);
+            self.kept += 1;
+        }
+        r.1.last().copied()
+    }
+
+    fn thin(&mut self) {
+        let mut kept = 0;
+        for (_, v) in &mut self.runs {
+            let n = v.len();
+            if n > 2 {
+                let last = v[n - 1];
+                let mut i = 0;
+                v.retain(|_| {
+                    i += 1;
+                    (i - 1) % 2 == 0
+                });
+                if n % 2 == 0 {
+                    v.push(last); // the last was an odd index: keep it
+                }
+            }
+            kept += v.len();
+        }
+        self.kept = kept;
+        self.stride *= 2;
+    }
+
+    /// The runs: `(tag, points)` in order.
+    pub fn finish(mut self) -> Vec<(u8, Vec<T>)> {
+        self.close_run();
+        self.runs
+    }
+}
+
+/// How machine positions are shown: the axes (0 = X, 1 = Y, 2 = Z) of
+/// the panels, horizontal then vertical, with their labels.
+struct View {
+    panels: Vec<(usize, usize, &'static str, &'static str, f64)>,
+}
+
+fn view(machine: &Machine, z_moves: bool) -> View {
+    match machine.kind {
+        MachineKind::Lathe => View {
+            panels: vec![(2, 0, "Z mm", "X (radius) mm", 1.0)],
+        },
+        _ => {
+            let mut panels = vec![(0, 1, "X mm", "Y mm", 3.0)];
+            if z_moves {
+                panels.push((0, 2, "X mm", "Z mm", 1.0));
+            }
+            View { panels }
+        }
+    }
+}
+
+const RAPID: u8 = 1;
+const FEED: u8 = 0;
+
+/// Largest angle of one chord when an arc is sampled, rad (2°).
+const ARC_STEP_RAD: f64 = std::f64::consts::PI / 90.0;
+
+/// The programmed path: every move's geometry sampled with `Geom::eval`
+/// (lines: their ends; arcs: chords of at most 2°), tagged rapid or feed.
+fn programmed_path(machine: &Machine, dialect: Dialect, text: &str) -> Vec<(u8, Vec<V3>)> {
+    let mut d = Decimator::new(MAX_SERIES_POINTS);
+    for ev in Interpreter::new(StrSource::new(text), dialect, machine) {
+        let Event::Move { geom, feed, .. } = ev else {
+            continue;
+        };
+        let tag = if matches!(feed, Feed::Rapid) {
+            RAPID
+        } else {
+            FEED
+        };
+        d.push(tag, geom.start());
+        let n = match geom {
+            Geom::Line { .. } => 1,
+            Geom::Arc(a) => ((a.sweep.abs() / ARC_STEP_RAD).ceil() as usize).clamp(4, 100_000),
+        };
+        let len = geom.length();
+        for i in 1..=n {
+            d.push(tag, geom.eval(len * i as f64 / n as f64));
+        }
+    }
+    d.finish()
+}
+
+/// Setpoints and actual positions (mm, machine axes) of a run.
+struct Run {
+    setpoints: Vec<V3>,
+    actual: Vec<V3>,
+}
+
+fn one_run(d: Decimator<V3>) -> Vec<V3> {
+    d.finish().into_iter().flat_map(|(_, v)| v).collect()
+}
+
+fn simulated_run(machine: &Machine, dialect: Dialect, text: &str) -> Run {
+    let joints = machine.joint_indices();
+    let mut set = Decimator::new(MAX_SERIES_POINTS);
+    let mut act = Decimator::new(MAX_SERIES_POINTS);
+    simulate(StrSource::new(text), dialect, machine, |st| {
+        let s: &Sample = st.sample;
+        set.push(0, s.pos);
+        let mut a = V3::zeros();
+        for (j, &i) in joints.iter().enumerate() {
+            if let (Some(v), true) = (st.actual.get(j), i < 3) {
+                a[i] = *v;
+            }
+        }
+        act.push(0, a);
+    });
+    Run {
+        setpoints: one_run(set),
+        actual: one_run(act),
+    }
+}
+
+/// Legend labels of the CNC plots.
+pub mod labels {
+    pub const PROGRAMMED: &str = "programmed path";
+    pub const RAPID: &str = "programmed rapid";
+    pub const SETPOINTS: &str = "setpoints";
+    pub const ACTUAL: &str = "simulated actual";
+}
+
+fn path_figure(
+    title: String,
+    machine: &Machine,
+    programmed: &[(u8, Vec<V3>)],
+    run: &Run,
+) -> Figure {
+    let all = programmed
+        .iter()
+        .flat_map(|(_, v)| v)
+        .chain(&run.setpoints)
+        .chain(&run.actual);
+    let (mut zlo, mut zhi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for p in all {
+        zlo = zlo.min(p[2]);
+        zhi = zhi.max(p[2]);
+    }
+    let z_moves = zhi - zlo > 1e-6;
+    let v = view(machine, z_moves);
+    let mut panels = Vec::new();
+    for (k, &(h, vert, xl, yl, weight)) in v.panels.iter().enumerate() {
+        let proj = |pts: &[V3]| pts.iter().map(|p| (p[h], p[vert])).collect::<Vec<Point>>();
+        let runs = |tag: u8| {
+            programmed
+                .iter()
+                .filter(move |(t, _)| *t == tag)
+                .map(|(_, v)| v.as_slice())
+        };
+        let mut p = Panel::new(xl, yl);
+        p.equal_aspect = true;
+        p.weight = weight;
+        if v.panels.len() > 1 {
+            p.caption = if k == 0 {
+                "top view (XY)"
+            } else {
+                "side view (XZ)"
+            }
+            .to_string();
+        }
+        p.series = vec![
+            Series::new(labels::PROGRAMMED, Rgb::GREY, 6, Dash::Solid).with(runs(FEED).map(proj)),
+            Series::new(labels::SETPOINTS, Rgb::BLUE, 3, Dash::Solid).with([proj(&run.setpoints)]),
+            Series::new(labels::ACTUAL, Rgb::RED, 1, Dash::Solid).with([proj(&run.actual)]),
+            // on top: where the setpoints hide it the dashes still show
+            Series::new(labels::RAPID, Rgb::DARK_GREY, 1, Dash::Dashed).with(runs(RAPID).map(proj)),
+        ];
+        panels.push(p);
+    }
+    let height = if panels.len() > 1 { 1000 } else { 760 };
+    Figure {
+        title,
+        width: 1200,
+        height,
+        panels,
+    }
+}
+
+/// Plots a program: the programmed path, the setpoints and the simulated
+/// actual path of an offline run (as `cnc simulate`), mill in the XY plane
+/// (plus an XZ panel when Z moves), lathe with Z across and the X radius
+/// up. The program must pass the check; otherwise nothing is written and
+/// the errors are returned. `out`'s extension picks SVG or PNG.
+pub fn plot_program(
+    machine: &Machine,
+    dialect: Dialect,
+    program_name: &str,
+    text: &str,
+    out: &Path,
+) -> Result<(), String> {
+    Format::from_path(out)?;
+    let report = check(StrSource::new(text), dialect, machine);
+    if !report.ok() {
+        return Err(format!(
+            "{program_name}: {} error(s), nothing plotted:\n{}",
+            report.error_count,
+            report.message()
+        ));
+    }
+    let programmed = programmed_path(machine, dialect, text);
+    let run = simulated_run(machine, dialect, text);
+    let title = format!(
+        "{program_name} on {} ({}, {})",
+        machine.name,
+        kind_name(machine),
+        dialect.id()
+    );
+    render(&path_figure(title, machine, &programmed, &run), out)
+}
+
+fn kind_name(machine: &Machine) -> &'static str {
+    match machine.kind {
+        MachineKind::Lathe => "lathe",
+        _ => "mill",
+    }
+}
+
+/// The job and the run read back from a recording.
+struct Recorded {
+    program_name: Option<String>,
+    dialect: Option<String>,
+    program: Option<String>,
+    machine: Option<String>,
+    setpoints: Decimator<V3>,
+    actual: Decimator<V3>,
+}
+
+fn joint_positions(msg: &cnc_msgs::JointState) -> V3 {
+    let mut p = V3::zeros();
+    for (name, v) in msg.name.iter().zip(&msg.position) {
+        if let Some(i) = axis_index(name) {
+            p[i] = v * 1000.0;
+        }
+    }
+    p
+}
+
+fn read_recording(path: &Path) -> Result<Recorded, String> {
+    let err = |e: String| format!("{}: {e}", path.display());
+    let bytes = std::fs::read(path).map_err(|e| err(e.to_string()))?;
+    if !bytes.starts_with(mcap::MAGIC) {
+        return Err(err(
+            "not an MCAP recording (no MCAP magic at the start)".into()
+        ));
+    }
+    let mut r = Recorded {
+        program_name: None,
+        dialect: None,
+        program: None,
+        machine: None,
+        setpoints: Decimator::new(MAX_SERIES_POINTS),
+        actual: Decimator::new(MAX_SERIES_POINTS),
+    };
+    // metadata and attachments are top-level records; a recording cut
+    // short (no end magic) is read as far as it goes
+    let opts = || mcap::read::Options::IgnoreEndMagic.into();
+    let reader = mcap::read::LinearReader::new_with_options(&bytes, opts())
+        .map_err(|e| err(format!("not an MCAP recording: {e}")))?;
+    for rec in reader {
+        let Ok(rec) = rec else { break };
+        match rec {
+            mcap::records::Record::Metadata(m) if m.name == "cnc" => {
+                r.program_name = m.metadata.get("program_name").cloned();
+                r.dialect = m.metadata.get("dialect").cloned();
+            }
+            mcap::records::Record::Attachment { header, data, .. } => {
+                let text = String::from_utf8_lossy(&data).into_owned();
+                match header.name.as_str() {
+                    "program.nc" => r.program = Some(text),
+                    "machine.toml" => r.machine = Some(text),
+                    _ => {}
+                }
+            }
+            _ => {}
+        }
+    }
+    let stream = mcap::MessageStream::new_with_options(&bytes, opts())
+        .map_err(|e| err(format!("not an MCAP recording: {e}")))?;
+    for msg in stream {
+        let msg = msg.map_err(|e| err(format!("reading messages: {e}")))?;
+        let topic = msg.channel.topic.as_str();
+        match topic {
+            topics::JOINT_SETPOINTS | topics::JOINT_STATES => {
+                let js: cnc_msgs::JointState =
+                    record::from_cdr(&msg.data).map_err(|e| err(format!("{topic}: {e}")))?;
+                let p = joint_positions(&js);
+                if topic == topics::JOINT_SETPOINTS {
+                    r.setpoints.push(0, p);
+                } else {
+                    r.actual.push(0, p);
+                }
+            }
+            // the job as latched messages, for a recording without attachments
+            topics::PROGRAM | topics::MACHINE_FILE => {
+                let s: cnc_msgs::StringMsg =
+                    record::from_cdr(&msg.data).map_err(|e| err(format!("{topic}: {e}")))?;
+                let slot = if topic == topics::PROGRAM {
+                    &mut r.program
+                } else {
+                    &mut r.machine
+                };
+                if slot.is_none() {
+                    *slot = Some(s.data);
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(r)
+}
+
+/// Plots a recording (`cnc simulate --record` or the node): the programmed
+/// path from its attachments (`program.nc`, `machine.toml`, the dialect of
+/// the `cnc` metadata), the setpoints (`/cnc/joint_setpoints`) and the
+/// actual positions (`/sim/joint_states`), as [`plot_program`] draws them.
+pub fn plot_recording(recording: &Path, out: &Path) -> Result<(), String> {
+    Format::from_path(out)?;
+    let r = read_recording(recording)?;
+    let err = |e: String| format!("{}: {e}", recording.display());
+    let machine_text = r
+        .machine
+        .ok_or_else(|| err("no machine file (attachment machine.toml)".into()))?;
+    let machine =
+        Machine::from_toml(&machine_text).map_err(|e| err(format!("machine.toml: {}", e.0)))?;
+    let program = r
+        .program
+        .ok_or_else(|| err("no program (attachment program.nc)".into()))?;
+    let dialect = match r.dialect.as_deref() {
+        Some(d) if !d.is_empty() => d
+            .parse::<Dialect>()
+            .map_err(|e| err(format!("metadata cnc: {e}")))?,
+        _ => machine.dialect,
+    };
+    let programmed = programmed_path(&machine, dialect, &program);
+    let run = Run {
+        setpoints: one_run(r.setpoints),
+        actual: one_run(r.actual),
+    };
+    if run.setpoints.is_empty() && run.actual.is_empty() {
+        return Err(err(format!(
+            "no positions on {} or {}",
+            topics::JOINT_SETPOINTS,
+            topics::JOINT_STATES
+        )));
+    }
+    let file = recording
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let name = r
+        .program_name
+        .filter(|n| !n.is_empty())
+        .unwrap_or_else(|| "program".into());
+    let title = format!(
+        "{name} on {} ({}, {}), recording {file}",
+        machine.name,
+        kind_name(&machine),
+        dialect.id()
+    );
+    render(&path_figure(title, &machine, &programmed, &run), out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn decimator_bounds_points_and_keeps_ends() {
+        let mut d = Decimator::new(100);
+        for i in 0..100_000u32 {
+            d.push(0, i);
+        }
+        let runs = d.finish();
+        assert_eq!(runs.len(), 1);
+        let v = &runs[0].1;
+        assert!(v.len() <= 101 && v.len() >= 50, "{}", v.len());
+        assert_eq!(v[0], 0);
+        assert_eq!(*v.last().unwrap(), 99_999);
+        assert!(v.windows(2).all(|w| w[0] < w[1]));
+    }
+
+    #[test]
+    fn decimator_runs_join() {
+        let mut d = Decimator::new(1000);
+        for i in 0..10 {
+            d.push(if i < 5 { 1 } else { 0 }, i);
+        }
+        let runs = d.finish();
+        assert_eq!(
+            runs,
+            vec![(1, vec![0, 1, 2, 3, 4]), (0, vec![4, 5, 6, 7, 8, 9])]
+        );
+    }
+
+    #[test]
+    fn equal_aspect_ranges() {
+        let (x, y) = equalize((0.0, 100.0), (0.0, 10.0), 1000, 500);
+        assert!(((x.1 - x.0) / 1000.0 - (y.1 - y.0) / 500.0).abs() < 1e-12);
+        assert!(x.1 - x.0 >= 100.0 && y.1 - y.0 >= 10.0);
+    }
+
+    #[test]
+    fn ticks() {
+        assert_eq!(tick(10.0), "10");
+        assert_eq!(tick(-0.0001), "0");
+        assert_eq!(tick(2.5), "2.5");
+    }
+}
