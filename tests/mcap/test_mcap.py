@@ -311,3 +311,25 @@ def test_rerun_converts_it(recording, tmp_path):
     # the job: program and machine file as text documents
     assert "TextDocument:text" in comps["/cnc/program"]
     assert "TextDocument:text" in comps["/cnc/machine_file"]
+
+
+def test_rosbags_reads_it_as_a_rosbag2_bag(recording):
+    """rosbags (a pure-Python rosbag2 implementation, independent of ours and
+    of the mcap packages) opens the file, reads the rosbag2 metadata and
+    decodes every message with the schemas the file carries."""
+    from pathlib import Path
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([Path(recording)]) as r:
+        n, last = 0, None
+        for conn, _t, raw in r.messages():
+            msg = r.deserialize(raw, conn.msgtype)
+            n += 1
+            if conn.topic == "/cnc/joint_setpoints":
+                last = [float(v) for v in msg.position]
+        types = {c.topic: c.msgtype for c in r.connections}
+    assert n == summary_of(recording)[1].statistics.message_count
+    assert types["/cnc/status"] == "cnc_msgs/msg/ControllerStatus"
+    assert types["/tf"] == "tf2_msgs/msg/TFMessage"
+    for got, want in zip(last, [0.020, 0.010, 0.005]):
+        assert abs(got - want) < 1e-9, last
