@@ -396,3 +396,15 @@ pub fn set_realtime(priority: i32) -> Result<(), String> {
         Err(std::io::Error::last_os_error().to_string())
     }
 }
+
+/// Locks the process's memory (current and future) so a real-time loop
+/// never waits on a page fault; `Err` says why not.
+pub fn lock_memory() -> Result<(), String> {
+    // SAFETY: mlockall only pins this process's pages; no memory is touched.
+    let r = unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) };
+    if r == 0 {
+        Ok(())
+    } else {
+        Err(std::io::Error::last_os_error().to_string())
+    }
+}

@@ -152,6 +152,9 @@ fn run(args: Args) -> Result<(), String> {
             .name("control".into())
             .spawn(move || {
                 if rt > 0 {
+                    if let Err(e) = ros::lock_memory() {
+                        eprintln!("cnc_node: memory not locked (mlockall: {e})");
+                    }
                     if let Err(e) = ros::set_realtime(rt) {
                         eprintln!("cnc_node: control loop stays at normal priority (SCHED_FIFO {rt}: {e})");
                     }
