@@ -36,6 +36,19 @@ pub fn simulate<S: ProgramSource>(
     source: S,
     dialect: Dialect,
     machine: &Machine,
+    sink: impl FnMut(&Step),
+) -> SimSummary {
+    simulate_with(source, dialect, machine, |_| {}, sink)
+}
+
+/// [`simulate`], with `alter` applied to every interpolator sample before
+/// the model and the sinks see it (fault injection: e.g. the regression
+/// test's deliberate one-micrometre interpolator error).
+pub fn simulate_with<S: ProgramSource>(
+    source: S,
+    dialect: Dialect,
+    machine: &Machine,
+    mut alter: impl FnMut(&mut Sample),
     mut sink: impl FnMut(&Step),
 ) -> SimSummary {
     let joints = machine.joint_indices();
@@ -48,7 +61,8 @@ pub fn simulate<S: ProgramSource>(
     let mut max_err = vec![0.0f64; n];
     let mut samples = 0u64;
     let mut cycle_time = 0.0;
-    while let Some(s) = exec.next_sample() {
+    while let Some(mut s) = exec.next_sample() {
+        alter(&mut s);
         for (j, &i) in joints.iter().enumerate() {
             set[j] = s.pos[i];
         }

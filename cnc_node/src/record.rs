@@ -40,7 +40,7 @@
 //! # Ok::<(), String>(())
 //! ```
 
-use crate::offline::{simulate, Step};
+use crate::offline::{simulate_with, Step};
 use byteorder::LittleEndian;
 use cnc_core::source::StrSource;
 use cnc_core::{check, Dialect, Machine};
@@ -684,14 +684,33 @@ pub fn record_run<W: Write + Seek>(
     dialect: Dialect,
     ticks: u64,
 ) -> Result<RecordSummary, String> {
+    record_run_with(rec, machine, program_text, dialect, ticks, |_| {})
+}
+
+/// [`record_run`] with `alter` applied to every interpolator sample (see
+/// [`crate::offline::simulate_with`]).
+pub fn record_run_with<W: Write + Seek>(
+    rec: Recorder<W>,
+    machine: &Machine,
+    program_text: &str,
+    dialect: Dialect,
+    ticks: u64,
+    alter: impl FnMut(&mut cnc_core::exec::Sample),
+) -> Result<RecordSummary, String> {
     let mut r = SimRecorder::new(rec, machine, ticks)?;
-    simulate(StrSource::new(program_text), dialect, machine, |st| {
-        if r.error.is_none() {
-            if let Err(e) = r.step(st) {
-                r.error = Some(e);
+    simulate_with(
+        StrSource::new(program_text),
+        dialect,
+        machine,
+        alter,
+        |st| {
+            if r.error.is_none() {
+                if let Err(e) = r.step(st) {
+                    r.error = Some(e);
+                }
             }
-        }
-    });
+        },
+    );
     r.finish()
 }
 

@@ -334,3 +334,64 @@ fn regenerate_goldens() {
         println!("{}: {bytes} bytes", out.display());
     }
 }
+
+/// The deliberate error made where the issue asks for it: in the
+/// interpolator's output, before the simulated axes, the tool frames and the
+/// tool path see it (`record_run_with`), not by editing a file.
+#[test]
+fn a_one_micrometre_interpolator_error_fails_the_golden_comparison_at_its_first_line() {
+    use cnc_node::record::{machine_toml, record_run_with, Recorder, RecordingInfo};
+    let m = Machine::builtin_mill();
+    let text = program("mill_pocket.nc");
+    let report = cnc_core::check(StrSource::new(&text), m.dialect, &m);
+    let out = tmp("interp_1um").join("mill_pocket.mcap");
+    let info = RecordingInfo {
+        program_name: "mill_pocket.nc".into(),
+        program_text: text.clone(),
+        dialect: m.dialect.id().into(),
+        machine_toml: machine_toml(&m).unwrap(),
+        machine_name: m.name.clone(),
+        rate_hz: m.interpolation.rate_hz,
+    };
+    let mut first = None;
+    record_run_with(
+        Recorder::create(&out, info).unwrap(),
+        &m,
+        &text,
+        m.dialect,
+        report.ticks,
+        |s| {
+            // from block N60 on, the interpolator is 1 µm off in X
+            if s.src.line >= 8 {
+                first.get_or_insert((s.k as usize, s.t));
+                s.pos[0] += 0.001;
+            }
+        },
+    )
+    .unwrap();
+    let (k, t) = first.unwrap();
+    let r = compare(&golden("mill_pocket.nc"), &out, 0.0005).unwrap();
+    assert!(!r.within(), "{r}");
+    let (topic, joint, at) = r.first_divergence().unwrap();
+    assert_eq!((topic, joint), (topics::JOINT_SETPOINTS, "x"), "{r}");
+    assert_eq!(at.index, k);
+    assert_eq!(at.line, Some((8, 60)), "{r}");
+    assert!((at.t - t).abs() < 1e-9, "{} vs {t}", at.t);
+    let text = r.to_string();
+    assert!(
+        text.contains(&format!(
+            "first divergence: /cnc/joint_setpoints x at t={t:.3} s, line 8 (N60)"
+        )),
+        "{text}"
+    );
+    // the simulated axis follows the error too
+    let js = r.topic(topics::JOINT_STATES).unwrap();
+    assert!(
+        js.values[0].max_mm > 0.0009 && js.values[0].max_mm < 0.0011,
+        "{r}"
+    );
+    // and within 2 µm it passes
+    assert!(compare(&golden("mill_pocket.nc"), &out, 0.002)
+        .unwrap()
+        .within());
+}
