@@ -156,10 +156,26 @@ pub fn check<S: ProgramSource>(source: S, dialect: Dialect, machine: &Machine) -
     let mut plan = Plan::new(lim);
     let mut first = VecDeque::with_capacity(FIRST_EVENTS);
     if interp.fill(&mut first, FIRST_EVENTS) {
-        return check_concurrently(interp, plan, first, dialect, lim);
+        return check_concurrently(interp, plan, first, dialect, machine);
     }
     plan.run(&first, &[]);
     report(&interp, plan.finish(), lim)
+}
+
+/// The check on this thread, one batch of events at a time.
+fn one_thread<S: ProgramSource>(
+    mut interp: Interpreter<S>,
+    mut plan: Plan,
+    lim: PlanLimits,
+) -> CheckReport {
+    let mut events = VecDeque::with_capacity(FIRST_EVENTS);
+    loop {
+        let more = interp.fill(&mut events, FIRST_EVENTS);
+        plan.run(&events, &[]);
+        if !more {
+            return report(&interp, plan.finish(), lim);
+        }
+    }
 }
 
 fn report<T: ProgramSource>(
@@ -187,6 +203,11 @@ impl ProgramSource for Fed {
     }
     fn seek(&mut self, _pos: SourcePos) -> Result<(), SourceError> {
         Ok(())
+    }
+    /// Lines come from the reading thread in file order: a jump (G73)
+    /// stops the pipeline and the check runs again on one thread.
+    fn can_seek(&self) -> bool {
+        false
     }
 }
 
@@ -299,8 +320,9 @@ fn check_concurrently<S: ProgramSource>(
     mut plan: Plan,
     first: VecDeque<Event>,
     dialect: Dialect,
-    lim: PlanLimits,
+    machine: &Machine,
 ) -> CheckReport {
+    let lim = PlanLimits::from_machine(machine);
     use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::mpsc::{channel, sync_channel};
     let (to_interp, interp_rx) = sync_channel::<Batch>(IN_FLIGHT);
@@ -330,15 +352,8 @@ fn check_concurrently<S: ProgramSource>(
             });
         let Ok(handle) = spawned else {
             // no second thread: everything here, one batch of events at a time
-            let mut interp = interp;
-            let mut events = first;
-            loop {
-                plan.run(&events, &[]);
-                if !interp.fill(&mut events, FIRST_EVENTS) {
-                    plan.run(&events, &[]);
-                    return report(&interp, plan.finish(), lim);
-                }
-            }
+            plan.run(&first, &[]);
+            return one_thread(interp, plan, lim);
         };
         let (mut source, interp) = interp.replace_source(Fed);
         // the thread is waiting for it (a failed send means it panicked: `join` says so)
@@ -378,6 +393,25 @@ fn check_concurrently<S: ProgramSource>(
         }
         drop(to_interp);
         match handle.join() {
+            Ok(Some(interp)) if interp.needs_seek() => {
+                // the program jumps: again from the start, on this thread
+                if let Err(e) = source.seek(SourcePos { offset: 0, line: 1 }) {
+                    let mut r = report(&interp, plan.finish(), lim);
+                    r.errors.push(Diagnostic::new(
+                        1,
+                        1,
+                        1,
+                        format!("cannot read the program again: {}", e.0),
+                    ));
+                    r.error_count += 1;
+                    return r;
+                }
+                one_thread(
+                    Interpreter::new(source, dialect, machine),
+                    Plan::new(lim),
+                    lim,
+                )
+            }
             Ok(Some(interp)) => report(&interp, plan.finish(), lim),
             Ok(None) => unreachable!("the interpreter was sent to the thread"),
             Err(panic) => std::panic::resume_unwind(panic),

@@ -8,7 +8,7 @@ use crate::dialect::Dialect;
 use crate::geom::{Arc, Geom, Plane};
 use crate::machine::Machine;
 use crate::parse::{block_no, parse_line, Block, Word};
-use crate::source::{ProgramSource, SourceError};
+use crate::source::{ProgramSource, SourceError, SourcePos};
 use crate::V3;
 use std::collections::VecDeque;
 
@@ -153,7 +153,14 @@ mod slot {
     pub const P: usize = 14;
     pub const SPINDLE: usize = 15;
     pub const END: usize = 16;
-    pub const COUNT: usize = 17;
+    // cnc836
+    pub const HELIX_ON: usize = 17; // G09
+    pub const PITCH: usize = 18; // G10
+    pub const JUMP: usize = 19; // G73
+    pub const HELIX_OFF: usize = 20; // G98
+    pub const L: usize = 21;
+    pub const Q: usize = 22;
+    pub const COUNT: usize = 23;
 }
 
 /// The words of one block, sorted by meaning, each with its column. Each
@@ -264,6 +271,25 @@ pub struct Interpreter<S> {
     last: Src,
     finished: bool,
     bbox: Option<(V3, V3)>,
+    /// where the current line starts (for jumps)
+    cur_pos: SourcePos,
+    /// the last line number run for the first time (blocks count once)
+    max_line: u32,
+    /// cnc836 helix: the dragged axis and its pitch (mm per turn), from G10
+    pitch: Option<(usize, f64)>,
+    /// G09 is in force: (dragged axis value when it started, turns since)
+    helix: Option<(f64, f64)>,
+    /// G73 loops repeating now: (line of the G73 block, jumps left),
+    /// innermost last
+    loops: Vec<(u32, u32)>,
+    /// jump targets found, by the line of their G73 block
+    targets: std::collections::HashMap<u32, SourcePos>,
+    /// jumps taken so far
+    jumps: u64,
+    /// (line, column) of the errors reported, so a loop reports each once
+    reported: std::collections::HashSet<(u32, u32)>,
+    /// a jump was needed but the source cannot seek (the check's pipeline)
+    needs_seek: bool,
 }
 
 impl<S: ProgramSource> Interpreter<S> {
@@ -301,7 +327,22 @@ impl<S: ProgramSource> Interpreter<S> {
             last: Src::default(),
             finished: false,
             bbox: None,
+            cur_pos: SourcePos { offset: 0, line: 1 },
+            max_line: 0,
+            pitch: None,
+            helix: None,
+            loops: Vec::new(),
+            targets: std::collections::HashMap::new(),
+            jumps: 0,
+            reported: std::collections::HashSet::new(),
+            needs_seek: false,
         }
+    }
+
+    /// A jump was needed that this source could not make (see
+    /// [`ProgramSource::can_seek`]); the run stopped there.
+    pub(crate) fn needs_seek(&self) -> bool {
+        self.needs_seek
     }
 
     /// Errors found so far (at most the machine's `max_errors`).
@@ -342,6 +383,14 @@ impl<S: ProgramSource> Interpreter<S> {
     }
 
     fn error(&mut self, w: Option<&Word>, msg: String) {
+        let col = w.map_or(1, |w| w.col);
+        // a block run again by a loop reports its error once
+        if self.reported.len() < 100_000
+            && !self.reported.insert((self.last.line, col))
+            && self.jumps > 0
+        {
+            return;
+        }
         self.error_count += 1;
         if self.errors.len() >= self.max_errors {
             return;
@@ -373,6 +422,7 @@ impl<S: ProgramSource> Interpreter<S> {
                 return;
             }
         };
+        self.cur_pos = pos;
         let mut block = self.block.take().unwrap_or_default();
         let parsed = parse_line(self.dialect, pos.line, &self.buf, &mut block);
         self.exec_parsed(pos.line, parsed, &block.words);
@@ -391,7 +441,10 @@ impl<S: ProgramSource> Interpreter<S> {
             Err(d) => self.push_diag(d),
             Ok(()) if words.is_empty() => {}
             Ok(()) => {
-                self.blocks += 1;
+                if line > self.max_line {
+                    self.max_line = line;
+                    self.blocks += 1;
+                }
                 self.exec_block(words);
             }
         }
@@ -476,6 +529,15 @@ impl<S: ProgramSource> Interpreter<S> {
             last,
             finished,
             bbox,
+            cur_pos,
+            max_line,
+            pitch,
+            helix,
+            loops,
+            targets,
+            jumps,
+            reported,
+            needs_seek,
         } = self;
         let new = Interpreter {
             src,
@@ -497,6 +559,15 @@ impl<S: ProgramSource> Interpreter<S> {
             last,
             finished,
             bbox,
+            cur_pos,
+            max_line,
+            pitch,
+            helix,
+            loops,
+            targets,
+            jumps,
+            reported,
+            needs_seek,
         };
         (old, new)
     }
@@ -565,6 +636,10 @@ impl<S: ProgramSource> Interpreter<S> {
                         91 => once!(slot::DISTANCE, w.absolute = false, "G90/G91"),
                         94 => once!(slot::FEED_MODE, w.per_rev = false, "G94/G95"),
                         95 => once!(slot::FEED_MODE, w.per_rev = true, "G94/G95"),
+                        9 if self.dialect == Dialect::Cnc836 => once!(slot::HELIX_ON, "G09"),
+                        10 if self.dialect == Dialect::Cnc836 => once!(slot::PITCH, "G10"),
+                        73 if self.dialect == Dialect::Cnc836 => once!(slot::JUMP, "G73"),
+                        98 if self.dialect == Dialect::Cnc836 => once!(slot::HELIX_OFF, "G98"),
                         _ => self.error(
                             Some(word),
                             format!(
@@ -617,6 +692,8 @@ impl<S: ProgramSource> Interpreter<S> {
                 b'S' => once!(slot::S, "S"),
                 b'T' => once!(slot::T, "T"),
                 b'P' => once!(slot::P, "P"),
+                b'L' if self.dialect == Dialect::Cnc836 => once!(slot::L, "L"),
+                b'Q' if self.dialect == Dialect::Cnc836 => once!(slot::Q, "Q"),
                 other => {
                     let axes: String = (0..3)
                         .filter(|&i| self.present[i])
@@ -625,8 +702,10 @@ impl<S: ProgramSource> Interpreter<S> {
                     self.error(
                         Some(word),
                         format!(
-                            "unknown address '{}' in the {} dialect: expected one of N G M{axes} I J K F S T P",
-                            other as char, self.dialect
+                            "unknown address '{}' in the {} dialect: expected one of N G M{axes} I J K F S T P{}",
+                            other as char,
+                            self.dialect,
+                            if self.dialect == Dialect::Cnc836 { " L Q" } else { "" }
                         ),
                     );
                 }
@@ -639,6 +718,9 @@ impl<S: ProgramSource> Interpreter<S> {
         self.classify(&mut words);
         let w = &words;
         let src = self.last;
+        if self.dialect == Dialect::Cnc836 && !self.cnc836_block(w) {
+            return;
+        }
         // --- feed, speed, tool -------------------------------------------------
         if w.has(slot::FEED_MODE) {
             self.modal.per_rev = w.per_rev;
@@ -731,7 +813,217 @@ impl<S: ProgramSource> Interpreter<S> {
         }
         if w.end().is_some() {
             self.finish();
+            return;
         }
+        if let Some(g73) = w.get(slot::JUMP) {
+            self.exec_jump(w, &g73);
+        }
+    }
+
+    /// The cnc836 block rules that come before the block runs: G98 alone,
+    /// G10 pitch blocks, G09, the dragged axis. False: the block is done.
+    fn cnc836_block(&mut self, w: &Words) -> bool {
+        if let Some(g98) = w.get(slot::HELIX_OFF) {
+            let other = w.all.iter().find(|x| x.letter != b'N' && x.col != g98.col);
+            if let Some(o) = other {
+                self.error(
+                    Some(o),
+                    "G98 (helix off) must stand alone in its block (an N number and a comment are allowed)".into(),
+                );
+            }
+            self.helix = None;
+            return false;
+        }
+        if let Some(g10) = w.get(slot::PITCH) {
+            let axes: Vec<(usize, Word)> =
+                (0..3).filter_map(|i| w.axis(i).map(|a| (i, a))).collect();
+            let other = w
+                .all
+                .iter()
+                .find(|x| !matches!(x.letter, b'N' | b'X' | b'Y' | b'Z') && x.col != g10.col);
+            if let Some(o) = other {
+                self.error(
+                    Some(o),
+                    "a G10 block (helix pitch) holds only the pitch: one axis word, e.g. Z1.05 G10"
+                        .into(),
+                );
+            } else if axes.len() != 1 {
+                self.error(
+                    axes.get(1).map(|a| &a.1).or(Some(&g10)),
+                    format!(
+                        "G10 (helix pitch) takes exactly one axis word, the dragged axis with its pitch; found {}",
+                        axes.len()
+                    ),
+                );
+            } else {
+                let (i, a) = axes[0];
+                let (p, q, _) = self.modal.plane.axes();
+                if i == p || i == q {
+                    self.error(
+                        Some(&a),
+                        format!(
+                            "the dragged axis {} is an axis of the {} plane; the helix drags the third axis",
+                            AXIS_LETTERS[i] as char,
+                            self.modal.plane.gcode()
+                        ),
+                    );
+                } else if self.helix.is_some() && self.pitch.is_some_and(|(d, _)| d != i) {
+                    self.error(
+                        Some(&a),
+                        "the dragged axis cannot change while the helix is on (G98 first)".into(),
+                    );
+                } else {
+                    let v = if i == 0 && self.diameter {
+                        a.value * 0.5
+                    } else {
+                        a.value
+                    };
+                    self.pitch = Some((i, v));
+                    // a new pitch counts from here
+                    if self.helix.is_some() {
+                        self.helix = Some((self.pos[i], 0.0));
+                    }
+                }
+            }
+            return false;
+        }
+        if let Some(g09) = w.get(slot::HELIX_ON) {
+            match self.pitch {
+                None => self.error(
+                    Some(&g09),
+                    "G09 (helix on) needs a pitch programmed before it (a G10 block such as Z1.05 G10)".into(),
+                ),
+                Some((d, _)) => {
+                    if self.helix.is_none() {
+                        self.helix = Some((self.pos[d], 0.0));
+                    }
+                }
+            }
+        }
+        if let (Some((d, _)), Some(_)) = (self.pitch, self.helix) {
+            if let Some(a) = w.axis(d) {
+                self.error(
+                    Some(&a),
+                    format!(
+                        "axis {} is dragged by the helix (G09): it cannot be programmed until G98",
+                        AXIS_LETTERS[d] as char
+                    ),
+                );
+                return false;
+            }
+        }
+        if let Some(l) = w.get(slot::L).filter(|_| !w.has(slot::JUMP)) {
+            self.error(Some(&l), "address L is only used with G73 (jump)".into());
+        }
+        if let Some(q) = w.get(slot::Q).filter(|_| !w.has(slot::JUMP)) {
+            self.error(Some(&q), "address Q is only used with G73 (jump)".into());
+        }
+        true
+    }
+
+    /// G73 L<n> Q<q> after its block ran: jumps back to N<n> while the
+    /// block's counter lasts; the counter resets when the loop is done.
+    fn exec_jump(&mut self, w: &Words, g73: &Word) {
+        let (Some(l), q) = (w.get(slot::L), w.get(slot::Q)) else {
+            self.error(
+                Some(g73),
+                "G73 needs the target block L<n> (and the repeat count Q)".into(),
+            );
+            return;
+        };
+        let Some(n) = l.as_int().filter(|&n| l.integer && n >= 0) else {
+            self.error(
+                Some(&l),
+                format!("L must be a block number, found L{}", num(l.value)),
+            );
+            return;
+        };
+        let count = match q {
+            None => 0,
+            Some(q) => match q.as_int().filter(|&c| q.integer && (0..=9999).contains(&c)) {
+                Some(c) => c as u32,
+                None => {
+                    self.error(
+                        Some(&q),
+                        format!("Q must be a whole number 0..9999, found Q{}", num(q.value)),
+                    );
+                    return;
+                }
+            },
+        };
+        let line = self.last.line;
+        let target = match self.targets.get(&line) {
+            Some(t) => *t,
+            None => {
+                if !self.src.can_seek() {
+                    self.needs_seek = true;
+                    self.finished = true;
+                    return;
+                }
+                match self.find_block(n as u64, line) {
+                    Ok(Some(t)) => {
+                        self.targets.insert(line, t);
+                        t
+                    }
+                    Ok(None) => {
+                        self.error(
+                            Some(&l),
+                            format!("jump target N{n} is not a block at or before this one (G73 jumps back only)"),
+                        );
+                        return;
+                    }
+                    Err(e) => {
+                        self.read_failed(&e);
+                        return;
+                    }
+                }
+            }
+        };
+        let i = match self.loops.iter().position(|l| l.0 == line) {
+            Some(i) => i,
+            None => {
+                self.loops.push((line, count));
+                self.loops.len() - 1
+            }
+        };
+        if self.loops[i].1 == 0 {
+            // done: the counter resets, so an enclosing loop may run it again
+            self.loops.remove(i);
+            return;
+        }
+        if !self.src.can_seek() {
+            self.needs_seek = true;
+            self.finished = true;
+            return;
+        }
+        self.loops[i].1 -= 1;
+        self.jumps += 1;
+        if let Err(e) = self.src.seek(target) {
+            self.read_failed(&e);
+        }
+    }
+
+    /// The last line at or before `upto` whose block number is `n`; reads
+    /// the program from the start and returns to the line after `upto`.
+    fn find_block(&mut self, n: u64, upto: u32) -> Result<Option<SourcePos>, SourceError> {
+        let here = self.cur_pos;
+        self.src.seek(SourcePos { offset: 0, line: 1 })?;
+        let mut found = None;
+        let mut buf = Vec::new();
+        let mut block = Block::default();
+        while let Some(pos) = self.src.read_line(&mut buf)? {
+            if pos.line > upto {
+                break;
+            }
+            if parse_line(self.dialect, pos.line, &buf, &mut block).is_ok()
+                && block_no(&block.words) == Some(n)
+            {
+                found = Some(pos);
+            }
+        }
+        self.src.seek(here)?;
+        self.src.read_line(&mut buf)?;
+        Ok(found)
     }
 
     fn exec_dwell(&mut self, w: &Words, g4: &Word, src: Src) {
@@ -820,7 +1112,48 @@ impl<S: ProgramSource> Interpreter<S> {
         // large `Geom` values around cost more than computing them)
         let start = self.pos;
         if arc {
-            let arc = self.arc_geom(w, target, motion == Motion::CcwArc, anchor.as_ref());
+            let mut arc = self.arc_geom(w, target, motion == Motion::CcwArc, anchor.as_ref());
+            let mut feed = feed;
+            if let (Some(a), Some((d, pitch)), Some((base, turns))) =
+                (arc.as_mut(), self.pitch, self.helix)
+            {
+                // G09: the dragged axis moves pitch x turns; the turns are
+                // summed, and the position computed from them, so no error
+                // accumulates over thousands of turns
+                let (p, q, _) = a.plane.axes();
+                if d == p || d == q {
+                    self.error(
+                        anchor.as_ref(),
+                        format!(
+                            "the dragged axis {} is an axis of this arc's {} plane",
+                            AXIS_LETTERS[d] as char,
+                            a.plane.gcode()
+                        ),
+                    );
+                } else {
+                    let turns = turns + a.sweep.abs() / std::f64::consts::TAU;
+                    self.helix = Some((base, turns));
+                    target[d] = base + pitch * turns;
+                    *a = Arc::new(
+                        a.start,
+                        target,
+                        a.center,
+                        a.plane,
+                        motion == Motion::CcwArc,
+                        0,
+                    );
+                    // F is the speed of the circular motion in the plane
+                    let c = a.plane_fraction();
+                    feed = feed.map(|f| match f {
+                        Feed::PerMin(v) => Feed::PerMin(v / c),
+                        Feed::PerRev { mm_per_rev, rpm } => Feed::PerRev {
+                            mm_per_rev: mm_per_rev / c,
+                            rpm,
+                        },
+                        Feed::Rapid => Feed::Rapid,
+                    });
+                }
+            }
             self.pos = target;
             if let Some(arc) = arc {
                 self.add_move(&Geom::Arc(arc), feed, w, anchor.as_ref(), src);

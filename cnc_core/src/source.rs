@@ -21,6 +21,10 @@ pub trait ProgramSource {
     fn read_line(&mut self, buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError>;
     /// Continues reading at `pos` (a value returned by `read_line`).
     fn seek(&mut self, pos: SourcePos) -> Result<(), SourceError>;
+    /// Whether `seek` works (jumps need it).
+    fn can_seek(&self) -> bool {
+        true
+    }
 }
 
 /// A program held in memory: borrowed ([`StrSource`]) or owned

@@ -16,10 +16,10 @@ fn mill_errors(text: &str) -> Vec<String> {
 
 #[test]
 fn unknown_word() {
-    let e = mill_errors("N10 G00 X10\nN20 G01 X20 Q5 F100\n");
+    let e = mill_errors("N10 G00 X10\nN20 G01 X20 W5 F100\n");
     assert_eq!(
         e,
-        vec!["line 2, column 13: block N20: unknown address 'Q' in the cnc836 dialect: expected one of N G M X Y Z I J K F S T P"]
+        vec!["line 2, column 13: block N20: unknown address 'W' in the cnc836 dialect: expected one of N G M X Y Z I J K F S T P L Q"]
     );
     let e = errors(
         "N10 G00 Y10 *\n",

@@ -60,7 +60,7 @@ fn check_good_program_prints_one_line_summary() {
 fn check_bad_program_lists_every_error_with_snippets() {
     let p = tmp(
         "bad.nc",
-        "N10 G00 X10 Y10\nN20 G01 X20\nN30 G02 X30 Y12 I5 J0 F100\nN40 G01 X20 Q1\nN50 G00 X900\n",
+        "N10 G00 X10 Y10\nN20 G01 X20\nN30 G02 X30 Y12 I5 J0 F100\nN40 G01 X20 W1\nN50 G00 X900\n",
     );
     let (code, out, err) = cnc(&["check", p.to_str().unwrap()]);
     assert_eq!(code, 1, "{out}{err}");
@@ -68,14 +68,14 @@ fn check_bad_program_lists_every_error_with_snippets() {
     for want in [
         "line 2, column 5: block N20: missing feed",
         "line 3, column 5: block N30: arc radius mismatch: start radius 5 mm, end radius 5.3852 mm (difference 0.3852 mm, at most 0.002 mm)",
-        "line 4, column 13: block N40: unknown address 'Q'",
+        "line 4, column 13: block N40: unknown address 'W'",
         "line 5, column 9: block N50: travel limit: the move ends at X 900, outside the axis range 0..500",
         "4 errors; the program is refused and nothing moves",
     ] {
         assert!(err.contains(want), "missing {want:?} in\n{err}");
     }
     // snippets show the offending line and point at the column
-    assert!(err.contains("4 | N40 G01 X20 Q1"), "{err}");
+    assert!(err.contains("4 | N40 G01 X20 W1"), "{err}");
     assert!(err.contains("bad.nc:4:13"), "{err}");
 }
 

@@ -28,6 +28,11 @@ fn examples() -> Vec<(&'static str, Machine, Dialect)> {
             Machine::builtin_mill(),
             Dialect::Heidenhain,
         ),
+        (
+            "cnc836_helix_short.nc",
+            Machine::builtin_mill(),
+            Dialect::Cnc836,
+        ),
     ]
 }
 

@@ -294,7 +294,7 @@ fn a_bad_program_records_nothing() {
     let m = Machine::builtin_mill();
     let path = out("bad.mcap");
     let _ = std::fs::remove_file(&path);
-    let e = record_simulation(&m, "bad.nc", "G01 X10 Q5 F100\n", m.dialect, &path).unwrap_err();
+    let e = record_simulation(&m, "bad.nc", "G01 X10 W5 F100\n", m.dialect, &path).unwrap_err();
     assert!(e.contains("bad.nc"), "{e}");
     assert!(!path.exists());
     let e = record_simulation(

@@ -170,11 +170,11 @@ def test_known_program_end_positions_and_rate(peer):
 
 
 def test_bad_program_is_refused_with_its_line(peer):
-    r = peer.run_program("N10 G00 X10\nN20 G01 X20\nN30 G01 X30 Q5 F100\n")
+    r = peer.run_program("N10 G00 X10\nN20 G01 X20\nN30 G01 X30 W5 F100\n")
     assert not r.accepted
     lines = r.message.split("\n")
     assert lines[0].startswith("line 2, column 5: block N20: missing feed"), r.message
-    assert lines[1].startswith("line 3, column 13: block N30: unknown address 'Q'"), r.message
+    assert lines[1].startswith("line 3, column 13: block N30: unknown address 'W'"), r.message
     assert r.job_id == 0
     r = peer.run_program("")
     assert not r.accepted and r.message == "exactly one of program and program_path must be set"
@@ -376,3 +376,15 @@ def test_bag_replay_republishes_a_recording_and_bag_record_records_live_topics(n
     assert counts["/sim/joint_states"] > 19000 and counts["/cnc/status"] > 150, counts
     for got, want in zip(last, [0.020, 0.010, 0.005]):
         assert abs(got - want) < 1e-12, last
+
+
+def test_cnc836_helix_and_loops_through_the_service(peer):
+    """The seed's helix program (G10/G09/G73/G98) is checked through the
+    service as offline: the same estimate; a broken rule is refused with its line."""
+    r = peer.run_program("", path="cnc836_helix.nc", dry_run=True)
+    assert r.accepted, r.message
+    assert abs(r.estimated_duration - 274.057) < 1e-6, r.estimated_duration
+    r = peer.run_program("N10 G00 X1\nN20 G73 L30 Q1\nN30 X2\n", dry_run=True)
+    assert not r.accepted
+    assert r.message == ("line 2, column 9: block N20: jump target N30 is not a block at or before this one "
+                         "(G73 jumps back only)"), r.message

@@ -1,0 +1,248 @@
+//! The cnc836 dialect (dialects.md 2.1, 2.2): helix G09/G10/G98 and jumps
+//! with repetition G73, with their block rules.
+
+use cnc_core::exec::{Executor, Sample};
+use cnc_core::interp::{Event, Interpreter};
+use cnc_core::source::StrSource;
+use cnc_core::{check, Dialect, Machine, V3};
+
+const SEED: &str = include_str!("../../examples/cnc836_helix.nc");
+
+fn mill() -> Machine {
+    Machine::builtin_mill()
+}
+
+fn errors(text: &str) -> Vec<String> {
+    let r = check(StrSource::new(text), Dialect::Cnc836, &mill());
+    r.errors.iter().map(|e| e.to_string()).collect()
+}
+
+/// End points of every move the interpreter makes.
+fn ends(text: &str, m: &Machine) -> Vec<V3> {
+    Interpreter::new(StrSource::new(text), Dialect::Cnc836, m)
+        .filter_map(|e| match e {
+            Event::Move { geom, .. } => Some(geom.end()),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn the_seed_helix_runs_21_and_a_half_turns_to_z_22_575() {
+    let m = mill();
+    let r = check(StrSource::new(SEED), Dialect::Cnc836, &m);
+    assert!(r.ok(), "{}", r.message());
+    let s: Vec<Sample> = Executor::new(StrSource::new(SEED), Dialect::Cnc836, &m).collect();
+    assert_eq!(s.last().unwrap().k, r.ticks);
+    // end of N60: (200, 0) and Z = 1.05 * 21.5
+    let e = ends(SEED, &m);
+    assert_eq!(e.len(), 23, "21 circles, a half circle, the last line");
+    for (i, p) in e.iter().take(21).enumerate() {
+        assert_eq!((p.x, p.y), (0.0, 0.0));
+        assert!(
+            (p.z - 1.05 * (i + 1) as f64).abs() < 1e-12,
+            "turn {}: {}",
+            i + 1,
+            p.z
+        );
+    }
+    assert_eq!((e[21].x, e[21].y), (200.0, 0.0));
+    assert!((e[21].z - 22.575).abs() < 1e-9, "{}", e[21].z);
+    assert_eq!(e[22], V3::new(10.0, 10.0, 30.0));
+    // every sample of N50 and N60 on the helix: on the circle, and Z the
+    // pitch times the turns made (clockwise from the start at angle pi)
+    let mut unwrapped = std::f64::consts::PI;
+    let mut prev = std::f64::consts::PI;
+    let mut n = 0;
+    for x in s.iter().filter(|x| x.src.line == 7 || x.src.line == 8) {
+        let r = ((x.pos.x - 100.0).powi(2) + x.pos.y.powi(2)).sqrt();
+        assert!((r - 100.0).abs() < 1e-6, "off the circle by {}", r - 100.0);
+        let a = x.pos.y.atan2(x.pos.x - 100.0);
+        let mut d = a - prev;
+        while d > std::f64::consts::PI {
+            d -= std::f64::consts::TAU;
+        }
+        while d < -std::f64::consts::PI {
+            d += std::f64::consts::TAU;
+        }
+        unwrapped += d;
+        prev = a;
+        let turns = (std::f64::consts::PI - unwrapped) / std::f64::consts::TAU;
+        assert!(
+            (x.pos.z - 1.05 * turns).abs() < 1e-6,
+            "z {} at {turns} turns",
+            x.pos.z
+        );
+        n += 1;
+    }
+    assert!(n > 200_000, "{n} samples");
+    // F is the speed in the plane: 3000 mm/min = 50 mm/s on the circle
+    let mid = s.iter().find(|x| x.src.line == 7 && x.t > 100.0).unwrap();
+    let next = &s[mid.k as usize + 1];
+    let plane =
+        ((next.pos.x - mid.pos.x).powi(2) + (next.pos.y - mid.pos.y).powi(2)).sqrt() / m.dt();
+    assert!((plane - 50.0).abs() < 1e-3, "{plane} mm/s in the plane");
+}
+
+#[test]
+fn no_drift_after_9999_turns() {
+    let mut m = mill();
+    m.axes[2].max_mm = 20_000.0;
+    let prog = "N1 G00 X100 Y100 Z0\nN2 F3000\nN3 Z1.05 G10\nN10 G09 G03 X100 Y100 I5 G73 L10 Q9998\nN20 G98\n";
+    let e = ends(prog, &m);
+    assert_eq!(e.len(), 1 + 9999);
+    let want = 1.05 * 9999.0;
+    assert!((e[9999].z - want).abs() < 1e-9, "{} vs {want}", e[9999].z);
+    // and every turn ends on pitch x its count
+    for (n, p) in e.iter().enumerate().skip(1) {
+        assert!((p.z - 1.05 * n as f64).abs() < 1e-9, "turn {n}: {}", p.z);
+    }
+}
+
+#[test]
+fn helix_in_other_planes_and_negative_pitch() {
+    let m = mill();
+    // G18: Y is dragged; pitch -2 per turn: two CCW half circles = one turn
+    let prog = "N1 G00 X100 Y50 Z0\nN2 F2000 G18\nN3 Y-2 G10\nN4 G09 G03 X100 Z20 K10\nN5 X100 Z0 K-10\nN6 G98\n";
+    let e = ends(prog, &m);
+    assert!(
+        (e[1].y - 49.0).abs() < 1e-12 && (e[2].y - 48.0).abs() < 1e-12,
+        "{e:?}"
+    );
+    // linear blocks in the plane do not move the dragged axis
+    let prog =
+        "N1 G00 X100 Y100 Z0\nN2 F2000\nN3 Z2 G10\nN4 G09 G01 X120\nN5 G02 X120 Y100 I10\nN6 G98\n";
+    let e = ends(prog, &m);
+    assert_eq!(e[1].z, 0.0);
+    assert_eq!(e[2].z, 2.0);
+}
+
+#[test]
+fn helix_rule_errors() {
+    assert_eq!(
+        errors("N1 G00 X100 Y100\nN2 G09 G02 X100 Y100 I5 F100\n"),
+        ["line 2, column 4: block N2: G09 (helix on) needs a pitch programmed before it (a G10 block such as Z1.05 G10)"]
+    );
+    assert_eq!(
+        errors("N1 X1 Z2 G10\n"),
+        ["line 1, column 7: block N1: G10 (helix pitch) takes exactly one axis word, the dragged axis with its pitch; found 2"]
+    );
+    assert_eq!(
+        errors("N1 G10\n"),
+        ["line 1, column 4: block N1: G10 (helix pitch) takes exactly one axis word, the dragged axis with its pitch; found 0"]
+    );
+    assert_eq!(
+        errors("N1 G17\nN2 X1 G10\n"),
+        ["line 2, column 4: block N2: the dragged axis X is an axis of the G17 plane; the helix drags the third axis"]
+    );
+    assert_eq!(
+        errors("N1 Z1 G10 F100\n"),
+        ["line 1, column 11: block N1: a G10 block (helix pitch) holds only the pitch: one axis word, e.g. Z1.05 G10"]
+    );
+    assert_eq!(
+        errors("N1 Z1 G10\nN2 G09\nN3 G98 X5 \" comment\n"),
+        ["line 3, column 8: block N3: G98 (helix off) must stand alone in its block (an N number and a comment are allowed)"]
+    );
+    assert!(errors("N1 Z1 G10\nN2 G09\nN3 G98 \" fine\n").is_empty());
+    assert_eq!(
+        errors("N1 G00 X100 Y100\nN2 Z1 G10\nN3 G09 G02 X100 Y100 Z5 I5 F100\n"),
+        ["line 3, column 22: block N3: axis Z is dragged by the helix (G09): it cannot be programmed until G98"]
+    );
+    // after G98 Z is free again
+    assert!(errors(
+        "N1 G00 X100 Y100\nN2 Z1 G10\nN3 G09 G02 X100 Y100 I5 F100\nN4 G98\nN5 G01 Z5\n"
+    )
+    .is_empty());
+}
+
+#[test]
+fn loops_run_q_plus_one_times_nest_and_reset() {
+    let m = mill();
+    // inner loop (N20, twice) inside the outer (N10..N30, three times)
+    let prog =
+        "N1 G00 X0 Y0\nN2 F1000 G91\nN10 G01 X1\nN20 X1 G73 L20 Q1\nN30 Y1 G73 L10 Q2\nM30\n";
+    let e = ends(prog, &m);
+    assert_eq!(e.len(), 12, "3 x (N10 + 2 x N20 + N30)");
+    assert_eq!(*e.last().unwrap(), V3::new(9.0, 3.0, 0.0));
+    // Q0 runs once; an empty block and a comment-only line are fine targets
+    let prog = "N1 G00 X0 Y0\nN2 F1000 G91\nN5\n\" a comment\nN10 X1 G73 L5 Q0\n";
+    assert_eq!(ends(prog, &m).last().copied(), Some(V3::new(1.0, 0.0, 0.0)));
+    let prog = "N1 G00 X0 Y0\nN2 F1000 G91\nN5\nN10 X1 G73 L5 Q9\n";
+    assert_eq!(
+        ends(prog, &m).last().copied(),
+        Some(V3::new(10.0, 0.0, 0.0))
+    );
+    // the check runs the loops: the estimate equals the executed time
+    let r = check(StrSource::new(prog), Dialect::Cnc836, &m);
+    assert!(r.ok(), "{}", r.message());
+    assert_eq!(r.moves, 10);
+    assert_eq!(r.blocks, 4, "blocks are counted once, not per run");
+    let s: Vec<Sample> = Executor::new(StrSource::new(prog), Dialect::Cnc836, &m).collect();
+    assert_eq!(s.last().unwrap().k, r.ticks);
+    assert_eq!(s.last().unwrap().pos, V3::new(10.0, 0.0, 0.0));
+}
+
+#[test]
+fn a_jump_in_a_long_program_is_checked_like_on_one_thread() {
+    // more than 512 moves first: the check runs as a pipeline, meets the
+    // jump, and runs again on one thread
+    let m = mill();
+    let mut prog = String::from("N1 G00 X100 Y100\nN2 F6000 G91\n");
+    for k in 0..700 {
+        prog += &format!("N{} X{}\n", 10 + k, if k % 2 == 0 { 1 } else { -1 });
+    }
+    prog += "N5000 Y0.5\nN5001 Y-0.5 G73 L5000 Q49\n";
+    let r = check(StrSource::new(&prog), Dialect::Cnc836, &m);
+    assert!(r.ok(), "{}", r.message());
+    assert_eq!(r.moves, 1 + 700 + 100);
+    let s: Vec<Sample> = Executor::new(StrSource::new(&prog), Dialect::Cnc836, &m).collect();
+    assert_eq!(s.last().unwrap().k, r.ticks);
+    // a reader-backed source (a file) as well
+    let r2 = check(
+        cnc_core::source::ReaderSource::new(std::io::Cursor::new(prog.as_bytes()), 4096),
+        Dialect::Cnc836,
+        &m,
+    );
+    assert_eq!(r2, r);
+}
+
+#[test]
+fn loop_rule_errors() {
+    assert_eq!(
+        errors("N10 G00 X1\nN20 G73 L30 Q1\nN30 X2\n"),
+        ["line 2, column 9: block N20: jump target N30 is not a block at or before this one (G73 jumps back only)"]
+    );
+    assert_eq!(
+        errors("N10 G00 X1\nN20 G73 L99 Q1\n"),
+        ["line 2, column 9: block N20: jump target N99 is not a block at or before this one (G73 jumps back only)"]
+    );
+    assert_eq!(
+        errors("N10 G00 X1 G73 L10 Q10000\n"),
+        ["line 1, column 20: block N10: Q must be a whole number 0..9999, found Q10000"]
+    );
+    assert_eq!(
+        errors("N10 G00 X1 G73 L10 Q2.5\n"),
+        ["line 1, column 20: block N10: Q must be a whole number 0..9999, found Q2.5"]
+    );
+    assert_eq!(
+        errors("N10 G00 X1 G73 Q2\n"),
+        ["line 1, column 12: block N10: G73 needs the target block L<n> (and the repeat count Q)"]
+    );
+    assert_eq!(
+        errors("N10 G00 X1 L10\n"),
+        ["line 1, column 12: block N10: address L is only used with G73 (jump)"]
+    );
+    // an error inside a loop is reported once, not per run
+    let e = errors("N1 G00 X1 F100\nN10 G01 X2 R5 G73 L10 Q3\n");
+    assert_eq!(e.len(), 1, "{e:?}");
+    // the words belong to cnc836 only
+    let r = check(
+        StrSource::new("N10 G00 X1 G73 L10 Q2\n"),
+        Dialect::Heidenhain,
+        &mill(),
+    );
+    assert_eq!(
+        r.errors[0].to_string(),
+        "line 1, column 12: block N10: unsupported G code G73 in the heidenhain dialect"
+    );
+}
