@@ -288,7 +288,7 @@ fn cmd_check(file: &Path, dialect: Option<Dialect>, machine: &str) -> Result<Exi
         r.blocks,
         r.moves,
         fmt_duration(r.duration_s),
-        r.duration_s,
+        cnc_core::diag::num(r.duration_s),
         fmt_bbox(&m, r.bbox)
     );
     Ok(ExitCode::SUCCESS)
@@ -395,7 +395,7 @@ fn cmd_simulate(
         "{}: cycle time {} ({} s, {} samples at {} Hz), largest following error {} mm",
         file.display(),
         fmt_duration(summary.cycle_time),
-        summary.cycle_time,
+        cnc_core::diag::num(summary.cycle_time),
         summary.samples,
         m.interpolation.rate_hz,
         errs.join(", ")
