@@ -127,6 +127,14 @@ impl Arc {
         }
     }
 
+    /// Sets the signed sweep (rad) the caller knows (polar arcs), instead
+    /// of the one inferred from the start and end angles; the length follows.
+    pub fn set_sweep(&mut self, sweep: f64) {
+        self.sweep = sweep;
+        let plane_len = self.radius * sweep.abs();
+        self.length = (plane_len * plane_len + self.axial * self.axial).sqrt();
+    }
+
     /// Fraction of the in-plane speed in the path speed (1 for a flat arc).
     #[inline]
     pub fn plane_fraction(&self) -> f64 {

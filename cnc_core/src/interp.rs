@@ -78,6 +78,14 @@ pub enum Motion {
     Linear,
     CwArc,
     CcwArc,
+    /// heidenhain G10: polar line at rapid
+    PolarRapid,
+    /// heidenhain G11: polar line at feed
+    PolarLine,
+    /// heidenhain G12: polar arc clockwise about the pole
+    PolarCw,
+    /// heidenhain G13: polar arc counter-clockwise about the pole
+    PolarCcw,
 }
 
 impl Motion {
@@ -87,7 +95,18 @@ impl Motion {
             Motion::Linear => "G01",
             Motion::CwArc => "G02",
             Motion::CcwArc => "G03",
+            Motion::PolarRapid => "G10",
+            Motion::PolarLine => "G11",
+            Motion::PolarCw => "G12",
+            Motion::PolarCcw => "G13",
         }
+    }
+
+    fn polar(self) -> bool {
+        matches!(
+            self,
+            Motion::PolarRapid | Motion::PolarLine | Motion::PolarCw | Motion::PolarCcw
+        )
     }
 }
 
@@ -136,6 +155,30 @@ impl Modal {
 const AXIS_LETTERS: [u8; 3] = [b'X', b'Y', b'Z'];
 /// G00..G03
 const MOTIONS: [Motion; 4] = [Motion::Rapid, Motion::Linear, Motion::CwArc, Motion::CcwArc];
+/// cos and sin of an angle in degrees, exact at multiples of 90 degrees
+/// (so H+180 lands exactly on its point).
+fn cos_sin_deg(deg: f64) -> (f64, f64) {
+    let d = deg.rem_euclid(360.0);
+    if d == 0.0 {
+        (1.0, 0.0)
+    } else if d == 90.0 {
+        (0.0, 1.0)
+    } else if d == 180.0 {
+        (-1.0, 0.0)
+    } else if d == 270.0 {
+        (0.0, -1.0)
+    } else {
+        let r = deg.to_radians();
+        (r.cos(), r.sin())
+    }
+}
+
+const POLAR: [Motion; 4] = [
+    Motion::PolarRapid,
+    Motion::PolarLine,
+    Motion::PolarCw,
+    Motion::PolarCcw,
+];
 const CENTER_LETTERS: [u8; 3] = [b'I', b'J', b'K'];
 
 /// Slots of [`Words`], one per meaning.
@@ -160,7 +203,13 @@ mod slot {
     pub const HELIX_OFF: usize = 20; // G98
     pub const L: usize = 21;
     pub const Q: usize = 22;
-    pub const COUNT: usize = 23;
+    // heidenhain
+    pub const POLE_HERE: usize = 23; // G29
+    pub const R: usize = 24;
+    pub const H: usize = 25;
+    /// G15: a polar arc in the last direction (sets MOTION too)
+    pub const LAST_DIR: usize = 26;
+    pub const COUNT: usize = 27;
 }
 
 /// The words of one block, sorted by meaning, each with its column. Each
@@ -290,6 +339,13 @@ pub struct Interpreter<S> {
     reported: std::collections::HashSet<(u32, u32)>,
     /// a jump was needed but the source cannot seek (the check's pipeline)
     needs_seek: bool,
+    /// heidenhain: the pole (its plane coordinates count)
+    pole: Option<V3>,
+    /// heidenhain: the last polar radius and angle (deg)
+    polar_r: Option<f64>,
+    polar_h: Option<f64>,
+    /// heidenhain: the direction of the last G12/G13 (true: counter-clockwise)
+    last_ccw: Option<bool>,
 }
 
 impl<S: ProgramSource> Interpreter<S> {
@@ -336,6 +392,10 @@ impl<S: ProgramSource> Interpreter<S> {
             jumps: 0,
             reported: std::collections::HashSet::new(),
             needs_seek: false,
+            pole: None,
+            polar_r: None,
+            polar_h: None,
+            last_ccw: None,
         }
     }
 
@@ -538,6 +598,10 @@ impl<S: ProgramSource> Interpreter<S> {
             jumps,
             reported,
             needs_seek,
+            pole,
+            polar_r,
+            polar_h,
+            last_ccw,
         } = self;
         let new = Interpreter {
             src,
@@ -568,6 +632,10 @@ impl<S: ProgramSource> Interpreter<S> {
             jumps,
             reported,
             needs_seek,
+            pole,
+            polar_r,
+            polar_h,
+            last_ccw,
         };
         (old, new)
     }
@@ -640,6 +708,16 @@ impl<S: ProgramSource> Interpreter<S> {
                         10 if self.dialect == Dialect::Cnc836 => once!(slot::PITCH, "G10"),
                         73 if self.dialect == Dialect::Cnc836 => once!(slot::JUMP, "G73"),
                         98 if self.dialect == Dialect::Cnc836 => once!(slot::HELIX_OFF, "G98"),
+                        10..=13 if self.dialect == Dialect::Heidenhain => once!(
+                            slot::MOTION,
+                            w.motion = POLAR[code as usize - 10],
+                            "a motion G code (G00-G03, G10-G13, G15)"
+                        ),
+                        15 if self.dialect == Dialect::Heidenhain => {
+                            once!(slot::MOTION, "a motion G code (G00-G03, G10-G13, G15)");
+                            w.at[slot::LAST_DIR] = k as u8 + 1;
+                        }
+                        29 if self.dialect == Dialect::Heidenhain => once!(slot::POLE_HERE, "G29"),
                         _ => self.error(
                             Some(word),
                             format!(
@@ -693,6 +771,8 @@ impl<S: ProgramSource> Interpreter<S> {
                 b'T' => once!(slot::T, "T"),
                 b'P' => once!(slot::P, "P"),
                 b'L' if self.dialect == Dialect::Cnc836 => once!(slot::L, "L"),
+                b'R' if self.dialect == Dialect::Heidenhain => once!(slot::R, "R"),
+                b'H' if self.dialect == Dialect::Heidenhain => once!(slot::H, "H"),
                 b'Q' if self.dialect == Dialect::Cnc836 => once!(slot::Q, "Q"),
                 other => {
                     let axes: String = (0..3)
@@ -705,7 +785,7 @@ impl<S: ProgramSource> Interpreter<S> {
                             "unknown address '{}' in the {} dialect: expected one of N G M{axes} I J K F S T P{}",
                             other as char,
                             self.dialect,
-                            if self.dialect == Dialect::Cnc836 { " L Q" } else { "" }
+                            if self.dialect == Dialect::Cnc836 { " L Q" } else { " R H" }
                         ),
                     );
                 }
@@ -719,6 +799,9 @@ impl<S: ProgramSource> Interpreter<S> {
         let w = &words;
         let src = self.last;
         if self.dialect == Dialect::Cnc836 && !self.cnc836_block(w) {
+            return;
+        }
+        if self.dialect == Dialect::Heidenhain && !self.heidenhain_block(w) {
             return;
         }
         // --- feed, speed, tool -------------------------------------------------
@@ -806,7 +889,25 @@ impl<S: ProgramSource> Interpreter<S> {
             if let Some(p) = w.p() {
                 self.error(Some(&p), "address P is only used with G04 (dwell)".into());
             }
-            if w.has(slot::MOTION) {
+            if w.has(slot::LAST_DIR) {
+                match self.last_ccw {
+                    Some(ccw) => {
+                        self.modal.motion = if ccw {
+                            Motion::PolarCcw
+                        } else {
+                            Motion::PolarCw
+                        }
+                    }
+                    None => {
+                        let g15 = w.get(slot::LAST_DIR);
+                        self.error(
+                            g15.as_ref(),
+                            "G15 (polar arc, last direction) needs a G12 or G13 before it".into(),
+                        );
+                        return;
+                    }
+                }
+            } else if w.has(slot::MOTION) {
                 self.modal.motion = w.motion;
             }
             self.exec_motion(w, src);
@@ -1026,6 +1127,242 @@ impl<S: ProgramSource> Interpreter<S> {
         Ok(found)
     }
 
+    /// heidenhain blocks that set the pole: I/J (plane-dependent) with no
+    /// motion, or G29 (the pole where the tool stands). False: the block is
+    /// done.
+    fn heidenhain_block(&mut self, w: &Words) -> bool {
+        let (p, q, n) = self.modal.plane.axes();
+        if w.has(slot::POLE_HERE) {
+            self.pole = Some(self.pos);
+            return true;
+        }
+        let has_center = w.centers().any(|c| c.is_some());
+        let explicit_arc =
+            w.has(slot::MOTION) && matches!(w.motion, Motion::CwArc | Motion::CcwArc);
+        let has_axis = w.axes().any(|a| a.is_some());
+        if !has_center || explicit_arc || has_axis {
+            return true;
+        }
+        // a pole block (CC): absolute coordinates of the pole in the plane
+        if let Some(c) = w.center(n) {
+            self.error(
+                Some(&c),
+                format!(
+                    "{} is no pole coordinate in {}: the pole is {} and {}",
+                    c.letter as char,
+                    self.modal.plane.gcode(),
+                    CENTER_LETTERS[p] as char,
+                    CENTER_LETTERS[q] as char
+                ),
+            );
+        }
+        if let Some(m) = w.get(slot::MOTION).filter(|_| w.motion.polar()) {
+            self.error(
+                Some(&m),
+                "a pole block (I, J) does not move: program the polar move in the next block"
+                    .into(),
+            );
+        }
+        let mut pole = self.pole.unwrap_or(self.pos);
+        for i in [p, q] {
+            match w.center(i) {
+                Some(c) => {
+                    pole[i] = if i == 0 && self.diameter {
+                        c.value * 0.5
+                    } else {
+                        c.value
+                    }
+                }
+                None if self.pole.is_none() => pole[i] = self.pos[i],
+                None => {}
+            }
+        }
+        self.pole = Some(pole);
+        false
+    }
+
+    /// G10/G11 polar lines and G12/G13/G15 polar arcs about the pole.
+    fn exec_polar(&mut self, w: &Words, src: Src) {
+        let motion = self.modal.motion;
+        let (p, q, n) = self.modal.plane.axes();
+        let anchor = w.get(slot::MOTION).or(w.get(slot::H)).or(w.get(slot::R));
+        if let Some(c) = w.centers().flatten().next() {
+            self.error(
+                Some(&c),
+                "a polar block takes no I, J, K: set the pole in a block of its own".into(),
+            );
+            return;
+        }
+        for i in [p, q] {
+            if let Some(a) = w.axis(i) {
+                self.error(
+                    Some(&a),
+                    format!(
+                        "{} is an axis of the {} plane: a polar block gives its end point by R and H",
+                        a.letter as char,
+                        self.modal.plane.gcode()
+                    ),
+                );
+                return;
+            }
+        }
+        let (h, r) = (w.get(slot::H), w.get(slot::R));
+        if h.is_none() && r.is_none() && w.axis(n).is_none() {
+            return; // only the modal G code
+        }
+        let Some(pole) = self.pole else {
+            self.error(
+                anchor.as_ref(),
+                "a polar block needs a pole: a block with I and J (or G29) before it".into(),
+            );
+            return;
+        };
+        let abs = self.modal.absolute;
+        // the normal axis, linearly (a helix in an arc block)
+        let mut target = self.pos;
+        if let Some(a) = w.axis(n) {
+            let v = if n == 0 && self.diameter {
+                a.value * 0.5
+            } else {
+                a.value
+            };
+            target[n] = if abs { v } else { self.pos[n] + v };
+        }
+        let (sp, sq) = (self.pos[p] - pole[p], self.pos[q] - pole[q]);
+        let feed = match motion {
+            Motion::PolarRapid => Some(Feed::Rapid),
+            _ => self.feed_for(anchor.as_ref(), w),
+        };
+        if matches!(motion, Motion::PolarRapid | Motion::PolarLine) {
+            if let Some(h) = h.filter(|h| h.value.abs() > 360.0) {
+                self.error(
+                    Some(&h),
+                    format!(
+                        "polar angle H{} is outside -360..+360 degrees for a line",
+                        num(h.value)
+                    ),
+                );
+                return;
+            }
+            let last_r = self.polar_r.unwrap_or_else(|| sp.hypot(sq));
+            let last_h = self.polar_h.unwrap_or_else(|| sq.atan2(sp).to_degrees());
+            let rr = match r {
+                Some(r) if abs => r.value,
+                Some(r) => last_r + r.value,
+                None => last_r,
+            };
+            let hh = match h {
+                Some(h) if abs => h.value,
+                Some(h) => last_h + h.value,
+                None => last_h,
+            };
+            if rr <= 0.0 {
+                self.error(
+                    r.as_ref().or(anchor.as_ref()),
+                    format!("polar radius R must be greater than 0, it is {}", num(rr)),
+                );
+                return;
+            }
+            self.polar_r = Some(rr);
+            self.polar_h = Some(hh);
+            let (c, sn) = cos_sin_deg(hh);
+            target[p] = pole[p] + rr * c;
+            target[q] = pole[q] + rr * sn;
+            let start = self.pos;
+            self.pos = target;
+            let line = Geom::Line { start, end: target };
+            self.add_move(&line, feed, w, anchor.as_ref(), src);
+            return;
+        }
+        // polar arcs
+        let ccw = motion == Motion::PolarCcw;
+        self.last_ccw = Some(ccw);
+        if let Some(r) = r {
+            self.error(Some(&r), "a polar arc takes no R: its radius is the distance from the start point to the pole".into());
+            return;
+        }
+        let radius = sp.hypot(sq);
+        if radius < 1e-6 {
+            self.error(
+                anchor.as_ref(),
+                "a polar arc cannot start on its pole".into(),
+            );
+            return;
+        }
+        let Some(h) = h else {
+            self.error(
+                anchor.as_ref(),
+                format!("{} needs the end angle H", motion.gcode()),
+            );
+            return;
+        };
+        if h.value.abs() > 5400.0 {
+            self.error(
+                Some(&h),
+                format!(
+                    "polar angle H{} is outside -5400..+5400 degrees for an arc",
+                    num(h.value)
+                ),
+            );
+            return;
+        }
+        let start_deg = sq.atan2(sp).to_degrees();
+        // the signed sweep, degrees
+        let sweep = if abs {
+            let mut d = h.value - start_deg;
+            if ccw {
+                d = d.rem_euclid(360.0);
+                if d < 1e-9 {
+                    d = 360.0;
+                }
+            } else {
+                d = -(-d).rem_euclid(360.0);
+                if d > -1e-9 {
+                    d = -360.0;
+                }
+            }
+            d
+        } else {
+            if h.value == 0.0 || (h.value > 0.0) != ccw {
+                self.error(
+                    Some(&h),
+                    format!(
+                        "incremental H{} turns {} but {} turns {}: the sign must match the direction (+ for G13, - for G12)",
+                        num(h.value),
+                        if h.value > 0.0 { "counter-clockwise" } else { "clockwise" },
+                        motion.gcode(),
+                        if ccw { "counter-clockwise" } else { "clockwise" }
+                    ),
+                );
+                return;
+            }
+            h.value
+        };
+        // whole turns end exactly where they started
+        let turns_f = sweep.abs() / 360.0;
+        let whole = turns_f.fract() == 0.0;
+        let end_deg = start_deg + sweep;
+        if whole {
+            target[p] = self.pos[p];
+            target[q] = self.pos[q];
+        } else {
+            let (c, sn) = cos_sin_deg(end_deg);
+            target[p] = pole[p] + radius * c;
+            target[q] = pole[q] + radius * sn;
+        }
+        let extra = if whole {
+            turns_f as u32 - 1
+        } else {
+            turns_f.floor() as u32
+        };
+        let mut arc = Arc::new(self.pos, target, pole, self.modal.plane, ccw, extra);
+        arc.set_sweep(sweep.to_radians());
+        self.polar_r = Some(radius);
+        self.polar_h = Some(end_deg.rem_euclid(360.0));
+        self.pos = target;
+        self.add_move(&Geom::Arc(arc), feed, w, anchor.as_ref(), src);
+    }
+
     fn exec_dwell(&mut self, w: &Words, g4: &Word, src: Src) {
         let mut time: Option<Word> = w.p();
         if self.dialect == Dialect::Heidenhain && time.is_none() {
@@ -1069,6 +1406,21 @@ impl<S: ProgramSource> Interpreter<S> {
     }
 
     fn exec_motion(&mut self, w: &Words, src: Src) {
+        if self.modal.motion.polar() {
+            self.exec_polar(w, src);
+            return;
+        }
+        for s in [slot::R, slot::H] {
+            if let Some(x) = w.get(s) {
+                self.error(
+                    Some(&x),
+                    format!(
+                        "{} is a polar coordinate: it needs G10, G11, G12, G13 or G15",
+                        x.letter as char
+                    ),
+                );
+            }
+        }
         let has_axis = w.axes().any(|a| a.is_some());
         let has_center = w.centers().any(|c| c.is_some());
         let motion = self.modal.motion;

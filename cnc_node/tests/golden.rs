@@ -33,6 +33,11 @@ fn examples() -> Vec<(&'static str, Machine, Dialect)> {
             Machine::builtin_mill(),
             Dialect::Cnc836,
         ),
+        (
+            "heidenhain_polar.h",
+            Machine::builtin_mill(),
+            Dialect::Heidenhain,
+        ),
     ]
 }
 

@@ -388,3 +388,22 @@ def test_cnc836_helix_and_loops_through_the_service(peer):
     assert not r.accepted
     assert r.message == ("line 2, column 9: block N20: jump target N30 is not a block at or before this one "
                          "(G73 jumps back only)"), r.message
+
+
+def test_heidenhain_polar_through_the_service(peer):
+    """Polar lines and arcs about a pole, checked through the service; a
+    broken direction rule is refused with its line and column."""
+    req = RunProgram.Request()
+    req.program_path = "heidenhain_polar.h"
+    req.dialect = "heidenhain"
+    req.dry_run = True
+    r = peer.call(peer.run, req)
+    assert r.accepted, r.message
+    assert abs(r.estimated_duration - 15.213) < 1e-6, r.estimated_duration
+    req = RunProgram.Request()
+    req.program = "N1 I+50 J+50 *\nN2 G11 R+10 H+0 F100 *\nN3 G91 G12 H+90 *\n"
+    req.dialect = "heidenhain"
+    req.dry_run = True
+    r = peer.call(peer.run, req)
+    assert not r.accepted
+    assert r.message.startswith("line 3, column 12: block N3: incremental H90 turns counter-clockwise"), r.message
