@@ -49,8 +49,7 @@ fn timeout<T>(d: Duration, f: impl std::future::Future<Output = T>) -> Option<T>
 }
 
 pub fn run(req: RunRequest) -> Result<RunOutcome, String> {
-    let ctx = ros::context(req.domain, ros::localhost_only_from_env())?;
-    let mut node = ros::node(&ctx, "/", &format!("cnc_cli_{}", std::process::id()))?;
+    let (_ctx, mut node) = ros::join(req.domain, "/", &format!("cnc_cli_{}", std::process::id()))?;
     let ns = req.namespace.as_str();
     let client =
         ros::client::<RunProgramRequest, RunProgramResponse>(&mut node, ns, "run_program")?;

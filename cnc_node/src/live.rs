@@ -33,9 +33,11 @@ pub struct LiveOpts {
 
 /// Records the contract's topics until Ctrl-C or the duration.
 pub fn record_live(opts: &LiveOpts, out: &Path) -> Result<RecordSummary, String> {
-    let ctx = ros::context(opts.domain, ros::localhost_only_from_env())?;
-    let mut node = ros::node(&ctx, "/", &format!("cnc_bag_record_{}", std::process::id()))?;
-    ros::keep_announcing(&ctx)?;
+    let (_ctx, mut node) = ros::join(
+        opts.domain,
+        "/",
+        &format!("cnc_bag_record_{}", std::process::id()),
+    )?;
     let (cns, sns) = (opts.namespace.as_str(), opts.sim_namespace.as_str());
     let sp = ros::subscription::<JointState>(&mut node, cns, "joint_setpoints")?;
     let spin = ros::subscription::<Float64>(&mut node, cns, "spindle_command")?;
@@ -108,9 +110,11 @@ pub fn replay(path: &Path, rate: f64, domain: u16) -> Result<u64, String> {
         return Err(format!("--rate {rate}: must be greater than 0"));
     }
     let bag = Bag::read(path)?;
-    let ctx = ros::context(domain, ros::localhost_only_from_env())?;
-    let mut node = ros::node(&ctx, "/", &format!("cnc_bag_replay_{}", std::process::id()))?;
-    ros::keep_announcing(&ctx)?;
+    let (_ctx, mut node) = ros::join(
+        domain,
+        "/",
+        &format!("cnc_bag_replay_{}", std::process::id()),
+    )?;
     let mut pubs: Vec<Option<Publish>> = Vec::new();
     for (topic, data) in &bag.topics {
         let p = match data.type_name.as_str() {

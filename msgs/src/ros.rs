@@ -408,3 +408,13 @@ pub fn lock_memory() -> Result<(), String> {
         Err(std::io::Error::last_os_error().to_string())
     }
 }
+
+/// Joins the graph as `namespace/name` on `domain`: the context (loopback
+/// only when the environment says so), the node with its spinner, and the
+/// re-announcement of the node information. Keep both alive.
+pub fn join(domain: u16, namespace: &str, name: &str) -> Result<(Context, Node), String> {
+    let ctx = context(domain, localhost_only_from_env())?;
+    let node = node(&ctx, namespace, name)?;
+    keep_announcing(&ctx)?;
+    Ok((ctx, node))
+}

@@ -112,9 +112,7 @@ fn run(args: Args) -> Result<(), String> {
     }
     let dir = program_dir(&args, &machine);
     let domain = args.domain.unwrap_or_else(ros::domain_from_env);
-    let ctx = ros::context(domain, ros::localhost_only_from_env())?;
-    let mut node = ros::node(&ctx, &args.namespace, "cnc_node")?;
-    ros::keep_announcing(&ctx)?;
+    let (_ctx, mut node) = ros::join(domain, &args.namespace, "cnc_node")?;
     let ns = args.namespace.as_str();
     let pub_set = ros::publisher::<JointState>(&mut node, ns, "joint_setpoints")?;
     let pub_spin = ros::publisher::<Float64>(&mut node, ns, "spindle_command")?;

@@ -75,9 +75,7 @@ fn run(a: Args) -> Result<(), String> {
     }
     let dt = 1.0 / rate;
     let domain = a.domain.unwrap_or_else(ros::domain_from_env);
-    let ctx = ros::context(domain, ros::localhost_only_from_env())?;
-    let mut node = ros::node(&ctx, &a.namespace, "sim_axes")?;
-    ros::keep_announcing(&ctx)?;
+    let (_ctx, mut node) = ros::join(domain, &a.namespace, "sim_axes")?;
     let cns = a.controller_namespace.as_str();
     let sub_set = ros::subscription::<JointState>(&mut node, cns, "joint_setpoints")?;
     let sub_spin = ros::subscription::<Float64>(&mut node, cns, "spindle_command")?;
