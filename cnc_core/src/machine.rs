@@ -150,6 +150,62 @@ impl Default for Limits {
     }
 }
 
+/// Machine constants of the original controls.
+#[derive(Clone, Debug, Default, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Constants {
+    /// MEFI machine constant 8 (`TAB0.REK`): the thread runout, a signed
+    /// eight-decade number: decades 1-5 the angle in thousandths of a
+    /// degree, decade 6 the axis (1 X, 2 Y, 3 Z), the sign the angle's;
+    /// `"+00112345"` is 12.345 degrees on X. At most 60 degrees.
+    #[serde(default)]
+    pub mc8: Option<String>,
+}
+
+/// The thread runout of machine constant 8.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Runout {
+    /// machine coordinate index (0 X, 1 Y, 2 Z)
+    pub axis: usize,
+    /// signed angle, degrees
+    pub angle_deg: f64,
+}
+
+/// Decodes machine constant 8 (see [`Constants::mc8`]).
+pub fn decode_mc8(text: &str) -> Result<Runout, String> {
+    let t = text.trim();
+    let (neg, digits) = match t.as_bytes().first() {
+        Some(b'-') => (true, &t[1..]),
+        Some(b'+') => (false, &t[1..]),
+        _ => (false, t),
+    };
+    if digits.is_empty() || digits.len() > 8 || !digits.bytes().all(|b| b.is_ascii_digit()) {
+        return Err(format!(
+            "\"{text}\" is not a signed eight-decade number such as \"+00112345\" (12.345 degrees on X)"
+        ));
+    }
+    let v: u32 = digits
+        .parse()
+        .map_err(|_| format!("\"{text}\" is not a number"))?;
+    let thousandths = v % 100_000;
+    let axis = (v / 100_000) % 10;
+    if !(1..=3).contains(&axis) {
+        return Err(format!(
+            "\"{text}\": decade 6 must name the runout axis, 1 (X), 2 (Y) or 3 (Z), not {axis}"
+        ));
+    }
+    let angle = thousandths as f64 / 1000.0;
+    if angle > 60.0 {
+        return Err(format!(
+            "\"{text}\": the runout angle {angle:.3} degrees is over 60 degrees"
+        ));
+    }
+    Ok(Runout {
+        axis: axis as usize - 1,
+        angle_deg: if neg { -angle } else { angle },
+    })
+}
+
 /// A machine file.
 #[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -172,6 +228,8 @@ pub struct Machine {
     pub axes: Vec<AxisConfig>,
     #[serde(default)]
     pub spindle: Option<SpindleConfig>,
+    #[serde(default)]
+    pub constants: Constants,
 }
 
 /// An error in a machine file; the text names the key.
@@ -301,6 +359,19 @@ impl Machine {
         if self.limits.max_errors == 0 {
             return bad("limits.max_errors".into(), "must be at least 1".into());
         }
+        if let Some(mc8) = &self.constants.mc8 {
+            let r = decode_mc8(mc8)
+                .map_err(|e| MachineError(format!("machine file: key `constants.mc8`: {e}")))?;
+            if self.axis(r.axis).is_none() {
+                return bad(
+                    "constants.mc8".into(),
+                    format!(
+                        "the runout axis {} is not on this machine",
+                        ["X", "Y", "Z"][r.axis]
+                    ),
+                );
+            }
+        }
         if let Some(s) = &self.spindle {
             for (f, v) in [
                 ("max_rpm", s.max_rpm),
@@ -374,6 +445,14 @@ impl Machine {
         V3::from_fn(|i, _| self.axis(i).map_or(0.0, |a| a.home_mm))
     }
 
+    /// The thread runout of machine constant 8, if set (validated at load).
+    pub fn runout(&self) -> Option<Runout> {
+        self.constants
+            .mc8
+            .as_deref()
+            .and_then(|t| decode_mc8(t).ok())
+    }
+
     /// X programmed as a diameter.
     pub fn diameter_mode(&self) -> bool {
         self.axis(0).is_some_and(|a| a.diameter_mode)
@@ -412,6 +491,59 @@ mod tests {
         let t = include_str!("../../config/mill.toml");
         assert!(t.contains(replace), "{replace}");
         Machine::from_toml(&t.replacen(replace, by, 1))
+    }
+
+    #[test]
+    fn machine_constant_8() {
+        assert_eq!(
+            decode_mc8("+00112345"),
+            Ok(Runout {
+                axis: 0,
+                angle_deg: 12.345
+            })
+        );
+        assert_eq!(
+            decode_mc8("-00330000"),
+            Ok(Runout {
+                axis: 2,
+                angle_deg: -30.0
+            })
+        );
+        assert_eq!(
+            decode_mc8("360000"),
+            Ok(Runout {
+                axis: 2,
+                angle_deg: 60.0
+            })
+        );
+        assert!(decode_mc8("+00160001")
+            .unwrap_err()
+            .contains("60.001 degrees is over 60 degrees"));
+        assert!(decode_mc8("+00412345")
+            .unwrap_err()
+            .contains("decade 6 must name the runout axis"));
+        assert!(decode_mc8("12.5")
+            .unwrap_err()
+            .contains("not a signed eight-decade number"));
+        assert!(decode_mc8("+123456789").is_err());
+        let l = Machine::builtin_lathe();
+        assert_eq!(
+            l.runout(),
+            Some(Runout {
+                axis: 0,
+                angle_deg: 30.0
+            })
+        );
+        let t = include_str!("../../config/lathe.toml")
+            .replace("mc8 = \"+00130000\"", "mc8 = \"+00170000\"");
+        let e = Machine::from_toml(&t).unwrap_err();
+        assert_eq!(e.0, "machine file: key `constants.mc8`: \"+00170000\": the runout angle 70.000 degrees is over 60 degrees");
+        let t = include_str!("../../config/lathe.toml")
+            .replace("mc8 = \"+00130000\"", "mc8 = \"+00230000\"");
+        assert!(Machine::from_toml(&t)
+            .unwrap_err()
+            .0
+            .contains("the runout axis Y is not on this machine"));
     }
 
     #[test]
