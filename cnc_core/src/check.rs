@@ -397,12 +397,14 @@ fn check_concurrently<S: ProgramSource>(
                 // the program jumps: again from the start, on this thread
                 if let Err(e) = source.seek(SourcePos { offset: 0, line: 1 }) {
                     let mut r = report(&interp, plan.finish(), lim);
-                    r.errors.push(Diagnostic::new(
-                        1,
-                        1,
-                        1,
-                        format!("cannot read the program again: {}", e.0),
-                    ));
+                    if r.errors.len() < machine.limits.max_errors {
+                        r.errors.push(Diagnostic::new(
+                            1,
+                            1,
+                            1,
+                            format!("cannot read the program again: {}", e.0),
+                        ));
+                    }
                     r.error_count += 1;
                     return r;
                 }

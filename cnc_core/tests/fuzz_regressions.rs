@@ -1,0 +1,168 @@
+//! Inputs from fuzzing (`fuzz/`, cargo-fuzz targets `check` and `exec`)
+//! and the properties those targets assert: no panic on any bytes, at most
+//! `max_errors` errors kept, and for accepted short programs the executor's
+//! last sample at exactly the check's tick count, every position finite.
+//!
+//! Input format (as in `fuzz/fuzz_targets/common.rs`): byte 0 bit 0 picks
+//! the dialect (0 cnc836, 1 heidenhain), bit 1 the machine (0 mill,
+//! 1 lathe); the rest is the program text.
+
+use cnc_core::exec::Executor;
+use cnc_core::source::StrSource;
+use cnc_core::{check, CheckReport, Dialect, Machine};
+
+fn split(data: &[u8]) -> Option<(Dialect, Machine, &[u8])> {
+    let (&sel, text) = data.split_first()?;
+    let d = if sel & 1 == 0 {
+        Dialect::Cnc836
+    } else {
+        Dialect::Heidenhain
+    };
+    let m = if sel & 2 == 0 {
+        Machine::builtin_mill()
+    } else {
+        Machine::builtin_lathe()
+    };
+    Some((d, m, text))
+}
+
+/// Both fuzz targets' properties for one input; the check's report.
+fn props(data: &[u8]) -> Option<CheckReport> {
+    let (d, m, text) = split(data)?;
+    let r = check(StrSource::from_bytes(text), d, &m);
+    assert!(r.errors.len() <= m.limits.max_errors);
+    assert!(r.error_count >= r.errors.len());
+    let _ = r.message();
+    if r.ok() && r.ticks <= 20_000 {
+        let mut last = None;
+        for (i, s) in Executor::new(StrSource::from_bytes(text), d, &m).enumerate() {
+            assert_eq!(s.k, i as u64);
+            assert!(
+                s.pos.iter().all(|c| c.is_finite()),
+                "{:?} at k={}",
+                s.pos,
+                s.k
+            );
+            last = Some(s);
+        }
+        let last = last.expect("at least the last sample");
+        assert!(last.last);
+        assert_eq!(
+            last.k, r.ticks,
+            "check {} ticks, executor {}",
+            r.ticks, last.k
+        );
+    }
+    Some(r)
+}
+
+/// Edge inputs the fuzzers' dictionary aims at: bytes that are no UTF-8,
+/// NUL, numbers at and past the limits, leading zeros on G73, empty lines.
+#[test]
+fn edge_inputs_do_not_panic() {
+    let inputs: &[&[u8]] = &[
+        b"",
+        b"0",
+        b"1",
+        b"0\n\n\n",
+        b"0\xff\xfe\x00\n",
+        b"0N10 G01 X\x8f\n",
+        b"1N10 G00 X10 * ;\xc3\n",
+        b"0G01 X99999999999999999999999 F1\n",
+        b"0G01 X1e308 F1\n",
+        b"0G01 X-0 Y-0. Z+0 F0.000000000000000000001\n",
+        b"0N1 G00 X1\nN2 X2 G073 L1 Q3\n",
+        b"0N1 G00 X1\nN2 X2 G+73 L+1 Q0003\n",
+        b"0N1 G00 X1\nN2 X2 G73 L1 Q10000\n",
+        b"0N1 G00 X1\nN2 X2 G73 L3 Q1\n",
+        b"0N5 X0 Y0 Z0 G00\nN10 Z1.05 G10\nN50 G09 G02 X0 Y0 I100 G73 L50 Q0\nN70 G98\n",
+        b"1N10 I+25 J+25 *\nN20 G11 R+20 H+0 F250 M3 *\nN30 G13 G91 H+5400 *\n",
+        b"1N10 I+25 J+25 *\nN20 G11 R+20 H+0 F250 M3 *\nN30 G13 G91 H+0.000000001 *\n",
+        b"1G15 H10 *\n",
+        b"3G33 Z-40 F1 J3\n",
+        b"2N10 M03 S200\nN20 G33 Z-43 F1 J3\nN30\nN40 X30 Z5\n",
+        b"0G04 P99999999\n",
+        b"0G04 P-1\n",
+    ];
+    for data in inputs {
+        props(data);
+    }
+}
+
+/// More errors than `max_errors`: the report keeps exactly `max_errors`
+/// and counts the rest.
+#[test]
+fn errors_capped_at_max_errors() {
+    let m = Machine::builtin_mill();
+    let text = "W1\n".repeat(m.limits.max_errors + 5);
+    let r = check(StrSource::new(&text), Dialect::Cnc836, &m);
+    assert_eq!(r.errors.len(), m.limits.max_errors);
+    assert_eq!(r.error_count, m.limits.max_errors + 5);
+    assert!(
+        r.message().ends_with("... and 5 more errors"),
+        "{}",
+        r.message()
+    );
+}
+
+/// Replays every file of the fuzz corpora and artifacts, if present
+/// (`cargo test -p cnc_core --test fuzz_regressions -- --ignored`).
+#[test]
+#[ignore = "replays the whole fuzz corpus (minutes in a debug build)"]
+fn replay_fuzz_corpus() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz");
+    let (mut n, mut ok) = (0, 0);
+    for dir in [
+        "corpus/check",
+        "corpus/exec",
+        "artifacts/check",
+        "artifacts/exec",
+    ] {
+        let Ok(rd) = std::fs::read_dir(root.join(dir)) else {
+            continue;
+        };
+        for e in rd.flatten() {
+            let data = std::fs::read(e.path()).unwrap();
+            if data.len() > 4096 {
+                continue;
+            }
+            if loops_too_long(&data[1.min(data.len())..]) {
+                continue;
+            }
+            n += 1;
+            if props(&data).is_some_and(|r| r.ok()) {
+                ok += 1;
+            }
+        }
+    }
+    eprintln!("{n} inputs replayed, {ok} accepted by the check");
+}
+
+/// As in `fuzz/fuzz_targets/common.rs`: with a G73 in the text, lines x
+/// product of (Q + 1) over every Q word bounds the lines read; nested loops
+/// with large counts are legitimately slow, not a hang.
+fn loops_too_long(text: &[u8]) -> bool {
+    let after = |letter: u8| {
+        (0..text.len())
+            .filter(move |&i| text[i].eq_ignore_ascii_case(&letter))
+            .map(move |i| {
+                let mut j = i + 1;
+                if j < text.len() && text[j] == b'+' {
+                    j += 1;
+                }
+                let s = j;
+                while j < text.len() && text[j].is_ascii_digit() {
+                    j += 1;
+                }
+                std::str::from_utf8(&text[s..j]).ok()?.parse::<u64>().ok()
+            })
+    };
+    if !after(b'G').any(|n| n == Some(73)) {
+        return false;
+    }
+    let mut work = text.iter().filter(|&&b| b == b'\n').count() as u64 + 1;
+    for q in after(b'Q') {
+        work = work.saturating_mul(q.unwrap_or(0).saturating_add(1));
+    }
+    work > 20_000
+}

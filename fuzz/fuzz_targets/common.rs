@@ -1,0 +1,72 @@
+//! Shared input decoding: the first byte picks dialect and machine, the
+//! rest is the program text.
+//!
+//! byte 0, bit 0: 0 = cnc836, 1 = heidenhain
+//! byte 0, bit 1: 0 = builtin mill, 1 = builtin lathe
+//! (ASCII '0'..'3' are the four combinations, handy for hand-written seeds.)
+
+use cnc_core::{Dialect, Machine};
+use std::sync::OnceLock;
+
+static MILL: OnceLock<Machine> = OnceLock::new();
+static LATHE: OnceLock<Machine> = OnceLock::new();
+
+pub fn split(data: &[u8]) -> Option<(Dialect, &'static Machine, &[u8])> {
+    let (&sel, text) = data.split_first()?;
+    let dialect = if sel & 1 == 0 {
+        Dialect::Cnc836
+    } else {
+        Dialect::Heidenhain
+    };
+    let machine = if sel & 2 == 0 {
+        MILL.get_or_init(Machine::builtin_mill)
+    } else {
+        LATHE.get_or_init(Machine::builtin_lathe)
+    };
+    Some((dialect, machine, text))
+}
+
+/// The whole numbers written after `letter` (either case, optional sign,
+/// leading zeros allowed, so `G073` and `g+73` count as 73); `None` for a
+/// number too long to matter (it is refused by the parser anyway).
+fn numbers_after(text: &[u8], letter: u8) -> impl Iterator<Item = Option<u64>> + '_ {
+    (0..text.len())
+        .filter(move |&i| text[i].eq_ignore_ascii_case(&letter))
+        .map(move |i| {
+            let mut j = i + 1;
+            if j < text.len() && text[j] == b'+' {
+                j += 1;
+            }
+            let start = j;
+            while j < text.len() && text[j].is_ascii_digit() {
+                j += 1;
+            }
+            std::str::from_utf8(&text[start..j]).ok()?.parse::<u64>().ok()
+        })
+}
+
+/// How many G73 words the text may hold.
+pub fn g73_count(text: &[u8]) -> usize {
+    numbers_after(text, b'G').filter(|&n| n == Some(73)).count()
+}
+
+/// Nested G73 loops with large Q counts are legitimately slow (9999 x 9999
+/// passes run, never expanded): not a hang. An upper bound on the lines
+/// the interpreter may read, lines x product of (Q + 1) over every Q word
+/// when there is a G73 at all; inputs above `budget` are skipped.
+pub fn loops_too_long(text: &[u8], budget: u64) -> bool {
+    if g73_count(text) == 0 {
+        return false;
+    }
+    let lines = text.iter().filter(|&&b| b == b'\n').count() as u64 + 1;
+    let mut work = lines;
+    for q in numbers_after(text, b'Q') {
+        // a Q that is no whole number is an error: no loop
+        let q = q.unwrap_or(0);
+        work = work.saturating_mul(q.saturating_add(1));
+        if work > budget {
+            return true;
+        }
+    }
+    false
+}
