@@ -7,52 +7,18 @@
 //! the dialect (0 cnc836, 1 heidenhain), bit 1 the machine (0 mill,
 //! 1 lathe); the rest is the program text.
 
-use cnc_core::exec::Executor;
 use cnc_core::source::StrSource;
 use cnc_core::{check, CheckReport, Dialect, Machine};
 
-fn split(data: &[u8]) -> Option<(Dialect, Machine, &[u8])> {
-    let (&sel, text) = data.split_first()?;
-    let d = if sel & 1 == 0 {
-        Dialect::Cnc836
-    } else {
-        Dialect::Heidenhain
-    };
-    let m = if sel & 2 == 0 {
-        Machine::builtin_mill()
-    } else {
-        Machine::builtin_lathe()
-    };
-    Some((d, m, text))
-}
+/// The fuzz targets' input decoding and properties, shared as they are.
+#[path = "../../fuzz/fuzz_targets/common.rs"]
+mod common;
 
 /// Both fuzz targets' properties for one input; the check's report.
 fn props(data: &[u8]) -> Option<CheckReport> {
-    let (d, m, text) = split(data)?;
-    let r = check(StrSource::from_bytes(text), d, &m);
-    assert!(r.errors.len() <= m.limits.max_errors);
-    assert!(r.error_count >= r.errors.len());
-    let _ = r.message();
-    if r.ok() && r.ticks <= 20_000 {
-        let mut last = None;
-        for (i, s) in Executor::new(StrSource::from_bytes(text), d, &m).enumerate() {
-            assert_eq!(s.k, i as u64);
-            assert!(
-                s.pos.iter().all(|c| c.is_finite()),
-                "{:?} at k={}",
-                s.pos,
-                s.k
-            );
-            last = Some(s);
-        }
-        let last = last.expect("at least the last sample");
-        assert!(last.last);
-        assert_eq!(
-            last.k, r.ticks,
-            "check {} ticks, executor {}",
-            r.ticks, last.k
-        );
-    }
+    let (d, m, text) = common::split(data)?;
+    let r = common::check_props(d, m, text);
+    common::exec_props(d, m, text, &r, 20_000);
     Some(r)
 }
 
@@ -126,7 +92,7 @@ fn replay_fuzz_corpus() {
             if data.len() > 4096 {
                 continue;
             }
-            if loops_too_long(&data[1.min(data.len())..]) {
+            if common::loops_too_long(&data[1.min(data.len())..], 20_000) {
                 continue;
             }
             n += 1;
@@ -136,33 +102,4 @@ fn replay_fuzz_corpus() {
         }
     }
     eprintln!("{n} inputs replayed, {ok} accepted by the check");
-}
-
-/// As in `fuzz/fuzz_targets/common.rs`: with a G73 in the text, lines x
-/// product of (Q + 1) over every Q word bounds the lines read; nested loops
-/// with large counts are legitimately slow, not a hang.
-fn loops_too_long(text: &[u8]) -> bool {
-    let after = |letter: u8| {
-        (0..text.len())
-            .filter(move |&i| text[i].eq_ignore_ascii_case(&letter))
-            .map(move |i| {
-                let mut j = i + 1;
-                if j < text.len() && text[j] == b'+' {
-                    j += 1;
-                }
-                let s = j;
-                while j < text.len() && text[j].is_ascii_digit() {
-                    j += 1;
-                }
-                std::str::from_utf8(&text[s..j]).ok()?.parse::<u64>().ok()
-            })
-    };
-    if !after(b'G').any(|n| n == Some(73)) {
-        return false;
-    }
-    let mut work = text.iter().filter(|&&b| b == b'\n').count() as u64 + 1;
-    for q in after(b'Q') {
-        work = work.saturating_mul(q.unwrap_or(0).saturating_add(1));
-    }
-    work > 20_000
 }

@@ -5,6 +5,10 @@
 //! byte 0, bit 1: 0 = builtin mill, 1 = builtin lathe
 //! (ASCII '0'..'3' are the four combinations, handy for hand-written seeds.)
 
+// included by each target and by cnc_core/tests/fuzz_regressions.rs;
+// not every includer uses every helper
+#![allow(dead_code)]
+
 use cnc_core::{Dialect, Machine};
 use std::sync::OnceLock;
 
@@ -41,7 +45,10 @@ fn numbers_after(text: &[u8], letter: u8) -> impl Iterator<Item = Option<u64>> +
             while j < text.len() && text[j].is_ascii_digit() {
                 j += 1;
             }
-            std::str::from_utf8(&text[start..j]).ok()?.parse::<u64>().ok()
+            std::str::from_utf8(&text[start..j])
+                .ok()?
+                .parse::<u64>()
+                .ok()
         })
 }
 
@@ -69,4 +76,64 @@ pub fn loops_too_long(text: &[u8], budget: u64) -> bool {
         }
     }
     false
+}
+
+/// The check's properties for any input: at most `max_errors` errors kept,
+/// no fewer counted, `ok` exactly when none, the report renders.
+pub fn check_props(dialect: Dialect, machine: &Machine, text: &[u8]) -> cnc_core::CheckReport {
+    use cnc_core::source::StrSource;
+    let report = cnc_core::check(StrSource::from_bytes(text), dialect, machine);
+    assert!(
+        report.errors.len() <= machine.limits.max_errors,
+        "{} errors kept, max_errors {}",
+        report.errors.len(),
+        machine.limits.max_errors
+    );
+    assert!(report.error_count >= report.errors.len());
+    assert_eq!(report.ok(), report.errors.is_empty());
+    let _ = report.message();
+    report
+}
+
+/// For an accepted program of at most `max_ticks` estimated ticks: the
+/// executor runs it to the end without panic, samples numbered 0, 1, ...,
+/// every position finite, the last sample exactly at the check's tick.
+pub fn exec_props(
+    dialect: Dialect,
+    machine: &Machine,
+    text: &[u8],
+    report: &cnc_core::CheckReport,
+    max_ticks: u64,
+) {
+    use cnc_core::exec::Executor;
+    use cnc_core::source::StrSource;
+    if !report.ok() || report.ticks > max_ticks {
+        return;
+    }
+    let mut last = None;
+    for (i, s) in Executor::new(StrSource::from_bytes(text), dialect, machine).enumerate() {
+        assert_eq!(s.k, i as u64, "sample index");
+        assert!(
+            s.pos.iter().all(|c| c.is_finite()),
+            "non-finite position {:?} at k={}",
+            s.pos,
+            s.k
+        );
+        assert!(s.t.is_finite());
+        // far beyond the estimate: the executor disagrees with the check
+        assert!(
+            s.k <= report.ticks + 1,
+            "executor passed the estimate: k={} ticks={}",
+            s.k,
+            report.ticks
+        );
+        last = Some(s);
+    }
+    let last = last.expect("the executor yields at least the last sample");
+    assert!(last.last);
+    assert_eq!(
+        last.k, report.ticks,
+        "check estimated {} ticks, executor ended at {}",
+        report.ticks, last.k
+    );
 }

@@ -4,8 +4,6 @@
 //! the check and reach the executor than from raw bytes. Same properties
 //! as `exec`.
 
-use cnc_core::exec::Executor;
-use cnc_core::source::StrSource;
 use libfuzzer_sys::fuzz_target;
 use std::fmt::Write;
 
@@ -27,7 +25,11 @@ const HEIDENHAIN: &[&str] = &[
 ];
 
 fn program(d: cnc_core::Dialect, data: &[u8]) -> String {
-    let words = if d == cnc_core::Dialect::Cnc836 { CNC836 } else { HEIDENHAIN };
+    let words = if d == cnc_core::Dialect::Cnc836 {
+        CNC836
+    } else {
+        HEIDENHAIN
+    };
     let heid = d == cnc_core::Dialect::Heidenhain;
     let mut s = String::new();
     let mut line = 1;
@@ -87,29 +89,6 @@ fuzz_target!(|data: &[u8]| {
     if common::g73_count(text) > 1 || common::loops_too_long(text, LOOP_BUDGET) {
         return;
     }
-    let report = cnc_core::check(StrSource::from_bytes(text), dialect, machine);
-    assert!(report.errors.len() <= machine.limits.max_errors);
-    let _ = report.message();
-    if !report.ok() || report.ticks > MAX_TICKS {
-        return;
-    }
-    let mut last = None;
-    for (i, s) in Executor::new(StrSource::from_bytes(text), dialect, machine).enumerate() {
-        assert_eq!(s.k, i as u64, "sample index");
-        assert!(
-            s.pos.iter().all(|c| c.is_finite()),
-            "non-finite position {:?} at k={}",
-            s.pos,
-            s.k
-        );
-        assert!(s.k <= report.ticks + 1, "k={} ticks={}", s.k, report.ticks);
-        last = Some(s);
-    }
-    let last = last.expect("at least the last sample");
-    assert!(last.last);
-    assert_eq!(
-        last.k, report.ticks,
-        "check estimated {} ticks, executor ended at {}",
-        report.ticks, last.k
-    );
+    let report = common::check_props(dialect, machine, text);
+    common::exec_props(dialect, machine, text, &report, MAX_TICKS);
 });
