@@ -111,11 +111,6 @@ impl<S: ProgramSource> Executor<S> {
         self.scale
     }
 
-    /// Time of the virtual tick relative to the start of the current move.
-    fn local_time(&self) -> f64 {
-        (self.vk - self.timeline.group_k0 as f64) * self.dt - self.timeline.seg_t0
-    }
-
     /// Moves σ towards its target: the path speed changes by the move's
     /// path acceleration × dt, measured at the next sample's profile speed.
     fn update_scale(&mut self, m: &PlannedMove, tau: f64) {
@@ -211,7 +206,7 @@ impl<S: ProgramSource> Executor<S> {
             match self.cur {
                 Some(Cur::Move(ref m, stop)) => {
                     let m = *m;
-                    let tau = self.local_time();
+                    let tau = self.timeline.local_time(self.vk);
                     let running = match stop {
                         Some(end) => self.vk < end as f64,
                         None => tau < m.profile.duration,

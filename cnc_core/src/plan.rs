@@ -468,9 +468,10 @@ impl Timeline {
         (m.profile.v1 == 0.0).then(|| self.group_k0 + self.ticks(self.seg_t0 + m.profile.duration))
     }
 
-    /// Time of tick `k` relative to the start of the current move.
-    pub fn local_time(&self, k: u64) -> f64 {
-        (k - self.group_k0) as f64 * self.dt - self.seg_t0
+    /// Time of (virtual) tick `k` relative to the start of the current move;
+    /// `k` is the tick index unless the executor scales the feed.
+    pub fn local_time(&self, k: f64) -> f64 {
+        (k - self.group_k0 as f64) * self.dt - self.seg_t0
     }
 
     /// Advances past a finished move.

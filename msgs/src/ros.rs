@@ -4,7 +4,7 @@
 //! and a fixed-rate ticker for control loops.
 
 use ros2_client::{
-    qos::{Durability, History, Reliability, WhenFull},
+    qos::{Durability, History, WhenFull},
     Context, Node, NodeName, NodeOptions, QosProfile,
 };
 use std::net::{IpAddr, Ipv4Addr};
@@ -72,14 +72,6 @@ pub fn qos_default() -> QosProfile {
 pub fn qos_services() -> QosProfile {
     QosProfile::publisher_default()
         .reliability_reliable(WhenFull::DEFAULT)
-        .durability(Durability::Volatile)
-        .history(History::KeepLast { depth: 10 })
-}
-
-/// Best effort, keep last 10: for high-rate sensor-like streams.
-pub fn qos_sensor() -> QosProfile {
-    QosProfile::publisher_default()
-        .reliability(Reliability::BestEffort)
         .durability(Durability::Volatile)
         .history(History::KeepLast { depth: 10 })
 }
