@@ -453,6 +453,17 @@ impl Machine {
             .and_then(|t| decode_mc8(t).ok())
     }
 
+    /// The same machine starting where its joints stand now (`joints_mm`
+    /// in joint order, slide positions): a job runs, and is checked, from
+    /// the last setpoint rather than from home.
+    pub fn starting_at(&self, joints_mm: &[f64]) -> Machine {
+        let mut m = self.clone();
+        for (a, &p) in m.axes.iter_mut().zip(joints_mm) {
+            a.home_mm = p;
+        }
+        m
+    }
+
     /// X programmed as a diameter.
     pub fn diameter_mode(&self) -> bool {
         self.axis(0).is_some_and(|a| a.diameter_mode)
@@ -491,6 +502,19 @@ mod tests {
         let t = include_str!("../../config/mill.toml");
         assert!(t.contains(replace), "{replace}");
         Machine::from_toml(&t.replacen(replace, by, 1))
+    }
+
+    #[test]
+    fn starting_at_moves_home_to_the_joint_positions() {
+        let l = Machine::builtin_lathe();
+        let m = l.starting_at(&[12.5, -30.0]);
+        assert_eq!(m.home(), V3::new(12.5, 0.0, -30.0));
+        assert_eq!(
+            l.home(),
+            V3::new(100.0, 0.0, 20.0),
+            "the original is untouched"
+        );
+        assert_eq!(m.axes[0].min_mm, l.axes[0].min_mm);
     }
 
     #[test]

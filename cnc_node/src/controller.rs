@@ -126,16 +126,9 @@ impl Controller {
         }
         // a job starts where the machine stands: the program's first move
         // runs from the last setpoint
-        let mut m = self.machine.clone();
-        for (j, &i) in self.joints.iter().enumerate() {
-            if let Some(a) = m
-                .axes
-                .iter_mut()
-                .find(|a| cnc_core::machine::axis_index(&a.name) == Some(i))
-            {
-                a.home_mm = self.positions[j];
-            }
-        }
+        let m = self
+            .machine
+            .starting_at(&self.positions[..self.joints.len()]);
         let exec = Executor::new(OwnedSource::owned(job.text), job.dialect, &m);
         self.job = Some(Running {
             id: job.id,

@@ -474,17 +474,11 @@ fn handle_run(
         }
     };
     // check from where the machine stands now
-    let mut m = machine.clone();
-    let joints = m.joint_indices();
-    for (j, &i) in joints.iter().enumerate() {
-        if let Some(a) = m
-            .axes
-            .iter_mut()
-            .find(|a| cnc_core::machine::axis_index(&a.name) == Some(i))
-        {
-            a.home_mm = f64::from_bits(here[j].load(Ordering::Relaxed));
-        }
-    }
+    let now: Vec<f64> = here
+        .iter()
+        .map(|h| f64::from_bits(h.load(Ordering::Relaxed)))
+        .collect();
+    let m = machine.starting_at(&now[..machine.axes.len()]);
     let report = check(StrSource::from_bytes(&text), dialect, &m);
     if !report.ok() {
         return refuse(report.message());
