@@ -94,7 +94,12 @@ impl ItemSink for Totals {
             Item::Move(m) => self.planned((), m.profile),
             Item::Dwell { seconds, .. } => self.tl.finish_dwell(seconds),
             Item::End { .. } => self.ended = true,
-            Item::Spindle { .. } | Item::Tool { .. } => {}
+            Item::Spindle { rpm, .. } => self.tl.set_spindle(rpm),
+            Item::Thread(m) => {
+                self.moves += 1;
+                self.tl.finish_thread(&m);
+            }
+            Item::Tool { .. } => {}
         }
     }
 }
@@ -450,7 +455,12 @@ mod tests {
                     }
                     Item::Dwell { seconds, .. } => tl.finish_dwell(seconds),
                     Item::End { .. } => ended = true,
-                    Item::Spindle { .. } | Item::Tool { .. } => {}
+                    Item::Spindle { rpm, .. } => tl.set_spindle(rpm),
+                    Item::Thread(m) => {
+                        moves += 1;
+                        tl.finish_thread(&m);
+                    }
+                    Item::Tool { .. } => {}
                 }
             }
             ended |= ev.is_none();

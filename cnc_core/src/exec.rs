@@ -9,12 +9,27 @@
 //! acceleration per second, so the deceleration stays within the axis
 //! limits and the tool stays on the path. With σ = 1 the virtual counter is
 //! the tick index and the samples are exactly those of an unscaled run.
+//!
+//! Spindle-synchronized motion (see [`crate::thread`]): G33 blocks are a
+//! function of the spindle angle and G95 moves scale their virtual time by
+//! the measured spindle speed over the programmed one. Without an encoder
+//! ([`Executor::attach_encoder`] not called) the spindle is ideal: it turns
+//! exactly as commanded, which is what the check's estimate assumes. With
+//! one, a [`SpindleTracker`] predicts the angle at each sample's instant
+//! from the readings given to [`Executor::encoder`]; readings that stop
+//! during synchronized motion, or a spindle that does not come up to speed
+//! for a thread, stop the axes under control and end the run with
+//! [`Executor::fault`] set.
 
 use crate::dialect::Dialect;
-use crate::interp::{Interpreter, Modal, Src};
+use crate::interp::{Feed, Interpreter, Modal, Src};
 use crate::machine::Machine;
 use crate::plan::{Item, PlanLimits, PlannedMove, Planner, Timeline};
 use crate::source::ProgramSource;
+use crate::thread::{
+    EncoderReading, SpindleTracker, ThreadMove, ThreadSeg, AT_SPEED_SETTLE_S, AT_SPEED_TOLERANCE,
+    ENCODER_TIMEOUT_CYCLES,
+};
 use crate::V3;
 
 /// One interpolation cycle's output.
@@ -33,8 +48,30 @@ pub struct Sample {
     pub tool: u32,
     /// path speed commanded at this tick, mm/s
     pub path_speed: f64,
+    /// in a G33 block: how the setpoint follows the spindle
+    pub sync: Option<Sync>,
     /// the last sample of the program
     pub last: bool,
+}
+
+/// What a G33 sample was computed from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sync {
+    /// the spindle angle this setpoint is for, revolutions, counted in the
+    /// direction of rotation
+    pub theta: f64,
+    /// θ₀ of the block: the angle at which the ideal thread line passes its start
+    pub theta0: f64,
+    /// lead axis and pitch along it, mm/rev
+    pub lead: usize,
+    pub pitch: f64,
+    /// lead travel from the block's start, mm
+    pub u: f64,
+    /// the lead axis's coordinate at the block's start, and the sign of its travel
+    pub lead_start: f64,
+    pub lead_sign: f64,
+    /// on the ideal thread line (not in the run-in or the deceleration)
+    pub on_line: bool,
 }
 
 // one value at a time: boxing the move would only add an allocation
@@ -42,6 +79,32 @@ pub struct Sample {
 enum Cur {
     Move(PlannedMove, Option<u64>),
     Dwell(u64),
+    Thread(ThreadRun),
+    /// a controlled stop along a thread block, then the end
+    Stop(StopRun),
+}
+
+#[derive(Clone, Copy)]
+struct ThreadRun {
+    m: ThreadMove,
+    /// set once synchronized
+    theta0: Option<f64>,
+    /// ideal spindle, last block: the tick it ends at
+    end_tick: Option<u64>,
+    /// cycles waited for the spindle, and of those at speed
+    waited: u64,
+    settled: u64,
+    /// lead travel and speed (mm/s) at the last sample
+    u: f64,
+    v: f64,
+}
+
+#[derive(Clone, Copy)]
+struct StopRun {
+    seg: ThreadSeg,
+    u: f64,
+    v: f64,
+    a: f64,
 }
 
 /// Runs a program (which must have passed [`crate::check`]) sample by sample.
@@ -62,6 +125,16 @@ pub struct Executor<S> {
     spindle: f64,
     tool: u32,
     done: bool,
+    /// the measured spindle (None: ideal spindle)
+    tracker: Option<SpindleTracker>,
+    /// spindle ramp, rpm/s (how long a thread waits for the speed)
+    spindle_ramp: f64,
+    /// G95: measured over programmed spindle speed
+    sp_scale: f64,
+    /// why the run stopped early
+    fault: Option<String>,
+    /// stop now (abort): threads stop under control too
+    halt: bool,
 }
 
 impl<S: ProgramSource> Executor<S> {
@@ -82,7 +155,44 @@ impl<S: ProgramSource> Executor<S> {
             spindle: 0.0,
             tool: 0,
             done: false,
+            tracker: None,
+            spindle_ramp: machine
+                .spindle
+                .as_ref()
+                .map_or(1000.0, |s| s.acceleration_rpm_s),
+            sp_scale: 1.0,
+            fault: None,
+            halt: false,
         }
+    }
+
+    /// Couples G33 and G95 to the measured spindle: from now on the
+    /// readings given to [`Executor::encoder`] drive them, and readings
+    /// that stop during synchronized motion are a fault.
+    pub fn attach_encoder(&mut self) {
+        if self.tracker.is_none() {
+            self.tracker = Some(SpindleTracker::default());
+        }
+    }
+
+    /// A reading of the spindle encoder (its `t` in this executor's time:
+    /// sample k is at k·dt). Ignored without [`Executor::attach_encoder`].
+    pub fn encoder(&mut self, r: EncoderReading) {
+        if let Some(t) = self.tracker.as_mut() {
+            t.push(r);
+        }
+    }
+
+    /// Why the run ended early (lost encoder, spindle not turning), if it did.
+    pub fn fault(&self) -> Option<&str> {
+        self.fault.as_deref()
+    }
+
+    /// Aborts: decelerates along the path (a thread under control, at its
+    /// lead acceleration) and ends the run.
+    pub fn abort(&mut self) {
+        self.halt = true;
+        self.set_feed_target(0.0);
     }
 
     /// Interpolation period, s.
@@ -164,8 +274,163 @@ impl<S: ProgramSource> Executor<S> {
             spindle_rpm: self.spindle,
             tool: self.tool,
             path_speed: speed,
+            sync: None,
             last,
         }
+    }
+
+    /// The spindle angle for this tick's setpoint and the index position,
+    /// revolutions counted in direction `dir`; `None` index: none seen yet.
+    fn spindle_angle(&self, dir: f64) -> Result<(f64, Option<f64>, f64), String> {
+        let Some(tr) = &self.tracker else {
+            let rev_s = dir * self.timeline.spin_rpm / 60.0;
+            return Ok((dir * self.timeline.ideal_rev(self.vk), Some(0.0), rev_s));
+        };
+        let t = self.k as f64 * self.dt;
+        let (Some(last), Some(c), Some(cps)) = (tr.last, tr.counts_at(t), tr.counts_per_s(t)) else {
+            return Err("no spindle encoder reading".into());
+        };
+        let late = t - last.t;
+        if late > ENCODER_TIMEOUT_CYCLES * self.dt {
+            return Err(format!(
+                "spindle encoder signal lost: no reading for {:.0} ms",
+                late * 1000.0
+            ));
+        }
+        let cpr = tr.cpr();
+        let index = (last.index_count > 0).then(|| dir * last.count_at_index as f64 / cpr);
+        Ok((dir * c / cpr, index, dir * cps / cpr))
+    }
+
+    /// Ends the run after a controlled stop of a thread at lead travel `u`
+    /// and lead speed `v`.
+    fn stop_thread(&mut self, m: &ThreadMove, u: f64, v: f64, why: Option<String>) {
+        if self.fault.is_none() {
+            self.fault = why;
+        }
+        self.cur = Some(Cur::Stop(StopRun {
+            seg: m.seg,
+            u,
+            v: v.max(0.0),
+            a: m.accel,
+        }));
+    }
+
+    /// One sample of a thread block; `None`: the block is done.
+    fn thread_sample(&mut self, mut run: ThreadRun) -> Option<Sample> {
+        let m = run.m;
+        let dir = m.dir();
+        let (theta, index, rev_s) = match self.spindle_angle(dir) {
+            Ok(a) => a,
+            Err(why) => {
+                let why = format!("line {}: {why}", m.src.line);
+                if run.theta0.is_none() {
+                    // not moving yet: the run ends here
+                    self.fault = Some(why);
+                    self.done = true;
+                    let mut s = self.sample(m.seg.pos(run.u), 0.0, true);
+                    s.src = m.src;
+                    return Some(s);
+                }
+                self.stop_thread(&m, run.u, run.v, Some(why));
+                return self.next_sample();
+            }
+        };
+        if self.halt {
+            self.stop_thread(&m, run.u, run.v, None);
+            return self.next_sample();
+        }
+        let theta0 = match run.theta0 {
+            Some(t) => t,
+            None => {
+                let want = m.rpm.abs() / 60.0;
+                if (rev_s - want).abs() <= AT_SPEED_TOLERANCE * want {
+                    run.settled += 1;
+                } else {
+                    run.settled = 0;
+                }
+                let settle = AT_SPEED_SETTLE_S
+                    + AT_SPEED_TOLERANCE * m.rpm.abs() / self.spindle_ramp.max(1.0);
+                let at_speed =
+                    self.tracker.is_none() || run.settled as f64 * self.dt >= settle;
+                let held = self.target == 0.0;
+                match index {
+                    Some(ix) if at_speed && !held => {
+                        let t0 = self.timeline.thread_begin(&m, theta, ix);
+                        run.theta0 = Some(t0);
+                        if m.decel.is_some() && self.tracker.is_none() {
+                            run.end_tick = Some(self.timeline.ideal_thread_end(&m));
+                        }
+                        t0
+                    }
+                    _ => {
+                        if !held {
+                            run.waited += 1;
+                        }
+                        let limit = m.rpm.abs() / self.spindle_ramp.max(1.0) + settle + 1.0;
+                        if run.waited as f64 * self.dt > limit {
+                            self.fault = Some(format!(
+                                "line {}: G33 needs the spindle at S{} but it turns at {:.0} rpm{}",
+                                m.src.line,
+                                m.rpm.abs(),
+                                rev_s.abs() * 60.0,
+                                if index.is_none() { " and no index pulse was seen" } else { "" }
+                            ));
+                            self.done = true;
+                            let mut s = self.sample(m.seg.start, 0.0, true);
+                            s.src = m.src;
+                            return Some(s);
+                        }
+                        self.src = m.src;
+                        let s = self.sample(m.seg.start, 0.0, false);
+                        self.cur = Some(Cur::Thread(run));
+                        self.advance(1.0);
+                        return Some(s);
+                    }
+                }
+            }
+        };
+        let x = theta - theta0;
+        let done = match run.end_tick {
+            Some(k) => self.vk >= k as f64,
+            None if m.decel.is_some() => x >= m.end_x(),
+            None => x >= m.seg.len / m.seg.pitch,
+        };
+        if done {
+            self.pos = m.seg.end;
+            if m.decel.is_some() {
+                let k = run.end_tick.unwrap_or(self.vk.ceil() as u64);
+                self.vk = self.vk.max(k as f64);
+                self.timeline.finish_group_at(k);
+            } else {
+                self.timeline.thread_next(&m);
+            }
+            return None;
+        }
+        let u = m.u_at(x);
+        let v = m.du_dx(x) * rev_s.max(0.0);
+        run.u = u;
+        run.v = v;
+        self.src = m.src;
+        let mut s = self.sample(m.seg.pos(u), v * (m.seg.prog_end - m.seg.start).norm() / m.seg.len, false);
+        s.sync = Some(Sync {
+            theta,
+            theta0,
+            lead: m.seg.lead,
+            pitch: m.seg.pitch,
+            u,
+            lead_start: m.seg.start[m.seg.lead],
+            lead_sign: (m.seg.prog_end[m.seg.lead] - m.seg.start[m.seg.lead]).signum(),
+            on_line: m.du_dx(x) == m.seg.pitch,
+        });
+        self.cur = Some(Cur::Thread(run));
+        self.advance(1.0);
+        Some(s)
+    }
+
+    fn advance(&mut self, step: f64) {
+        self.k += 1;
+        self.vk += step;
     }
 
     /// The next sample, or `None` after the last one.
@@ -195,48 +460,114 @@ impl<S: ProgramSource> Executor<S> {
                     Some(Item::Spindle { rpm, src }) => {
                         self.src = src;
                         self.spindle = rpm;
+                        self.timeline.set_spindle(rpm);
                     }
                     Some(Item::Tool { number, src }) => {
                         self.src = src;
                         self.tool = number;
                     }
+                    Some(Item::Thread(m)) => {
+                        self.cur = Some(Cur::Thread(ThreadRun {
+                            m,
+                            theta0: None,
+                            end_tick: None,
+                            waited: 0,
+                            settled: 0,
+                            u: 0.0,
+                            v: 0.0,
+                        }));
+                        if m.runin.is_none() {
+                            // a chained block is synchronized already
+                            if let Some(Cur::Thread(run)) = self.cur.as_mut() {
+                                run.theta0 = Some(self.timeline.theta0);
+                                if m.decel.is_some() && self.tracker.is_none() {
+                                    run.end_tick = Some(self.timeline.ideal_thread_end(&m));
+                                }
+                            }
+                        }
+                    }
                 }
                 continue;
             }
-            match self.cur {
-                Some(Cur::Move(ref m, stop)) => {
-                    let m = *m;
+            match self.cur.take() {
+                Some(Cur::Move(m, stop)) => {
                     let tau = self.timeline.local_time(self.vk);
                     let running = match stop {
                         Some(end) => self.vk < end as f64,
                         None => tau < m.profile.duration,
                     };
                     if running {
+                        if self.fault.is_some() && self.scale == 0.0 {
+                            // stopped after a lost encoder
+                            self.done = true;
+                            return Some(self.sample(m.geom.eval(m.profile.s_at(tau)), 0.0, true));
+                        }
+                        let spindle = self.spindle_scale(&m);
                         self.src = m.src;
                         let pos = m.geom.eval(m.profile.s_at(tau));
-                        let s = self.sample(pos, m.profile.v_at(tau) * self.scale, false);
+                        let s = self.sample(pos, m.profile.v_at(tau) * self.scale * spindle, false);
                         self.update_scale(&m, tau);
-                        self.k += 1;
-                        self.vk += self.scale;
+                        self.cur = Some(Cur::Move(m, stop));
+                        self.advance(self.scale * spindle);
                         return Some(s);
                     }
                     self.pos = m.geom.end();
                     self.timeline.finish_move(&m);
-                    self.cur = None;
                 }
                 Some(Cur::Dwell(end)) => {
                     if self.vk < end as f64 {
                         let s = self.sample(self.pos, 0.0, false);
                         self.scale = self.target;
-                        self.k += 1;
-                        self.vk += self.scale;
+                        self.cur = Some(Cur::Dwell(end));
+                        self.advance(self.scale);
                         return Some(s);
                     }
-                    self.cur = None;
+                }
+                Some(Cur::Thread(run)) => {
+                    if let Some(s) = self.thread_sample(run) {
+                        return Some(s);
+                    }
+                }
+                Some(Cur::Stop(mut st)) => {
+                    let v1 = (st.v - st.a * self.dt).max(0.0);
+                    st.u = (st.u + 0.5 * (st.v + v1) * self.dt).min(st.seg.len);
+                    st.v = v1;
+                    let pos = st.seg.pos(st.u);
+                    self.pos = pos;
+                    if v1 == 0.0 {
+                        self.done = true;
+                        return Some(self.sample(pos, 0.0, true));
+                    }
+                    let s = self.sample(pos, v1, false);
+                    self.cur = Some(Cur::Stop(st));
+                    self.advance(1.0);
+                    return Some(s);
                 }
                 None => {}
             }
         }
+    }
+
+    /// G95 with a measured spindle: measured over programmed speed (frozen
+    /// once the signal is lost, while the axes stop).
+    fn spindle_scale(&mut self, m: &PlannedMove) -> f64 {
+        let (Feed::PerRev { rpm, .. }, Some(_)) = (m.feed, self.tracker.as_ref()) else {
+            return 1.0;
+        };
+        if self.fault.is_some() {
+            return self.sp_scale;
+        }
+        let dir = if rpm < 0.0 { -1.0 } else { 1.0 };
+        match self.spindle_angle(dir) {
+            Ok((_, _, rev_s)) => {
+                self.sp_scale = (rev_s * 60.0 / rpm.abs()).clamp(0.0, 2.0);
+            }
+            Err(why) => {
+                self.fault = Some(format!("line {}: {why}", m.src.line));
+                self.set_feed_target(0.0);
+            }
+        }
+        self.sp_scale
     }
 }
 

@@ -23,6 +23,7 @@ pub mod machine;
 pub mod parse;
 pub mod plan;
 pub mod source;
+pub mod thread;
 
 pub use check::{check, CheckReport};
 pub use diag::Diagnostic;

@@ -13,6 +13,7 @@
 use crate::geom::{ceil, Geom};
 use crate::interp::{Event, Feed, Src};
 use crate::machine::Machine;
+use crate::thread::ThreadMove;
 use crate::V3;
 use std::collections::VecDeque;
 
@@ -123,6 +124,8 @@ pub enum Item {
     Dwell { seconds: f64, src: Src },
     Spindle { rpm: f64, src: Src },
     Tool { number: u32, src: Src },
+    /// a G33 block: from rest (or from the thread block before it)
+    Thread(ThreadMove),
     End { src: Src },
 }
 
@@ -302,6 +305,10 @@ impl<K: Copy> Lookahead<K> {
                 self.flush(out);
                 out.item(Item::Tool { number, src });
             }
+            Event::Thread(m) => {
+                self.flush(out);
+                out.item(Item::Thread(m));
+            }
             Event::End { src } => {
                 self.flush(out);
                 out.item(Item::End { src });
@@ -441,6 +448,14 @@ pub struct Timeline {
     pub group_k0: u64,
     /// time from the group start to the start of the current move, s
     pub seg_t0: f64,
+    /// the ideal spindle (turning exactly as commanded): rpm, and its
+    /// angle in revolutions at tick `spin_k`
+    pub spin_rpm: f64,
+    pub spin_k: f64,
+    pub spin_rev: f64,
+    /// θ₀ of the thread block being run (revolutions, in the direction of
+    /// rotation)
+    pub theta0: f64,
 }
 
 impl Timeline {
@@ -449,6 +464,10 @@ impl Timeline {
             dt,
             group_k0: 0,
             seg_t0: 0.0,
+            spin_rpm: 0.0,
+            spin_k: 0.0,
+            spin_rev: 0.0,
+            theta0: 0.0,
         }
     }
 
@@ -488,6 +507,65 @@ impl Timeline {
             self.seg_t0 = 0.0;
         } else {
             self.seg_t0 += p.duration;
+        }
+    }
+
+    /// The ideal spindle's angle at (virtual) tick `k`, revolutions.
+    pub fn ideal_rev(&self, k: f64) -> f64 {
+        self.spin_rev + self.spin_rpm / 60.0 * (k - self.spin_k) * self.dt
+    }
+
+    /// A spindle command at the current group tick (everything stopped).
+    pub fn set_spindle(&mut self, rpm: f64) {
+        let k = self.group_k0 as f64;
+        self.spin_rev = self.ideal_rev(k);
+        self.spin_k = k;
+        self.spin_rpm = rpm;
+    }
+
+    /// θ₀ of thread block `m`: for a chain's first block, synchronized
+    /// from the angle `now` with the index at `index`; otherwise where the
+    /// block before ended on the thread line.
+    pub fn thread_begin(&mut self, m: &ThreadMove, now: f64, index: f64) -> f64 {
+        if m.runin.is_some() {
+            self.theta0 = m.sync_angle(now, index);
+        }
+        self.theta0
+    }
+
+    /// After a thread block that is not the last of its chain.
+    pub fn thread_next(&mut self, m: &ThreadMove) {
+        self.theta0 += m.seg.len / m.seg.pitch;
+    }
+
+    /// With the ideal spindle: the tick at which the chain whose last block
+    /// is `m` (θ₀ = `self.theta0`) ends at rest, the chain having started at
+    /// the group tick.
+    pub fn ideal_thread_end(&self, m: &ThreadMove) -> u64 {
+        let dir = m.dir();
+        let speed = dir * self.spin_rpm / 60.0 * self.dt; // rev per tick
+        if speed <= 0.0 {
+            return self.group_k0;
+        }
+        let now = dir * self.ideal_rev(self.group_k0 as f64);
+        self.group_k0 + self.ticks((self.theta0 + m.end_x() - now) / speed * self.dt)
+    }
+
+    /// A group (a thread chain) ended at rest at tick `k`.
+    pub fn finish_group_at(&mut self, k: u64) {
+        self.group_k0 = k;
+        self.seg_t0 = 0.0;
+    }
+
+    /// Advances past thread block `m`, run with the ideal spindle.
+    pub fn finish_thread(&mut self, m: &ThreadMove) {
+        let now = m.dir() * self.ideal_rev(self.group_k0 as f64);
+        self.thread_begin(m, now, 0.0);
+        if m.decel.is_some() {
+            let k = self.ideal_thread_end(m);
+            self.finish_group_at(k);
+        } else {
+            self.thread_next(m);
         }
     }
 

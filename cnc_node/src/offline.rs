@@ -20,6 +20,8 @@ pub struct SimSummary {
     pub cycle_time: f64,
     /// largest |setpoint - actual| per joint, mm
     pub max_following_error: Vec<f64>,
+    /// why the run stopped early (lost encoder, spindle not turning)
+    pub fault: Option<String>,
 }
 
 /// One step of the run, for sinks (CSV, recordings, progress).
@@ -29,6 +31,8 @@ pub struct Step<'a> {
     pub setpoints: &'a [f64],
     /// simulated actual positions per joint, mm
     pub actual: &'a [f64],
+    /// the simulated spindle after this step (true angle and encoder)
+    pub spindle: Option<&'a sim_axes::Spindle>,
 }
 
 /// Runs a checked program to its end against the model.
@@ -54,6 +58,10 @@ pub fn simulate_with<S: ProgramSource>(
     let joints = machine.joint_indices();
     let mut model = model_for(machine);
     let mut exec = Executor::new(source, dialect, machine);
+    // G33 and G95 follow the simulated encoder, as in the node
+    if model.spindle.is_some() {
+        exec.attach_encoder();
+    }
     let dt = exec.dt();
     let n = joints.len();
     let mut set = vec![0.0; n];
@@ -70,6 +78,9 @@ pub fn simulate_with<S: ProgramSource>(
             model.step(&set, s.spindle_rpm, dt);
         }
         model.positions_into(&mut act);
+        if let Some(sp) = model.spindle.as_ref() {
+            exec.encoder(encoder_reading(&sp.encoder(), s.t));
+        }
         for j in 0..n {
             max_err[j] = max_err[j].max((set[j] - act[j]).abs());
         }
@@ -77,6 +88,7 @@ pub fn simulate_with<S: ProgramSource>(
             sample: &s,
             setpoints: &set,
             actual: &act,
+            spindle: model.spindle.as_ref(),
         });
         samples += 1;
         cycle_time = s.t;
@@ -85,5 +97,17 @@ pub fn simulate_with<S: ProgramSource>(
         samples,
         cycle_time,
         max_following_error: max_err,
+        fault: exec.fault().map(str::to_string),
+    }
+}
+
+/// The simulator's encoder reading at time `t` as the executor takes it.
+pub fn encoder_reading(e: &sim_axes::EncoderReading, t: f64) -> cnc_core::thread::EncoderReading {
+    cnc_core::thread::EncoderReading {
+        t,
+        count: e.count,
+        counts_per_rev: e.counts_per_rev,
+        index_count: e.index_count,
+        count_at_index: e.count_at_index,
     }
 }
