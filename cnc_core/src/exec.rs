@@ -287,7 +287,8 @@ impl<S: ProgramSource> Executor<S> {
             return Ok((dir * self.timeline.ideal_rev(self.vk), Some(0.0), rev_s));
         };
         let t = self.k as f64 * self.dt;
-        let (Some(last), Some(c), Some(cps)) = (tr.last, tr.counts_at(t), tr.counts_per_s(t)) else {
+        let (Some(last), Some(c), Some(cps)) = (tr.last, tr.counts_at(t), tr.counts_per_s(t))
+        else {
             return Err("no spindle encoder reading".into());
         };
         let late = t - last.t;
@@ -351,8 +352,7 @@ impl<S: ProgramSource> Executor<S> {
                 }
                 let settle = AT_SPEED_SETTLE_S
                     + AT_SPEED_TOLERANCE * m.rpm.abs() / self.spindle_ramp.max(1.0);
-                let at_speed =
-                    self.tracker.is_none() || run.settled as f64 * self.dt >= settle;
+                let at_speed = self.tracker.is_none() || run.settled as f64 * self.dt >= settle;
                 let held = self.target == 0.0;
                 match index {
                     Some(ix) if at_speed && !held => {
@@ -369,7 +369,8 @@ impl<S: ProgramSource> Executor<S> {
                         }
                         let limit = m.rpm.abs() / self.spindle_ramp.max(1.0) + settle + 1.0;
                         if run.waited as f64 * self.dt > limit {
-                            self.fault = Some(format!(
+                            self.fault =
+                                Some(format!(
                                 "line {}: G33 needs the spindle at S{} but it turns at {:.0} rpm{}",
                                 m.src.line,
                                 m.rpm.abs(),
@@ -412,7 +413,11 @@ impl<S: ProgramSource> Executor<S> {
         run.u = u;
         run.v = v;
         self.src = m.src;
-        let mut s = self.sample(m.seg.pos(u), v * (m.seg.prog_end - m.seg.start).norm() / m.seg.len, false);
+        let mut s = self.sample(
+            m.seg.pos(u),
+            v * (m.seg.prog_end - m.seg.start).norm() / m.seg.len,
+            false,
+        );
         s.sync = Some(Sync {
             theta,
             theta0,

@@ -158,9 +158,10 @@ impl Modal {
 const AXIS_LETTERS: [u8; 3] = [b'X', b'Y', b'Z'];
 /// G00..G03
 const MOTIONS: [Motion; 4] = [Motion::Rapid, Motion::Linear, Motion::CwArc, Motion::CcwArc];
-/// A length for a message, rounded up to the micrometre.
+/// A length for a message, rounded up to the micrometre (a hair over a
+/// whole micrometre from rounding is not rounded up).
 fn round_up(v: f64) -> String {
-    num((v * 1000.0).ceil() / 1000.0)
+    num((v * 1000.0 - 1e-6).ceil() / 1000.0)
 }
 
 /// cos and sin of an angle in degrees, exact at multiples of 90 degrees
@@ -1736,7 +1737,10 @@ impl<S: ProgramSource> Interpreter<S> {
                 return;
             };
             let why = if !(j.value > 0.0) {
-                Some(format!("runout J must be greater than 0 mm, found J{}", num(j.value)))
+                Some(format!(
+                    "runout J must be greater than 0 mm, found J{}",
+                    num(j.value)
+                ))
             } else if !self.present[ax] {
                 Some(format!(
                     "machine constant 8 names axis {} for the runout, which this machine does not have",
@@ -1846,7 +1850,8 @@ impl<S: ProgramSource> Interpreter<S> {
             let v_now = r0 * v_lead;
             for i in 0..3 {
                 let jump = (v_now[i] - v_prev[i]).abs();
-                if self.present[i] && jump > crate::plan::KINK_SHARE * self.th.amax[i] * self.th.dt {
+                if self.present[i] && jump > crate::plan::KINK_SHARE * self.th.amax[i] * self.th.dt
+                {
                     self.error(
                         Some(&anchor),
                         format!(

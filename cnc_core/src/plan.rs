@@ -121,12 +121,23 @@ pub struct PlannedMove {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Item {
     Move(PlannedMove),
-    Dwell { seconds: f64, src: Src },
-    Spindle { rpm: f64, src: Src },
-    Tool { number: u32, src: Src },
+    Dwell {
+        seconds: f64,
+        src: Src,
+    },
+    Spindle {
+        rpm: f64,
+        src: Src,
+    },
+    Tool {
+        number: u32,
+        src: Src,
+    },
     /// a G33 block: from rest (or from the thread block before it)
     Thread(ThreadMove),
-    End { src: Src },
+    End {
+        src: Src,
+    },
 }
 
 #[derive(Clone, Copy, Debug)]

@@ -175,7 +175,11 @@ impl ThreadMove {
             let xl = l / p;
             if x > xl - 0.5 * d {
                 let y = xl + 0.5 * d - x;
-                return if y <= 0.0 { l } else { l - p * y * y / (2.0 * d) };
+                return if y <= 0.0 {
+                    l
+                } else {
+                    l - p * y * y / (2.0 * d)
+                };
             }
         }
         (p * x).clamp(0.0, l)

@@ -1,0 +1,269 @@
+//! G33 thread cutting (dialects.md 2.3): every block rule refused with its
+//! line, the check-time run-in/deceleration fit, and, with the ideal
+//! spindle (no encoder attached), exact geometry, chains in phase and the
+//! estimate equal to the run.
+
+use cnc_core::exec::{Executor, Sample};
+use cnc_core::source::StrSource;
+use cnc_core::{check, Dialect, Machine};
+
+fn lathe() -> Machine {
+    Machine::builtin_lathe()
+}
+
+fn errors_on(text: &str, m: &Machine) -> Vec<String> {
+    let r = check(StrSource::new(text), Dialect::Cnc836, m);
+    r.errors.iter().map(|e| e.to_string()).collect()
+}
+
+fn errors(text: &str) -> Vec<String> {
+    errors_on(text, &lathe())
+}
+
+/// Exactly one error, at `line`, containing `what`.
+#[track_caller]
+fn refused(text: &str, line: u32, what: &str) {
+    refused_on(text, &lathe(), line, what)
+}
+
+#[track_caller]
+fn refused_on(text: &str, m: &Machine, line: u32, what: &str) {
+    let e = errors_on(text, m);
+    assert_eq!(e.len(), 1, "{e:#?}");
+    assert!(
+        e[0].starts_with(&format!("line {line}, ")) && e[0].contains(what),
+        "{:?} (wanted line {line}: {what})",
+        e[0]
+    );
+}
+
+const PRE: &str = "N5 G00 X20 Z5\nN10 M03 S200\n";
+
+#[test]
+fn the_spec_examples_pass_the_check() {
+    for p in [
+        "N10 M03 S200\nN20 G33 Z-40 F1\n",
+        "N10 M03 S200\nN20 G33 X12 Z-40 F2\n",
+        "N10 M03 S200\nN20 G33 Z-43 F1 J3\nN30\nN40 X30 Z5\n",
+    ] {
+        assert_eq!(errors(&format!("N5 G00 X20 Z5\n{p}")), Vec::<String>::new());
+    }
+    let mill = Machine::builtin_mill();
+    let p = "N5 G00 X50 Y40 Z10\nN10 M03 S200\nN20 G33 Y-30 F1.5 I180\n";
+    assert_eq!(errors_on(p, &mill), Vec::<String>::new());
+}
+
+#[test]
+fn every_block_rule_is_refused_with_its_line_and_column() {
+    // pitch range and presence
+    refused(
+        &format!("{PRE}N20 G33 Z-40 F100\n"),
+        3,
+        "column 14: block N20: thread pitch F must be greater than 0 and at most 99.99 mm/rev, found F100",
+    );
+    refused(&format!("{PRE}N20 G33 Z-40 F0\n"), 3, "found F0");
+    refused(
+        &format!("{PRE}N20 G33 Z-40\n"),
+        3,
+        "column 5: block N20: G33 (thread) needs the pitch F in mm/rev",
+    );
+    // the spindle must turn
+    refused(
+        "N5 G00 X20 Z5\nN20 G33 Z-40 F1\n",
+        2,
+        "G33 (thread) needs the spindle turning: M03 or M04 with S greater than 0",
+    );
+    // end point
+    refused(
+        &format!("{PRE}N20 G33 F1\n"),
+        3,
+        "needs the thread's end point",
+    );
+    // start angle
+    refused(
+        &format!("{PRE}N20 G33 Z-40 F1 I360\n"),
+        3,
+        "start angle I must be at least 0 and less than 360 degrees, found I360",
+    );
+    refused(&format!("{PRE}N20 G33 Z-40 F1 I-5\n"), 3, "found I-5");
+    refused(
+        &format!("{PRE}N20 G33 Z-20 F1\nN30 G33 Z-40 I90\n"),
+        4,
+        "I (start angle) belongs to the first G33 block of a thread",
+    );
+    refused(
+        &format!("{PRE}N20 G33 Z-20 F1\nN30 G33 Z-40 S300\n"),
+        4,
+        "S and M03/M04/M05 may only stand in the first G33 block",
+    );
+    // words that do not belong
+    refused(
+        &format!("{PRE}N20 G33 Z-40 F1 K2\n"),
+        3,
+        "K is not an address of G33",
+    );
+    refused(
+        &format!("{PRE}N20 G01 G33 Z-40 F1\n"),
+        3,
+        "cannot share a block",
+    );
+    // runout
+    refused(
+        &format!("{PRE}N20 G33 Z-40 F1 J0\n"),
+        3,
+        "runout J must be greater than 0 mm, found J0",
+    );
+    refused(
+        &format!("{PRE}N20 G33 Z-40 F1 J50\n"),
+        3,
+        "runout J50 is longer than the thread's Z travel of 45 mm",
+    );
+    refused(
+        "N5 G00 X100 Z-10\nN10 M03 S200\nN20 G33 X40 F1 J3\n",
+        3,
+        "the runout axis X (machine constant 8) is this thread's lead axis",
+    );
+    refused_on(
+        "N5 G00 X50 Y40 Z10\nN10 M03 S200\nN20 G33 Y-30 F1 J3\n",
+        &Machine::builtin_mill(),
+        3,
+        "runout J needs machine constant 8",
+    );
+    refused(
+        &format!("{PRE}N20 G33 Z-43 F1 J3\nN30 G00 X30\nN40 X30 Z5\n"),
+        4,
+        "the block after a G33 block with runout J must be an empty block",
+    );
+    refused(
+        &format!("{PRE}N20 G33 Z-43 F1 J3\nN30\nN40 Z5\n"),
+        5,
+        "this block must program every axis (X Z): X missing",
+    );
+    // a comment-only line is an empty block too
+    assert_eq!(
+        errors(&format!(
+            "{PRE}N20 G33 Z-43 F1 J3\n\" out of the thread\nN40 X30 Z5\n"
+        )),
+        Vec::<String>::new()
+    );
+    // chained blocks must continue smoothly
+    refused(
+        &format!("{PRE}N20 G33 Z-20 F1\nN30 G33 X40 Z-30\n"),
+        4,
+        "chained G33 blocks must continue the thread smoothly: axis X's speed would jump",
+    );
+    refused(
+        &format!("{PRE}N20 G33 Z-20 F1\nN30 G33 Z-30 F2\n"),
+        4,
+        "axis Z's speed would jump by",
+    );
+    // and the dialect: HEIDENHAIN has no G33
+    let e = {
+        let r = check(
+            StrSource::new("G33 Z-40 F1\n"),
+            Dialect::Heidenhain,
+            &Machine::builtin_mill(),
+        );
+        r.message()
+    };
+    assert!(
+        e.contains("unsupported G code G33 in the heidenhain dialect"),
+        "{e}"
+    );
+}
+
+#[test]
+fn speed_run_in_and_deceleration_that_do_not_fit_say_what_they_need() {
+    // 5 mm/rev at 4000 rpm: 350 mm/s with the 5 % margin, Z allows 300
+    refused(
+        "N5 G00 X20 Z5\nN10 M03 S4000\nN20 G33 Z-40 F5\n",
+        3,
+        "G33 at S4000 with pitch F5: axis Z would move at 350 mm/s in the thread, over its 300 mm/s; lower S to at most 3428",
+    );
+    // 4 mm/rev at 4000 rpm = 280 mm/s: the run-in at 80 % of 2500 mm/s²
+    // takes 280²/(2·2000) = 19.6 mm
+    refused(
+        "N5 G00 X20 Z5\nN10 M03 S4000\nN20 G33 Z-5 F4\n",
+        3,
+        "G33: the run-in needs 19.6 mm of Z travel at S4000 (pitch F4) to reach the thread's speed; the block has 10 mm: start the thread 9.6 mm earlier or lower S",
+    );
+    // a chain: the run-in fits in the first block, the deceleration must
+    // fit in the last; the error names the last block
+    refused(
+        "N5 G00 X20 Z5\nN10 M03 S4000\nN20 G33 Z-30 F4\nN30 G33 Z-35\nN40 G00 X30\n",
+        4,
+        "G33: the thread's end needs 19.6 mm of Z travel at S4000 (pitch F4) to decelerate from the thread's speed; the block has 5 mm: make it 14.6 mm longer or lower S",
+    );
+    // a single block needs both
+    refused(
+        "N5 G00 X20 Z5\nN10 M03 S4000\nN20 G33 Z-30 F4\n",
+        3,
+        "to decelerate from the thread's speed, after 19.6 mm of run-in; the block has 35 mm: make it 4.2 mm longer",
+    );
+    // the runout's rounded kink needs room too
+    refused(
+        "N5 G00 X20 Z5\nN10 M03 S3000\nN20 G33 Z-200 F4 J0.5\nN30\nN40 X30 Z5\n",
+        3,
+        "runout J0.5 is too short to leave the thread at S3000",
+    );
+    // the same programs at a lower speed are fine
+    assert!(errors("N5 G00 X20 Z5\nN10 M03 S500\nN20 G33 Z-5 F4\n").is_empty());
+}
+
+fn run(text: &str, m: &Machine) -> Vec<Sample> {
+    let r = check(StrSource::new(text), Dialect::Cnc836, m);
+    assert!(r.ok(), "{}", r.message());
+    let s: Vec<Sample> = Executor::new(StrSource::new(text), Dialect::Cnc836, m).collect();
+    assert_eq!(s.last().unwrap().k, r.ticks, "estimate = run");
+    s
+}
+
+#[test]
+fn with_the_ideal_spindle_a_chain_stays_on_one_thread_line_and_the_estimate_is_exact() {
+    let m = lathe();
+    // two chained blocks (a straight thread, then a taper continuing it
+    // with almost the same direction), then a second pass with I90
+    let p = "N5 G00 X20 Z5\nN10 M03 S600\nN20 G33 Z-20 F1.5\nN30 G33 X20.02 Z-35\nN40 G00 X30\nN50 Z5\nN60 X20\nN70 G33 Z-20 F1.5 I90\nN80 G00 X30\n";
+    let s = run(p, &m);
+    let mut phases = Vec::new();
+    for line in [3, 4, 8] {
+        let on: Vec<_> = s
+            .iter()
+            .filter(|x| x.src.line == line && x.sync.is_some_and(|y| y.on_line))
+            .collect();
+        assert!(on.len() > 100, "line {line}");
+        for x in &on {
+            let y = x.sync.unwrap();
+            // along the line: total lead travel from the chain's start
+            let travel = 5.0 - x.pos[2];
+            let ph = (travel / 1.5 - y.theta).rem_euclid(1.0) * 360.0;
+            phases.push((line, ph));
+        }
+    }
+    let p3 = phases.iter().find(|p| p.0 == 3).unwrap().1;
+    for (line, ph) in &phases {
+        let want = if *line == 8 { 360.0 - 90.0 } else { 0.0 };
+        let d = (ph - want).rem_euclid(360.0);
+        let d = d.min(360.0 - d);
+        assert!(d < 1e-6, "line {line}: phase {ph} (first {p3})");
+    }
+    // no pause at the junction: the sample before N30's first is N20's
+    let k = s.iter().position(|x| x.src.line == 4).unwrap();
+    assert_eq!(s[k - 1].src.line, 3);
+    assert!(s[k - 1].path_speed > 14.0 && s[k].path_speed > 14.0);
+    // the chain ends exactly at its end point
+    assert!(s.iter().any(|x| x.pos[2] == -35.0));
+}
+
+#[test]
+fn a_loop_of_thread_passes_checks_and_runs_as_estimated() {
+    let m = lathe();
+    // five passes of a G73 loop (G91 infeed from X22 each time)
+    let p = "N5 G00 X22 Z5\nN10 M03 S800\nN20 G91 G00 X-0.2\nN30 G90 G33 Z-30 F1\nN40 G00 X30\nN50 Z5\nN60 X22\nN70 G73 L20 Q4\n";
+    let s = run(p, &m);
+    let passes = s
+        .windows(2)
+        .filter(|w| w[0].src.line != 4 && w[1].src.line == 4)
+        .count();
+    assert_eq!(passes, 5);
+}

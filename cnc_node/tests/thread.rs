@@ -1,0 +1,474 @@
+//! G33 thread cutting and G95 against the simulated spindle and encoder
+//! (the same model the simulator node runs), offline: lead error in encoder
+//! counts, the groove's phase at several speeds with and without speed
+//! ripple, in the setpoints and in the simulated actual positions,
+//! multi-start threads, taper, runout, limits, G95, and the faults.
+
+use cnc_core::exec::{Executor, Sample};
+use cnc_core::source::StrSource;
+use cnc_core::{check, Dialect, Machine};
+use cnc_node::offline::{encoder_reading, model_for, simulate, Step};
+
+/// One sample in a thread block.
+#[derive(Clone, Copy, Debug)]
+struct ThreadSample {
+    /// lead travel of the setpoint and of the simulated axis, mm
+    u_set: f64,
+    u_act: f64,
+    /// spindle angle, revolutions: true (model) and as counted by the
+    /// encoder (the centre of the count)
+    theta_true: f64,
+    theta_count: f64,
+    /// θ₀ of the block, revolutions
+    theta0: f64,
+    pitch: f64,
+    on_line: bool,
+    line: u32,
+}
+
+struct Run {
+    samples: Vec<ThreadSample>,
+    /// every sample's setpoints, joint order, and its line
+    setpoints: Vec<Vec<f64>>,
+    lines: Vec<u32>,
+    fault: Option<String>,
+    cpr: f64,
+}
+
+impl Run {
+    /// Largest sampled acceleration per joint, mm/s².
+    fn max_acc(&self, dt: f64) -> Vec<f64> {
+        let n = self.setpoints[0].len();
+        let mut out = vec![0.0f64; n];
+        for w in self.setpoints.windows(3) {
+            for j in 0..n {
+                let a = (w[2][j] - 2.0 * w[1][j] + w[0][j]) / (dt * dt);
+                out[j] = out[j].max(a.abs());
+            }
+        }
+        out
+    }
+
+    fn on_line(&self, line: u32) -> Vec<ThreadSample> {
+        self.samples
+            .iter()
+            .filter(|s| s.on_line && s.line == line)
+            .copied()
+            .collect()
+    }
+}
+
+fn machine(base: Machine, ripple: f64) -> Machine {
+    let mut m = base;
+    if let Some(s) = m.spindle.as_mut() {
+        s.sim_ripple_fraction = ripple;
+    }
+    m
+}
+
+fn lathe(ripple: f64) -> Machine {
+    machine(Machine::builtin_lathe(), ripple)
+}
+
+/// The joint index of machine axis `axis`.
+fn joint_of(machine: &Machine, axis: usize) -> usize {
+    machine
+        .joint_indices()
+        .iter()
+        .position(|&i| i == axis)
+        .expect("the lead axis is a joint")
+}
+
+fn run(program: &str, machine: &Machine) -> Run {
+    let r = check(StrSource::new(program), Dialect::Cnc836, machine);
+    assert!(r.ok(), "{}", r.message());
+    let cpr = machine.spindle.as_ref().unwrap().encoder_counts_per_rev as f64;
+    let mut samples = Vec::new();
+    let mut setpoints = Vec::new();
+    let mut lines = Vec::new();
+    let sink = |st: &Step| {
+        setpoints.push(st.setpoints.to_vec());
+        lines.push(st.sample.src.line);
+        let Some(sync) = st.sample.sync else {
+            return;
+        };
+        let j = joint_of(machine, sync.lead);
+        let sp = st.spindle.expect("a spindle");
+        samples.push(ThreadSample {
+            u_set: sync.lead_sign * (st.setpoints[j] - sync.lead_start),
+            u_act: sync.lead_sign * (st.actual[j] - sync.lead_start),
+            theta_true: sp.revolutions(),
+            theta_count: (sp.encoder().count as f64 + 0.5) / cpr,
+            theta0: sync.theta0,
+            pitch: sync.pitch,
+            on_line: sync.on_line,
+            line: st.sample.src.line,
+        });
+    };
+    let summary = simulate(StrSource::new(program), Dialect::Cnc836, machine, sink);
+    Run {
+        samples,
+        setpoints,
+        lines,
+        fault: summary.fault,
+        cpr,
+    }
+}
+
+/// Phase of the groove in degrees, in (−180, 180]: where the tool is on
+/// the thread relative to the spindle angle, u/pitch − θ (mod 1 rev).
+fn phase(u: f64, pitch: f64, theta: f64) -> f64 {
+    let p = (u / pitch - theta).rem_euclid(1.0) * 360.0;
+    if p > 180.0 {
+        p - 360.0
+    } else {
+        p
+    }
+}
+
+/// Difference of two phases, degrees, wrapped into (−180, 180].
+fn wrap(d: f64) -> f64 {
+    let d = d.rem_euclid(360.0);
+    if d > 180.0 {
+        d - 360.0
+    } else {
+        d
+    }
+}
+
+/// Mean of phases in degrees (taken about the first, so that phases near
+/// ±180° do not cancel).
+fn mean(v: impl Iterator<Item = f64>) -> f64 {
+    let mut first = None;
+    let (s, n) = v.fold((0.0, 0), |(s, n), x| {
+        let p0 = *first.get_or_insert(x);
+        (s + wrap(x - p0), n + 1)
+    });
+    wrap(first.unwrap_or(0.0) + s / n as f64)
+}
+
+/// Example 1 of the spec at `rpm`, starting at X20 (diameter) Z5.
+fn example1(rpm: f64) -> String {
+    format!("N5 G00 X20 Z5\nN10 M03 S{rpm}\nN20 G33 Z-40 F1\nN30 G00 X30\nN40 Z5\nN50 M30\n")
+}
+
+const SPEEDS: [f64; 3] = [200.0, 800.0, 2000.0];
+
+#[test]
+fn lead_error_in_the_synchronized_part_is_within_one_count() {
+    for ripple in [0.0, 0.02] {
+        for rpm in SPEEDS {
+            let m = lathe(ripple);
+            let r = run(&example1(rpm), &m);
+            assert_eq!(r.fault, None);
+            let on = r.on_line(3);
+            // the synchronized part runs from the end of the run-in to the
+            // deceleration (both are a fraction of a millimetre at 2000 rpm)
+            let first = on.first().unwrap().u_set;
+            let last = on.last().unwrap().u_set;
+            assert!(first < 0.4 && last > 44.6, "{rpm} rpm: {first}..{last}");
+            let (mut to_true, mut to_count) = (0.0f64, 0.0f64);
+            for s in &on {
+                // start + pitch × revolutions from the index + I, in counts
+                let e_true = (s.u_set - s.pitch * (s.theta_true - s.theta0)) / s.pitch * r.cpr;
+                let e_count = (s.u_set - s.pitch * (s.theta_count - s.theta0)) / s.pitch * r.cpr;
+                to_true = to_true.max(e_true.abs());
+                to_count = to_count.max(e_count.abs());
+            }
+            // against the spindle's true angle: within one count
+            assert!(
+                to_true <= 1.0,
+                "{rpm} rpm, ripple {ripple}: lead error {to_true:.3} counts"
+            );
+            // against the count itself, which is up to half a count off the
+            // true angle: within one and a half
+            assert!(
+                to_count <= 1.5,
+                "{rpm} rpm, ripple {ripple}: {to_count:.3} counts from the counted angle"
+            );
+        }
+    }
+}
+
+#[test]
+fn passes_at_any_speed_cut_the_same_groove() {
+    let mut grooves = Vec::new();
+    let mut actual = Vec::new();
+    for ripple in [0.0, 0.02] {
+        for rpm in SPEEDS {
+            let m = lathe(ripple);
+            let r = run(&example1(rpm), &m);
+            let on = r.on_line(3);
+            let g = mean(on.iter().map(|s| phase(s.u_set, s.pitch, s.theta_true)));
+            // I0: the groove starts on the index
+            assert!(
+                g.abs() < 0.05,
+                "{rpm} rpm ripple {ripple}: groove at {g} deg"
+            );
+            for s in &on {
+                let d = wrap(phase(s.u_set, s.pitch, s.theta_true) - g);
+                assert!(
+                    d.abs() <= 360.0 / r.cpr,
+                    "{rpm} rpm: {d} deg off the groove"
+                );
+            }
+            grooves.push(g);
+            // the simulated axis, after the run-in's transient has settled
+            let settled = &on[on.len() / 10..];
+            let a = mean(
+                settled
+                    .iter()
+                    .map(|s| phase(s.u_act, s.pitch, s.theta_true)),
+            );
+            for s in settled {
+                let d = wrap(phase(s.u_act, s.pitch, s.theta_true) - a);
+                assert!(
+                    d.abs() <= 0.25,
+                    "{rpm} rpm ripple {ripple}: actual {d} deg off"
+                );
+            }
+            actual.push(a);
+        }
+    }
+    let spread = |v: &[f64]| {
+        let lo = v.iter().copied().fold(f64::MAX, f64::min);
+        let hi = v.iter().copied().fold(f64::MIN, f64::max);
+        hi - lo
+    };
+    assert!(spread(&grooves) <= 0.1, "setpoint grooves {grooves:?}");
+    assert!(spread(&actual) <= 0.5, "actual grooves {actual:?}");
+}
+
+#[test]
+fn a_three_start_thread_cuts_three_grooves_120_degrees_apart() {
+    let mut g = Vec::new();
+    for i in [0.0, 120.0, 240.0] {
+        let p = format!("N5 G00 X20 Z5\nN10 M03 S800\nN20 G33 Z-40 F3 I{i}\nN30 G00 X30\n");
+        let r = run(&p, &lathe(0.02));
+        let on = r.on_line(3);
+        g.push(mean(
+            on.iter().map(|s| phase(s.u_set, s.pitch, s.theta_true)),
+        ));
+    }
+    // u/pitch − θ = −I/360: each start I degrees later on the spindle
+    for (k, want) in [(1, -120.0), (2, -240.0)] {
+        let d = wrap(g[k] - g[0] - want);
+        assert!(
+            d.abs() <= 0.1,
+            "start {k}: {} deg from the first",
+            g[k] - g[0]
+        );
+    }
+}
+
+#[test]
+fn example_2_a_thread_in_y_starts_180_degrees_after_the_index() {
+    let m = machine(Machine::builtin_mill(), 0.02);
+    let p = "N5 G00 X50 Y40 Z10\nN10 M03 S600\nN20 G33 Y-30 F1.5 I180\nN30 G00 Z50\n";
+    let r = run(p, &m);
+    assert_eq!(r.fault, None);
+    let on = r.on_line(3);
+    assert!(on.len() > 1000);
+    let g = mean(on.iter().map(|s| phase(s.u_set, s.pitch, s.theta_true)));
+    assert!((wrap(g - 180.0)).abs() <= 0.05, "groove at {g} deg");
+    // the block ends exactly at its end point
+    let y = joint_of(&m, 1);
+    let end = r.setpoints.iter().find(|s| s[y] == -30.0);
+    assert!(end.is_some(), "Y reaches -30 exactly");
+}
+
+#[test]
+fn example_3_a_taper_thread_moves_x_in_proportion_with_the_pitch_along_z() {
+    let m = lathe(0.0);
+    let p = "N5 G00 X10 Z5\nN10 M03 S500\nN20 G33 X12 Z-40 F2\nN30 G00 X30\n";
+    let r = run(p, &m);
+    let (x, z) = (joint_of(&m, 0), joint_of(&m, 2));
+    let mut n = 0;
+    for sp in &r.setpoints {
+        // on the taper: X (radius) from 5 to 6 over Z 5 .. -40
+        if sp[z] < 5.0 && sp[z] > -40.0 && sp[x] < 6.5 {
+            let want = 5.0 + (5.0 - sp[z]) / 45.0;
+            assert!((sp[x] - want).abs() < 1e-9, "X {} at Z {}", sp[x], sp[z]);
+            n += 1;
+        }
+    }
+    assert!(n > 1000);
+    // the pitch is along Z, the lead axis
+    let on = r.on_line(3);
+    assert!(on.iter().all(|s| s.pitch == 2.0));
+    let g = mean(on.iter().map(|s| phase(s.u_set, s.pitch, s.theta_true)));
+    assert!(g.abs() < 0.05, "{g}");
+}
+
+#[test]
+fn example_4_runout_moves_x_by_j_tan_30_degrees_outwards() {
+    let m = lathe(0.0);
+    let p = "N5 G00 X20 Z5\nN10 M03 S200\nN20 G33 Z-43 F1 J3\nN30\nN40 X30 Z5\nN50 M30\n";
+    let r = run(p, &m);
+    assert_eq!(r.fault, None);
+    let (x, z) = (joint_of(&m, 0), joint_of(&m, 2));
+    let tan = 30f64.to_radians().tan();
+    // machine constant 8 = +00130000: 30.000° on X, positive: away from
+    // the axis (an outer thread), so X (radius 10) ends at 10 + 3 tan 30°
+    let end = r
+        .setpoints
+        .iter()
+        .find(|s| s[z] == -43.0)
+        .expect("Z reaches -43");
+    assert!((end[x] - (10.0 + 3.0 * tan)).abs() < 1e-12, "{}", end[x]);
+    assert!((end[x] - 11.732_050_8).abs() < 1e-7);
+    let mut in_runout = 0;
+    for (sp, _) in r.setpoints.iter().zip(&r.lines).filter(|(_, &l)| l == 3) {
+        let u = 5.0 - sp[z];
+        if u < 44.99 {
+            assert_eq!(sp[x], 10.0, "X left the thread early at Z {}", sp[z]);
+        } else if u > 45.01 {
+            // the runout line (the kink is rounded over a few micrometres)
+            assert!((sp[x] - (10.0 + (u - 45.0) * tan)).abs() < 1e-9);
+            in_runout += 1;
+        }
+    }
+    assert!(in_runout > 500, "{in_runout}");
+    // after the empty block the next block programs every axis
+    let last = r.setpoints.last().unwrap();
+    assert_eq!((last[x], last[z]), (15.0, 5.0));
+}
+
+#[test]
+fn setpoints_never_exceed_an_axis_acceleration() {
+    for ripple in [0.0, 0.02] {
+        for rpm in SPEEDS {
+            let m = lathe(ripple);
+            let p =
+                format!("N5 G00 X20 Z5\nN10 M03 S{rpm}\nN20 G33 X24 Z-43 F1 J3\nN30\nN40 X30 Z5\n");
+            let r = run(&p, &m);
+            let acc = r.max_acc(m.dt());
+            for (j, a) in acc.iter().enumerate() {
+                let lim = m.axes[j].max_acceleration_mm_s2;
+                assert!(
+                    *a <= lim,
+                    "{rpm} rpm ripple {ripple}: joint {j} at {a:.1} mm/s² (limit {lim})"
+                );
+            }
+        }
+    }
+}
+
+/// Runs `program` against the model, with the encoder readings passed
+/// through `reading` (None: dropped) and the spindle command through `cmd`.
+fn faulty(
+    program: &str,
+    m: &Machine,
+    mut reading: impl FnMut(&Sample) -> bool,
+    mut cmd: impl FnMut(f64) -> f64,
+) -> (Vec<Sample>, Option<String>) {
+    let mut model = model_for(m);
+    let mut exec = Executor::new(StrSource::new(program), Dialect::Cnc836, m);
+    exec.attach_encoder();
+    let joints = m.joint_indices();
+    let mut out = Vec::new();
+    while let Some(s) = exec.next_sample() {
+        let set: Vec<f64> = joints.iter().map(|&i| s.pos[i]).collect();
+        if s.k > 0 {
+            model.step(&set, cmd(s.spindle_rpm), m.dt());
+        }
+        if reading(&s) {
+            let e = model.spindle.as_ref().unwrap().encoder();
+            exec.encoder(encoder_reading(&e, s.t));
+        }
+        out.push(s);
+    }
+    (out, exec.fault().map(str::to_string))
+}
+
+#[test]
+fn a_lost_encoder_during_the_cut_stops_the_axes_under_control() {
+    let m = lathe(0.0);
+    let p = example1(800.0);
+    let mut lost = false;
+    let (s, fault) = faulty(
+        &p,
+        &m,
+        |s| {
+            lost |= s.pos[2] < -10.0;
+            !lost
+        },
+        |rpm| rpm,
+    );
+    let fault = fault.expect("a fault");
+    assert!(
+        fault.contains("line 3") && fault.contains("spindle encoder signal lost"),
+        "{fault}"
+    );
+    let last = s.last().unwrap();
+    assert!(last.last);
+    // stopped in the thread, short of its end, without a jump
+    assert!(
+        last.pos[2] < -10.0 && last.pos[2] > -20.0,
+        "{}",
+        last.pos[2]
+    );
+    let dt = m.dt();
+    let v = 800.0 / 60.0; // mm/s on the thread
+    for w in s.windows(3).filter(|w| w[0].src.line == 3) {
+        let vz = (w[2].pos[2] - w[1].pos[2]) / dt;
+        let az = (w[2].pos[2] - 2.0 * w[1].pos[2] + w[0].pos[2]) / (dt * dt);
+        assert!(vz.abs() <= v * 1.06, "{vz}");
+        assert!(az.abs() <= 2500.0, "{az} mm/s² at line {}", w[2].src.line);
+    }
+    // it held the thread until the signal had been missing for 10 cycles
+    let first_bad = s.iter().position(|x| x.pos[2] < -10.0).unwrap();
+    let decel = s[first_bad..].iter().position(|x| x.path_speed < v * 0.99);
+    assert!(decel.is_some_and(|k| (9..=12).contains(&k)), "{decel:?}");
+}
+
+#[test]
+fn a_stopped_spindle_at_a_g33_block_is_an_error_and_nothing_moves() {
+    let m = lathe(0.0);
+    let p = example1(300.0);
+    let (s, fault) = faulty(&p, &m, |_| true, |_| 0.0);
+    let fault = fault.expect("a fault");
+    assert!(
+        fault.contains("line 3: G33 needs the spindle at S300 but it turns at 0 rpm"),
+        "{fault}"
+    );
+    // Z never left the thread's start
+    assert!(s.iter().all(|x| x.pos[2] >= 5.0 - 1e-12), "Z moved");
+    // it waited for the ramp (0.3 s) + the settling and 1 s, no more
+    let waited = s.iter().filter(|x| x.src.line == 3).count() as f64 * m.dt();
+    assert!(waited > 1.3 && waited < 1.5, "{waited}");
+}
+
+#[test]
+fn g95_follows_the_measured_spindle_without_an_index_wait() {
+    let m = lathe(0.02);
+    let p = "N5 G00 X20 Z5\nN10 M03 S600\nN20 G04 P1\nN30 G95 G01 Z-30 F0.2\nN40 G94 G00 X30\n";
+    let r = check(StrSource::new(p), Dialect::Cnc836, &m);
+    assert!(r.ok());
+    let z = joint_of(&m, 2);
+    let mut rows = Vec::new();
+    simulate(StrSource::new(p), Dialect::Cnc836, &m, |st| {
+        rows.push((
+            st.sample.src.line,
+            st.setpoints[z],
+            st.spindle.unwrap().revolutions(),
+        ));
+    });
+    let first = rows.iter().position(|r| r.0 == 4).unwrap();
+    // it starts moving at once (no index wait)
+    assert!(rows[first + 1].1 < 5.0);
+    // in the cruise: 0.2 mm per revolution of the real (rippling) spindle
+    let cruise: Vec<_> = rows
+        .iter()
+        .filter(|r| r.0 == 4 && r.1 < 3.0 && r.1 > -28.0)
+        .collect();
+    for w in cruise.windows(100).step_by(50) {
+        let dz = w[0].1 - w[99].1;
+        let drev = w[99].2 - w[0].2;
+        assert!(
+            (dz / drev - 0.2).abs() < 0.2 * 0.005,
+            "{} mm/rev",
+            dz / drev
+        );
+    }
+}
