@@ -472,3 +472,75 @@ fn g95_follows_the_measured_spindle_without_an_index_wait() {
         );
     }
 }
+
+/// The table in BENCHMARKS.md ("G33 threads: ours"): the spec's four
+/// examples at 200, 800 and 2000 rpm with ±2 % ripple.
+/// `cargo test --release -p cnc_node --test thread -- --ignored --nocapture thread_table`
+#[test]
+#[ignore]
+fn thread_table() {
+    let lathe_pre = "N5 G00 X20 Z5\nN10 M03 S{rpm}\n";
+    let cases: [(&str, Machine, &str, &str); 4] = [
+        (
+            "1 lathe Z-40 F1",
+            lathe(0.02),
+            lathe_pre,
+            "N20 G33 Z-40 F1\nN30 G00 X30\n",
+        ),
+        (
+            "2 mill Y-30 F1.5 I180",
+            machine(Machine::builtin_mill(), 0.02),
+            "N5 G00 X50 Y40 Z10\nN10 M03 S{rpm}\n",
+            "N20 G33 Y-30 F1.5 I180\nN30 G00 Z50\n",
+        ),
+        (
+            "3 lathe taper X12 Z-40 F2",
+            lathe(0.02),
+            "N5 G00 X10 Z5\nN10 M03 S{rpm}\n",
+            "N20 G33 X12 Z-40 F2\nN30 G00 X30\n",
+        ),
+        (
+            "4 lathe Z-43 F1 J3",
+            lathe(0.02),
+            lathe_pre,
+            "N20 G33 Z-43 F1 J3\nN30\nN40 X30 Z5\n",
+        ),
+    ];
+    println!("| example | rpm | run-in mm | groove (setpoints) ° | groove (actual) ° | lead error vs true angle, counts | vs counted angle, counts | max acc mm/s² (limit) |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|");
+    for (name, m, pre, body) in cases {
+        for rpm in SPEEDS {
+            let p = format!("{}{}", pre.replace("{rpm}", &rpm.to_string()), body);
+            let r = run(&p, &m);
+            let on = r.on_line(3);
+            let runin = on.first().unwrap().u_set;
+            let g = mean(on.iter().map(|s| phase(s.u_set, s.pitch, s.theta_true)));
+            let settled = &on[on.len() / 10..];
+            let a = mean(
+                settled
+                    .iter()
+                    .map(|s| phase(s.u_act, s.pitch, s.theta_true)),
+            );
+            let (mut et, mut ec) = (0.0f64, 0.0f64);
+            for s in &on {
+                et = et
+                    .max(((s.u_set - s.pitch * (s.theta_true - s.theta0)) / s.pitch * r.cpr).abs());
+                ec = ec.max(
+                    ((s.u_set - s.pitch * (s.theta_count - s.theta0)) / s.pitch * r.cpr).abs(),
+                );
+            }
+            let acc = r.max_acc(m.dt());
+            // the axis closest to its limit
+            let (j, _) = acc
+                .iter()
+                .enumerate()
+                .map(|(j, a)| (j, a / m.axes[j].max_acceleration_mm_s2))
+                .fold((0, 0.0), |b, x| if x.1 > b.1 { x } else { b });
+            println!(
+                "| {name} | {rpm} | {runin:.3} | {g:.3} | {a:.3} | {et:.2} | {ec:.2} | {:.0} ({:.0}) |",
+                acc[j],
+                m.axes[j].max_acceleration_mm_s2
+            );
+        }
+    }
+}
