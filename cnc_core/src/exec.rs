@@ -445,7 +445,14 @@ impl<S: ProgramSource> Executor<S> {
         }
         loop {
             if self.cur.is_none() {
-                match self.next_item() {
+                let item = self.next_item();
+                if self.fault.is_some() && !matches!(item, Some(Item::Move(_))) {
+                    // stopped (what is not a move comes after a stop): the
+                    // run ends here
+                    self.done = true;
+                    return Some(self.sample(self.pos, 0.0, true));
+                }
+                match item {
                     None | Some(Item::End { .. }) => {
                         self.done = true;
                         let s = self.sample(self.pos, 0.0, true);
@@ -519,15 +526,14 @@ impl<S: ProgramSource> Executor<S> {
                     self.pos = m.geom.end();
                     self.timeline.finish_move(&m);
                 }
-                Some(Cur::Dwell(end)) => {
-                    if self.vk < end as f64 {
-                        let s = self.sample(self.pos, 0.0, false);
-                        self.scale = self.target;
-                        self.cur = Some(Cur::Dwell(end));
-                        self.advance(self.scale);
-                        return Some(s);
-                    }
+                Some(Cur::Dwell(end)) if self.vk < end as f64 => {
+                    let s = self.sample(self.pos, 0.0, false);
+                    self.scale = self.target;
+                    self.cur = Some(Cur::Dwell(end));
+                    self.advance(self.scale);
+                    return Some(s);
                 }
+                Some(Cur::Dwell(_)) => {}
                 Some(Cur::Thread(run)) => {
                     if let Some(s) = self.thread_sample(run) {
                         return Some(s);

@@ -1736,7 +1736,7 @@ impl<S: ProgramSource> Interpreter<S> {
                 );
                 return;
             };
-            let why = if !(j.value > 0.0) {
+            let why = if j.value <= 0.0 || j.value.is_nan() {
                 Some(format!(
                     "runout J must be greater than 0 mm, found J{}",
                     num(j.value)

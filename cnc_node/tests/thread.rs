@@ -544,3 +544,47 @@ fn thread_table() {
         }
     }
 }
+
+#[test]
+fn a_lost_encoder_in_a_g95_move_stops_along_the_path_and_ends_the_run() {
+    let m = lathe(0.0);
+    // (feed mm/rev, Z where the signal stops, where the axis must be at rest)
+    // the second: lost so near the end that the move ends at its end point
+    // before the stop is complete; the dwell after it must not run
+    for (f, at, rest) in [(0.2, 0.0, -0.1..0.0), (2.0, -29.75, -30.0..-29.7)] {
+        let p = format!(
+            "N5 G00 X20 Z5\nN10 M03 S600\nN20 G04 P1\nN30 G95 G01 Z-30 F{f}\nN40 G04 P2\nN50 G94 G00 X30\n"
+        );
+        let mut lost = false;
+        let (s, fault) = faulty(
+            &p,
+            &m,
+            |s| {
+                lost |= s.pos[2] < at;
+                !lost
+            },
+            |rpm| rpm,
+        );
+        let fault = fault.expect("a fault");
+        assert!(
+            fault.starts_with("line 4: spindle encoder signal lost"),
+            "{fault}"
+        );
+        let last = s.last().unwrap();
+        assert!(last.last);
+        // stopped on the path of N30: no dwell, no rapid
+        assert_eq!(last.pos[0], 10.0);
+        assert!(
+            rest.contains(&last.pos[2]) || last.pos[2] == -30.0,
+            "{}",
+            last.pos[2]
+        );
+        assert!(s.iter().all(|x| x.src.line != 5), "the dwell ran");
+        // no step faster than the feed (F × 600 rpm, as measured: the speed
+        // estimate is within a few tenths of a percent)
+        for w in s.windows(2).filter(|w| w[1].src.line == 4) {
+            let v = (w[1].pos[2] - w[0].pos[2]).abs() / m.dt();
+            assert!(v <= f * 10.0 * 1.005, "{v} mm/s at k {}", w[1].k);
+        }
+    }
+}
