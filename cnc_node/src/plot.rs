@@ -5,19 +5,21 @@
 //!   [`Panel`]s stacked vertically; a panel holds [`Series`] of 2D
 //!   polylines (label, colour, width, solid or dashed), axes with ticks and
 //!   labels, optionally with an equal aspect ratio (1 mm is as long on both
-//!   axes). [`render`] writes it by the output's extension ([`Format`]).
+//!   axes), shaded x spans ([`Band`]) and a fixed y range (lines are cut at
+//!   its edges). [`render`] writes it by the output's extension ([`Format`]).
 //!   [`Decimator`] thins a stream of points to a bounded number, so that a
 //!   long run does not grow memory or the file.
 //! - The CNC plots on top: [`plot_program`] (the programmed path from the
 //!   interpreter's moves, the setpoints and the simulated actual positions
-//!   of an offline run) and [`plot_recording`] (the same from an MCAP
-//!   recording).
+//!   of an offline run), [`plot_recording`] (the same from an MCAP
+//!   recording) and [`plot_thread_error`] (a G33 pass's lead error against
+//!   the spindle angle, from [`thread_error_series`]).
 //!
 //! Text is drawn with DejaVu Sans embedded in the binary (plotters'
 //! `ab_glyph` feature), so PNG output needs no system fonts; SVG output
 //! names the family `sans-serif`.
 
-use crate::offline::simulate;
+use crate::offline::{simulate, Step};
 use crate::record::{self, topics};
 use cnc_core::exec::Sample;
 use cnc_core::geom::Geom;
@@ -111,7 +113,22 @@ pub struct Panel {
     pub equal_aspect: bool,
     /// height relative to the other panels of the figure
     pub weight: f64,
+    /// the y axis's range as given (no padding); `None`: from the data
+    pub y_range: Option<(f64, f64)>,
+    /// shaded spans of x, drawn under the grid and the series
+    pub bands: Vec<Band>,
     pub series: Vec<Series>,
+}
+
+/// A shaded span of x over the panel's whole height (in the legend when
+/// labelled).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Band {
+    /// the legend entry; empty: none
+    pub label: String,
+    pub color: Rgb,
+    /// from, to (data units)
+    pub x: (f64, f64),
 }
 
 impl Panel {
@@ -122,6 +139,8 @@ impl Panel {
             y_label: y_label.to_string(),
             equal_aspect: false,
             weight: 1.0,
+            y_range: None,
+            bands: Vec::new(),
             series: Vec::new(),
         }
     }
@@ -305,8 +324,15 @@ fn draw_figure<DB: DrawingBackend>(
     Ok(())
 }
 
-/// Every distinct (label, colour, dash) of the figure, in order.
-fn legend_entries(fig: &Figure) -> Vec<&Series> {
+/// A legend entry: a series' line or a band's swatch.
+enum Entry<'a> {
+    Line(&'a Series),
+    Band(&'a Band),
+}
+
+/// Every distinct (label, colour, dash) of the figure's series, in order,
+/// then every distinct (label, colour) of its bands.
+fn legend_entries(fig: &Figure) -> Vec<Entry<'_>> {
     let mut out: Vec<&Series> = Vec::new();
     for s in fig.panels.iter().flat_map(|p| &p.series) {
         if !s.label.is_empty()
@@ -317,7 +343,20 @@ fn legend_entries(fig: &Figure) -> Vec<&Series> {
             out.push(s);
         }
     }
-    out
+    let mut bands: Vec<&Band> = Vec::new();
+    for b in fig.panels.iter().flat_map(|p| &p.bands) {
+        if !b.label.is_empty()
+            && !bands
+                .iter()
+                .any(|o| o.label == b.label && o.color == b.color)
+        {
+            bands.push(b);
+        }
+    }
+    out.into_iter()
+        .map(Entry::Line)
+        .chain(bands.into_iter().map(Entry::Band))
+        .collect()
 }
 
 fn draw_legend<DB: DrawingBackend>(
@@ -331,23 +370,36 @@ fn draw_legend<DB: DrawingBackend>(
         .pos(Pos::new(HPos::Left, VPos::Center));
     let y = LEGEND_ROW_PX as i32 / 2;
     let mut x = Y_LABEL_AREA_PX as i32 + MARGIN_PX as i32;
-    for s in legend_entries(fig) {
-        let style = s.color.color().stroke_width(s.width.max(1));
-        match s.dash {
-            Dash::Solid => area
-                .draw(&PathElement::new(vec![(x, y), (x + 30, y)], style))
-                .map_err(e)?,
-            Dash::Dashed => {
-                for k in 0..3 {
-                    let x0 = x + k * 11;
-                    area.draw(&PathElement::new(vec![(x0, y), (x0 + 7, y)], style))
-                        .map_err(e)?;
+    for entry in legend_entries(fig) {
+        let label = match entry {
+            Entry::Line(s) => {
+                let style = s.color.color().stroke_width(s.width.max(1));
+                match s.dash {
+                    Dash::Solid => area
+                        .draw(&PathElement::new(vec![(x, y), (x + 30, y)], style))
+                        .map_err(e)?,
+                    Dash::Dashed => {
+                        for k in 0..3 {
+                            let x0 = x + k * 11;
+                            area.draw(&PathElement::new(vec![(x0, y), (x0 + 7, y)], style))
+                                .map_err(e)?;
+                        }
+                    }
                 }
+                &s.label
             }
-        }
+            Entry::Band(b) => {
+                area.draw(&Rectangle::new(
+                    [(x, y - 7), (x + 30, y + 7)],
+                    b.color.color().filled(),
+                ))
+                .map_err(e)?;
+                &b.label
+            }
+        };
         x += 36;
-        let (tw, _) = area.estimate_text_size(&s.label, &font).map_err(e)?;
-        area.draw(&Text::new(s.label.clone(), (x, y), font.clone()))
+        let (tw, _) = area.estimate_text_size(label, &font).map_err(e)?;
+        area.draw(&Text::new(label.clone(), (x, y), font.clone()))
             .map_err(e)?;
         x += tw as i32 + 24;
     }
@@ -394,6 +446,12 @@ fn draw_panel<DB: DrawingBackend>(
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| format!("drawing: {e}");
     let ((x0, x1), (y0, y1)) = panel.bounds().unwrap_or(((0.0, 1.0), (0.0, 1.0)));
     let (mut xr, mut yr) = (pad(x0, x1), pad(y0, y1));
+    if let Some((lo, hi)) = panel
+        .y_range
+        .filter(|r| r.0.is_finite() && r.1.is_finite() && r.0 < r.1)
+    {
+        yr = (lo, hi);
+    }
     if panel.equal_aspect {
         // the plotting area's size is known only once a chart is built;
         // a chart without a caption draws nothing when built
@@ -424,6 +482,18 @@ fn draw_panel<DB: DrawingBackend>(
         b.caption(&panel.caption, (FONT, TEXT_PX as f64 + 2.0));
     }
     let mut chart = b.build_cartesian_2d(xr.0..xr.1, yr.0..yr.1).map_err(e)?;
+    for band in &panel.bands {
+        let (a, z) = (band.x.0.max(xr.0), band.x.1.min(xr.1));
+        if a < z {
+            chart
+                .plotting_area()
+                .draw(&Rectangle::new(
+                    [(a, yr.0), (z, yr.1)],
+                    band.color.color().filled(),
+                ))
+                .map_err(e)?;
+        }
+    }
     let label_font = (FONT, TEXT_PX as f64).into_font();
     chart
         .configure_mesh()
@@ -442,7 +512,20 @@ fn draw_panel<DB: DrawingBackend>(
     let plot = chart.plotting_area();
     for s in &panel.series {
         let style = s.color.color().stroke_width(s.width.max(1));
-        for line in &s.polylines {
+        // a fixed range leaves points outside: cut the lines at its edges
+        // (the drawing area would pin them to the edge instead)
+        let clipped: Vec<Vec<Point>>;
+        let lines = if panel.y_range.is_some() {
+            clipped = s
+                .polylines
+                .iter()
+                .flat_map(|l| clip_polyline(l, xr, yr))
+                .collect();
+            &clipped
+        } else {
+            &s.polylines
+        };
+        for line in lines {
             // points closer than MIN_STEP_PX to the previous one add
             // nothing but bytes (and ragged thick lines in bitmaps)
             let mut px: Vec<(i32, i32)> = Vec::with_capacity(line.len());
@@ -478,6 +561,67 @@ fn draw_panel<DB: DrawingBackend>(
         }
     }
     Ok(())
+}
+
+/// The parts of a polyline inside the rectangle `xr` × `yr` (segments cut
+/// at its edges, Liang–Barsky); points that are not finite break the line.
+fn clip_polyline(line: &[Point], xr: (f64, f64), yr: (f64, f64)) -> Vec<Vec<Point>> {
+    let inside = |p: Point| p.0 >= xr.0 && p.0 <= xr.1 && p.1 >= yr.0 && p.1 <= yr.1;
+    let mut out: Vec<Vec<Point>> = Vec::new();
+    let mut cur: Vec<Point> = Vec::new();
+    let finite = |p: &Point| p.0.is_finite() && p.1.is_finite();
+    let mut prev: Option<Point> = None;
+    for &p in line {
+        if !finite(&p) {
+            prev = None;
+            out.extend((!cur.is_empty()).then(|| std::mem::take(&mut cur)));
+            continue;
+        }
+        let Some(a) = prev.replace(p) else {
+            if inside(p) {
+                cur.push(p);
+            }
+            continue;
+        };
+        // the segment a→p as a + t (p − a), t in [t0, t1]
+        let (dx, dy) = (p.0 - a.0, p.1 - a.1);
+        let (mut t0, mut t1) = (0.0f64, 1.0f64);
+        let mut visible = true;
+        for (q, r) in [
+            (-dx, a.0 - xr.0),
+            (dx, xr.1 - a.0),
+            (-dy, a.1 - yr.0),
+            (dy, yr.1 - a.1),
+        ] {
+            if q == 0.0 {
+                if r < 0.0 {
+                    visible = false;
+                }
+            } else {
+                let t = r / q;
+                if q < 0.0 {
+                    t0 = t0.max(t);
+                } else {
+                    t1 = t1.min(t);
+                }
+            }
+        }
+        if !visible || t0 > t1 {
+            out.extend((!cur.is_empty()).then(|| std::mem::take(&mut cur)));
+            continue;
+        }
+        let at = |t: f64| (a.0 + t * dx, a.1 + t * dy);
+        if t0 > 0.0 || cur.is_empty() {
+            out.extend((!cur.is_empty()).then(|| std::mem::take(&mut cur)));
+            cur.push(at(t0));
+        }
+        cur.push(if t1 < 1.0 { at(t1) } else { p });
+        if t1 < 1.0 {
+            out.push(std::mem::take(&mut cur));
+        }
+    }
+    out.extend((!cur.is_empty()).then_some(cur));
+    out
 }
 
 /// Backend coordinates relative to `area` (whose drawing clips to it).
@@ -740,14 +884,7 @@ pub fn plot_program(
     out: &Path,
 ) -> Result<(), String> {
     Format::from_path(out)?;
-    let report = check(StrSource::new(text), dialect, machine);
-    if !report.ok() {
-        return Err(format!(
-            "{program_name}: {} error(s), nothing plotted:\n{}",
-            report.error_count,
-            report.message()
-        ));
-    }
+    checked(machine, dialect, program_name, text)?;
     let programmed = programmed_path(machine, dialect, text);
     let run = simulated_run(machine, dialect, text);
     let title = format!(
@@ -911,6 +1048,386 @@ pub fn plot_recording(recording: &Path, out: &Path) -> Result<(), String> {
     render(&path_figure(title, &machine, &programmed, &run), out)
 }
 
+/// One sample of a thread pass: the lead error against the spindle angle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThreadErrorPoint {
+    /// spindle angle the setpoint is for, degrees from the pass's θ₀
+    /// (`(theta − theta0) × 360`, counted in the direction of rotation)
+    pub deg: f64,
+    /// setpoint lead travel minus the ideal thread line
+    /// `pitch × (true spindle angle − θ₀)`, µm
+    pub set_um: f64,
+    /// the same for the simulated actual position, µm
+    pub act_um: f64,
+    /// in the synchronized part (not run-in or deceleration)
+    pub on_line: bool,
+}
+
+/// One pass of a thread: a chain of G33 blocks from its run-in to its
+/// deceleration, one sync.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ThreadPass {
+    /// the pass's first G33 block
+    pub line: u32,
+    pub block_no: Option<u64>,
+    /// lead axis (0 X, 1 Y, 2 Z) and the first block's pitch, mm/rev
+    pub lead: usize,
+    pub pitch: f64,
+    /// θ₀ of the first block, revolutions (the x axis's zero)
+    pub theta0: f64,
+    /// one encoder count along the lead at `pitch`, µm
+    pub count_um: f64,
+    /// samples of the pass (from the start of the run-in), and of those
+    /// on the thread line
+    pub samples: u64,
+    pub on_line_samples: u64,
+    /// the synchronized parts, degrees from θ₀ (first to last sample
+    /// on the line; one span per chain)
+    pub sync_deg: Vec<(f64, f64)>,
+    /// largest |error| on the line: setpoint and actual, in µm and in
+    /// encoder counts (each block's own pitch), over every sample
+    pub max_set_um: f64,
+    pub max_set_counts: f64,
+    pub max_act_um: f64,
+    pub max_act_counts: f64,
+    /// the angle from which the actual error stays within one count for
+    /// the rest of the synchronized part (`None`: not at its end)
+    pub act_within_count_from_deg: Option<f64>,
+    /// the error curve, thinned to at most [`MAX_SERIES_POINTS`] points
+    /// (the ends of run-in, line and deceleration kept)
+    pub points: Vec<ThreadErrorPoint>,
+}
+
+/// The lead error of every G33 pass of a run ([`thread_error_series`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ThreadErrorSeries {
+    /// encoder counts per spindle revolution
+    pub counts_per_rev: u32,
+    pub passes: Vec<ThreadPass>,
+    /// why the run stopped early, if it did
+    pub fault: Option<String>,
+}
+
+/// The pass being collected.
+struct PassAcc {
+    pass: ThreadPass,
+    points: Decimator<ThreadErrorPoint>,
+    /// the latest sample still at rest at the start (waiting for the sync
+    /// angle), kept until the run-in moves
+    waiting: Option<ThreadErrorPoint>,
+    moved: bool,
+    /// the previous sample was on the line
+    prev_on: bool,
+}
+
+/// Collects [`ThreadErrorSeries`] from the steps of an offline run
+/// ([`crate::offline::simulate`] or `simulate_with`): a pass begins at a
+/// sample with `sync` after one without. The lead error compares the
+/// lead axis's travel from the block's start (setpoint, simulated actual)
+/// with `pitch × (θ − θ₀)` at the simulated spindle's true angle θ (the
+/// angle after the step, the instant the setpoint is for), for each
+/// block's own θ₀ and pitch. Samples at rest before the run-in begins
+/// (waiting for the sync angle) are left out but the last.
+pub struct ThreadErrors {
+    joints: Vec<usize>,
+    cpr: u32,
+    cur: Option<PassAcc>,
+    passes: Vec<ThreadPass>,
+}
+
+impl ThreadErrors {
+    pub fn new(machine: &Machine) -> ThreadErrors {
+        ThreadErrors {
+            joints: machine.joint_indices(),
+            cpr: machine
+                .spindle
+                .as_ref()
+                .map_or(0, |s| s.encoder_counts_per_rev),
+            cur: None,
+            passes: Vec::new(),
+        }
+    }
+
+    /// Takes one step of the run.
+    pub fn step(&mut self, st: &Step) {
+        let (Some(sync), Some(sp)) = (st.sample.sync, st.spindle) else {
+            self.close();
+            return;
+        };
+        let Some(j) = self.joints.iter().position(|&i| i == sync.lead) else {
+            return;
+        };
+        let cpr = sp.encoder().counts_per_rev.max(1);
+        self.cpr = cpr;
+        let dir = if st.sample.spindle_rpm < 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
+        let theta_true = dir * sp.revolutions();
+        let acc = self.cur.get_or_insert_with(|| PassAcc {
+            pass: ThreadPass {
+                line: st.sample.src.line,
+                block_no: st.sample.src.block_no,
+                lead: sync.lead,
+                pitch: sync.pitch,
+                theta0: sync.theta0,
+                count_um: sync.pitch / f64::from(cpr) * 1000.0,
+                samples: 0,
+                on_line_samples: 0,
+                sync_deg: Vec::new(),
+                max_set_um: 0.0,
+                max_set_counts: 0.0,
+                max_act_um: 0.0,
+                max_act_counts: 0.0,
+                act_within_count_from_deg: None,
+                points: Vec::new(),
+            },
+            points: Decimator::new(MAX_SERIES_POINTS),
+            waiting: None,
+            moved: false,
+            prev_on: false,
+        });
+        let ideal = sync.pitch * (theta_true - sync.theta0);
+        let u_set =
+            sync.lead_sign * (st.setpoints.get(j).copied().unwrap_or(f64::NAN) - sync.lead_start);
+        let u_act =
+            sync.lead_sign * (st.actual.get(j).copied().unwrap_or(f64::NAN) - sync.lead_start);
+        let pt = ThreadErrorPoint {
+            deg: (sync.theta - acc.pass.theta0) * 360.0,
+            set_um: (u_set - ideal) * 1000.0,
+            act_um: (u_act - ideal) * 1000.0,
+            on_line: sync.on_line,
+        };
+        if !acc.moved {
+            if sync.u == 0.0 && !sync.on_line {
+                acc.waiting = Some(pt);
+                return;
+            }
+            acc.moved = true;
+            if let Some(w) = acc.waiting.take() {
+                acc.pass.samples += 1;
+                acc.points.push(0, w);
+            }
+        }
+        let p = &mut acc.pass;
+        p.samples += 1;
+        acc.points.push(u8::from(pt.on_line), pt);
+        let prev_on = std::mem::replace(&mut acc.prev_on, pt.on_line);
+        if !pt.on_line {
+            return;
+        }
+        let count_um = sync.pitch / f64::from(cpr) * 1000.0;
+        p.on_line_samples += 1;
+        p.max_set_um = p.max_set_um.max(pt.set_um.abs());
+        p.max_set_counts = p.max_set_counts.max(pt.set_um.abs() / count_um);
+        p.max_act_um = p.max_act_um.max(pt.act_um.abs());
+        p.max_act_counts = p.max_act_counts.max(pt.act_um.abs() / count_um);
+        match p.sync_deg.last_mut() {
+            Some(span) if prev_on => span.1 = pt.deg,
+            _ => p.sync_deg.push((pt.deg, pt.deg)),
+        }
+        if pt.act_um.abs() > count_um {
+            p.act_within_count_from_deg = None;
+        } else if p.act_within_count_from_deg.is_none() {
+            p.act_within_count_from_deg = Some(pt.deg);
+        }
+    }
+
+    /// Ends the pass being collected, if any.
+    fn close(&mut self) {
+        if let Some(acc) = self.cur.take() {
+            let mut pass = acc.pass;
+            let mut points = Vec::new();
+            for (k, (_, run)) in acc.points.finish().into_iter().enumerate() {
+                // each run after the first begins with the previous one's end
+                points.extend(run.into_iter().skip(usize::from(k > 0)));
+            }
+            points.extend(acc.waiting);
+            pass.points = points;
+            self.passes.push(pass);
+        }
+    }
+
+    /// The passes collected; `fault` as the run reported it.
+    pub fn finish(mut self, fault: Option<String>) -> ThreadErrorSeries {
+        self.close();
+        ThreadErrorSeries {
+            counts_per_rev: self.cpr,
+            passes: self.passes,
+            fault,
+        }
+    }
+}
+
+fn checked(
+    machine: &Machine,
+    dialect: Dialect,
+    program_name: &str,
+    text: &str,
+) -> Result<(), String> {
+    let report = check(StrSource::new(text), dialect, machine);
+    if report.ok() {
+        Ok(())
+    } else {
+        Err(format!(
+            "{program_name}: {} error(s), nothing plotted:\n{}",
+            report.error_count,
+            report.message()
+        ))
+    }
+}
+
+/// Runs a program offline against the simulated machine (as
+/// `cnc simulate`: the spindle model and its encoder drive G33) and
+/// returns the lead error of each G33 pass against the spindle angle (see
+/// [`ThreadErrors`]). The program must pass the check; the machine must
+/// have a spindle.
+pub fn thread_error_series(
+    machine: &Machine,
+    dialect: Dialect,
+    text: &str,
+) -> Result<ThreadErrorSeries, String> {
+    checked(machine, dialect, "program", text)?;
+    thread_errors_of_checked(machine, dialect, text)
+}
+
+fn thread_errors_of_checked(
+    machine: &Machine,
+    dialect: Dialect,
+    text: &str,
+) -> Result<ThreadErrorSeries, String> {
+    if machine.spindle.is_none() {
+        return Err(format!(
+            "machine {}: no spindle ([spindle] in the machine file), so no G33",
+            machine.name
+        ));
+    }
+    let mut acc = ThreadErrors::new(machine);
+    let summary = simulate(StrSource::new(text), dialect, machine, |st| acc.step(st));
+    Ok(acc.finish(summary.fault))
+}
+
+/// Legend labels of the thread error plot.
+pub mod thread_labels {
+    pub const SETPOINT: &str = "setpoint error";
+    pub const ACTUAL: &str = "simulated actual error";
+    pub const COUNT: &str = "±1 encoder count";
+    pub const SYNC: &str = "synchronized part";
+}
+
+const SYNC_BAND: Rgb = Rgb(222, 240, 222);
+/// The zoomed panel shows at least this many counts either side of 0.
+const ZOOM_COUNTS: f64 = 3.0;
+
+fn axis_name(i: usize) -> &'static str {
+    ["X", "Y", "Z"].get(i).copied().unwrap_or("?")
+}
+
+/// The figure of one pass: the whole pass (run-in, synchronized part,
+/// deceleration) above, the same zoomed to a few encoder counts below.
+fn thread_figure(title: String, series: &ThreadErrorSeries, pass: &ThreadPass) -> Figure {
+    let pts = &pass.points;
+    let (x0, x1) = pts
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.deg), b.max(p.deg))
+        });
+    let c = pass.count_um;
+    let lead = axis_name(pass.lead);
+    let make = |caption: String| {
+        let mut p = Panel::new(
+            "spindle angle from θ₀ (the thread's sync angle), degrees",
+            &format!("{lead} lead error, µm"),
+        );
+        p.caption = caption;
+        p.bands = pass
+            .sync_deg
+            .iter()
+            .map(|&x| Band {
+                label: thread_labels::SYNC.into(),
+                color: SYNC_BAND,
+                x,
+            })
+            .collect();
+        p.series = vec![
+            Series::new(thread_labels::COUNT, Rgb::DARK_GREY, 1, Dash::Dashed)
+                .with([vec![(x0, c), (x1, c)], vec![(x0, -c), (x1, -c)]]),
+            Series::new(thread_labels::SETPOINT, Rgb::BLUE, 2, Dash::Solid)
+                .with([pts.iter().map(|p| (p.deg, p.set_um)).collect()]),
+            Series::new(thread_labels::ACTUAL, Rgb::RED, 1, Dash::Solid)
+                .with([pts.iter().map(|p| (p.deg, p.act_um)).collect()]),
+        ];
+        p
+    };
+    let block = pass.block_no.map(|n| format!("N{n}, ")).unwrap_or_default();
+    let whole = make(format!(
+        "whole pass ({block}line {}): run-in, synchronized part, deceleration",
+        pass.line
+    ));
+    let half = (ZOOM_COUNTS * c).max(1.2 * pass.max_set_um);
+    let mut zoom = make(format!(
+        "synchronized part, zoomed: 1 count = {} µm (F{} / {} counts/rev); setpoint within {:.3} counts, actual {}",
+        tick(c),
+        tick(pass.pitch),
+        series.counts_per_rev,
+        pass.max_set_counts,
+        match pass.act_within_count_from_deg {
+            Some(d) => format!("within 1 count from {d:.0}°"),
+            None => format!("up to {:.2} counts", pass.max_act_counts),
+        }
+    ));
+    zoom.y_range = Some((-half, half));
+    Figure {
+        title,
+        width: 1200,
+        height: 900,
+        panels: vec![whole, zoom],
+    }
+}
+
+/// Plots the lead error of one G33 pass (1 = the first) of an offline run
+/// against the spindle angle: setpoint and simulated actual, the
+/// synchronized part shaded, ±1 encoder count dashed; a panel over the
+/// whole pass and one zoomed to a few counts. The program must pass the
+/// check and have a G33 pass; otherwise nothing is written. Returns the
+/// series of every pass.
+pub fn plot_thread_error(
+    machine: &Machine,
+    dialect: Dialect,
+    program_name: &str,
+    text: &str,
+    pass: usize,
+    out: &Path,
+) -> Result<ThreadErrorSeries, String> {
+    Format::from_path(out)?;
+    checked(machine, dialect, program_name, text)?;
+    let series = thread_errors_of_checked(machine, dialect, text)?;
+    let n = series.passes.len();
+    if n == 0 {
+        return Err(format!(
+            "{program_name}: no G33 thread was cut{}, nothing plotted",
+            series
+                .fault
+                .as_ref()
+                .map(|f| format!(" (the run stopped: {f})"))
+                .unwrap_or_default()
+        ));
+    }
+    let Some(p) = pass.checked_sub(1).and_then(|i| series.passes.get(i)) else {
+        return Err(format!(
+            "{program_name}: thread pass {pass} asked for, the program cuts {n} (1 to {n})"
+        ));
+    };
+    let title = format!(
+        "{program_name} on {}: G33 {} lead error, pass {pass} of {n}",
+        machine.name,
+        axis_name(p.lead)
+    );
+    render(&thread_figure(title, &series, p), out)?;
+    Ok(series)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -948,6 +1465,37 @@ mod tests {
         let (x, y) = equalize((0.0, 100.0), (0.0, 10.0), 1000, 500);
         assert!(((x.1 - x.0) / 1000.0 - (y.1 - y.0) / 500.0).abs() < 1e-12);
         assert!(x.1 - x.0 >= 100.0 && y.1 - y.0 >= 10.0);
+    }
+
+    #[test]
+    fn clipping_cuts_lines_at_the_edges() {
+        let r = ((0.0, 10.0), (-1.0, 1.0));
+        // inside: unchanged
+        let l = vec![(0.0, 0.0), (5.0, 0.5), (10.0, -1.0)];
+        assert_eq!(clip_polyline(&l, r.0, r.1), vec![l.clone()]);
+        // out at the top and back in: two pieces, cut at y = 1
+        let l = vec![(0.0, 0.0), (2.0, 2.0), (4.0, 0.0)];
+        assert_eq!(
+            clip_polyline(&l, r.0, r.1),
+            vec![vec![(0.0, 0.0), (1.0, 1.0)], vec![(3.0, 1.0), (4.0, 0.0)]]
+        );
+        // starts outside, a segment wholly outside, NaN breaks the line
+        let l = vec![
+            (1.0, -3.0),
+            (1.0, 0.0),
+            (2.0, 0.0),
+            (f64::NAN, 0.0),
+            (3.0, 0.0),
+            (3.0, 5.0),
+            (4.0, 5.0),
+        ];
+        assert_eq!(
+            clip_polyline(&l, r.0, r.1),
+            vec![
+                vec![(1.0, -1.0), (1.0, 0.0), (2.0, 0.0)],
+                vec![(3.0, 0.0), (3.0, 1.0)]
+            ]
+        );
     }
 
     #[test]

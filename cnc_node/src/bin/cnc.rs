@@ -51,13 +51,22 @@ enum Cmd {
         mcap: Option<PathBuf>,
     },
     /// Plot the programmed path, the setpoints and the simulated actual path
-    /// of a program or a recording (.mcap) to SVG or PNG.
+    /// of a program or a recording (.mcap) to SVG or PNG; with --thread, the
+    /// lead error of a G33 thread pass against the spindle angle.
     Plot {
         /// a program, or a recording (.mcap)
         file: PathBuf,
-        /// output file, .svg or .png
-        #[arg(short, long)]
-        out: PathBuf,
+        /// output file of the path plot, .svg or .png
+        #[arg(short, long, required_unless_present = "thread")]
+        out: Option<PathBuf>,
+        /// (programs with G33) output file, .svg or .png, of the lead error
+        /// of a thread pass against the spindle angle (offline run against
+        /// the simulated spindle and encoder)
+        #[arg(long)]
+        thread: Option<PathBuf>,
+        /// which G33 pass --thread plots, 1 = the first
+        #[arg(long, default_value_t = 1, requires = "thread")]
+        pass: usize,
         /// (programs) cnc836 or heidenhain (default: the machine file's)
         #[arg(long)]
         dialect: Option<Dialect>,
@@ -168,9 +177,17 @@ fn main() -> ExitCode {
         Cmd::Plot {
             file,
             out,
+            thread,
+            pass,
             dialect,
             machine,
-        } => cmd_plot(&file, &out, dialect, &machine),
+        } => cmd_plot(
+            &file,
+            out.as_deref(),
+            thread.as_deref().map(|t| (t, pass)),
+            dialect,
+            &machine,
+        ),
         Cmd::Bag { cmd } => cmd_bag(cmd),
         Cmd::Run {
             file,
@@ -468,23 +485,74 @@ fn cmd_run(
 
 fn cmd_plot(
     file: &Path,
-    out: &Path,
+    out: Option<&Path>,
+    thread: Option<(&Path, usize)>,
     dialect: Option<Dialect>,
     machine: &str,
 ) -> Result<ExitCode, String> {
-    if file.extension().is_some_and(|e| e == "mcap") {
-        cnc_node::plot::plot_recording(file, out)?;
-    } else {
-        let m = load(machine, None)?;
-        let d = dialect.unwrap_or(m.dialect);
-        let text = std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
-        let name = file
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        cnc_node::plot::plot_program(&m, d, &name, &text, out)?;
+    // both outputs' formats before any work, so a bad one writes nothing
+    for o in out.iter().copied().chain(thread.map(|t| t.0)) {
+        cnc_node::plot::Format::from_path(o)?;
     }
-    println!("{}: plotted to {}", file.display(), out.display());
+    if file.extension().is_some_and(|e| e == "mcap") {
+        if thread.is_some() {
+            return Err(format!(
+                "{}: --thread plots a program's offline run (a recording has no true spindle angle); plot the program with --machine",
+                file.display()
+            ));
+        }
+        if let Some(out) = out {
+            cnc_node::plot::plot_recording(file, out)?;
+            println!("{}: plotted to {}", file.display(), out.display());
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
+    let m = load(machine, None)?;
+    let d = dialect.unwrap_or(m.dialect);
+    let text = std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
+    let name = file
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    if let Some(out) = out {
+        cnc_node::plot::plot_program(&m, d, &name, &text, out)?;
+        println!("{}: plotted to {}", file.display(), out.display());
+    }
+    if let Some((tout, pass)) = thread {
+        let s = cnc_node::plot::plot_thread_error(&m, d, &name, &text, pass, tout)?;
+        println!(
+            "{}: thread pass {pass} of {} plotted to {}",
+            file.display(),
+            s.passes.len(),
+            tout.display()
+        );
+        for (i, p) in s.passes.iter().enumerate() {
+            let block = p.block_no.map(|n| format!("N{n}, ")).unwrap_or_default();
+            let span = match (p.sync_deg.first(), p.sync_deg.last()) {
+                (Some(a), Some(b)) => format!("{:.1}..{:.1}°", a.0, b.1),
+                _ => "none".into(),
+            };
+            let settled = p
+                .act_within_count_from_deg
+                .map(|d| format!(", within 1 count from {d:.0}°"))
+                .unwrap_or_default();
+            println!(
+                "  pass {} ({block}line {}): F{} synchronized {span} ({} samples); largest error there: setpoint {:.4} µm ({:.3} counts), actual {:.3} µm ({:.2} counts){settled}; 1 count = {:.4} µm",
+                i + 1,
+                p.line,
+                p.pitch,
+                p.on_line_samples,
+                p.max_set_um,
+                p.max_set_counts,
+                p.max_act_um,
+                p.max_act_counts,
+                p.count_um
+            );
+        }
+        if let Some(f) = &s.fault {
+            eprintln!("{}: the run stopped: {f}", file.display());
+        }
+    }
     Ok(ExitCode::SUCCESS)
 }
 
