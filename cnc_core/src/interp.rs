@@ -3,10 +3,12 @@
 //! records every error (and keeps going, so one check reports them all), and
 //! holds only the current block: memory does not grow with the program.
 
+use crate::comp::{Comp, Mode as CompMode};
 use crate::diag::{num, Diagnostic};
 use crate::dialect::Dialect;
 use crate::geom::{Arc, Geom, Plane};
 use crate::machine::Machine;
+use crate::machine::{tip_vector, ToolConfig};
 use crate::parse::{block_no, parse_line, Block, Word};
 use crate::source::{ProgramSource, SourceError, SourcePos};
 use crate::thread::{RunoutPath, ThreadMove, ThreadSeg, SPEED_MARGIN, THREAD_SHARE};
@@ -220,7 +222,9 @@ mod slot {
     pub const LAST_DIR: usize = 26;
     /// cnc836 G33: thread cutting (this block only)
     pub const THREAD: usize = 27;
-    pub const COUNT: usize = 28;
+    /// G40/G41/G42: radius compensation
+    pub const COMP: usize = 28;
+    pub const COUNT: usize = 29;
 }
 
 /// The words of one block, sorted by meaning, each with its column. Each
@@ -237,6 +241,8 @@ struct Words<'b> {
     absolute: bool,
     per_rev: bool,
     spindle: SpindleDir,
+    /// 40, 41 or 42
+    comp: u8,
 }
 
 impl<'b> Words<'b> {
@@ -250,6 +256,7 @@ impl<'b> Words<'b> {
             absolute: true,
             per_rev: false,
             spindle: SpindleDir::Off,
+            comp: 40,
         }
     }
     #[inline]
@@ -367,6 +374,12 @@ pub struct Interpreter<S> {
     /// after a G33 block with runout: 2 = the next block must be empty,
     /// 1 = the next must program every axis
     after_runout: u8,
+    /// radius compensation (between the moves and the events out)
+    comp: Comp,
+    /// the tool table and the entry selected by T (None: no offset)
+    tools: std::sync::Arc<[ToolConfig]>,
+    lathe: bool,
+    tool_cfg: Option<ToolConfig>,
 }
 
 /// What G33 needs of the machine.
@@ -455,6 +468,10 @@ impl<S: ProgramSource> Interpreter<S> {
             thread_pitch: None,
             held: None,
             after_runout: 0,
+            comp: Comp::new(machine.compensation.round_outside_corners, machine.home()),
+            tools: machine.tools.clone().into(),
+            lathe,
+            tool_cfg: None,
         }
     }
 
@@ -674,6 +691,10 @@ impl<S: ProgramSource> Interpreter<S> {
             thread_pitch,
             held,
             after_runout,
+            comp,
+            tools,
+            lathe,
+            tool_cfg,
         } = self;
         let new = Interpreter {
             src,
@@ -712,6 +733,10 @@ impl<S: ProgramSource> Interpreter<S> {
             thread_pitch,
             held,
             after_runout,
+            comp,
+            tools,
+            lathe,
+            tool_cfg,
         };
         (old, new)
     }
@@ -720,7 +745,7 @@ impl<S: ProgramSource> Interpreter<S> {
         if !self.finished {
             self.release_thread(false);
             self.finished = true;
-            self.pending.push_back(Event::End { src: self.last });
+            self.emit(Event::End { src: self.last });
         }
     }
 
@@ -779,6 +804,7 @@ impl<S: ProgramSource> Interpreter<S> {
                         19 => once!(slot::PLANE, w.plane = Plane::YZ, "a plane G code (G17-G19)"),
                         90 => once!(slot::DISTANCE, w.absolute = true, "G90/G91"),
                         91 => once!(slot::DISTANCE, w.absolute = false, "G90/G91"),
+                        40..=42 => once!(slot::COMP, w.comp = code as u8, "G40/G41/G42"),
                         94 => once!(slot::FEED_MODE, w.per_rev = false, "G94/G95"),
                         95 => once!(slot::FEED_MODE, w.per_rev = true, "G94/G95"),
                         9 if self.dialect == Dialect::Cnc836 => once!(slot::HELIX_ON, "G09"),
@@ -924,9 +950,15 @@ impl<S: ProgramSource> Interpreter<S> {
         }
         if let Some(t) = w.t() {
             match t.as_int().filter(|&n| t.integer && (0..=9999).contains(&n)) {
+                Some(_) if self.comp.active() => self.error(
+                    Some(&t),
+                    "a tool change while radius compensation is active: cancel it with G40 first"
+                        .into(),
+                ),
+                Some(n) if !self.select_tool(n as u32, &t) => {}
                 Some(n) => {
                     self.modal.tool = n as u32;
-                    self.pending.push_back(Event::Tool {
+                    self.emit(Event::Tool {
                         number: n as u32,
                         src,
                     });
@@ -951,14 +983,32 @@ impl<S: ProgramSource> Interpreter<S> {
             }
         }
         if self.modal.spindle_rpm() != before {
-            self.pending.push_back(Event::Spindle {
+            self.emit(Event::Spindle {
                 rpm: self.modal.spindle_rpm(),
                 src,
             });
         }
         // --- modal geometry state --------------------------------------------
         if w.has(slot::PLANE) {
-            self.modal.plane = w.plane;
+            if self.comp.active() && w.plane != self.modal.plane {
+                let pl = w.get(slot::PLANE);
+                self.error(
+                    pl.as_ref(),
+                    "the plane cannot change while radius compensation is active: cancel it with G40 first".into(),
+                );
+            } else {
+                self.modal.plane = w.plane;
+            }
+        }
+        if let Some(g) = w.get(slot::COMP) {
+            self.exec_comp(w.comp, &g);
+        }
+        if let (Some(g), true) = (g33, self.comp.active()) {
+            self.error(
+                Some(&g),
+                "G33 (thread) with radius compensation active: cancel it with G40 first".into(),
+            );
+            return;
         }
         if w.has(slot::DISTANCE) {
             self.modal.absolute = w.absolute;
@@ -1475,7 +1525,7 @@ impl<S: ProgramSource> Interpreter<S> {
         match time {
             Some(t) if t.value >= 0.0 && t.value <= 100_000.0 => {
                 if t.value > 0.0 {
-                    self.pending.push_back(Event::Dwell {
+                    self.emit(Event::Dwell {
                         seconds: t.value,
                         src,
                     });
@@ -1599,6 +1649,89 @@ impl<S: ProgramSource> Interpreter<S> {
             let line = Geom::Line { start, end: target };
             self.add_move(&line, feed, w, anchor.as_ref(), src);
         }
+    }
+
+    /// Passes an event on, through radius compensation when it is (or was)
+    /// in force.
+    #[inline]
+    fn emit(&mut self, ev: Event) {
+        if self.comp.idle() {
+            self.pending.push_back(ev);
+            return;
+        }
+        let mut errs = Vec::new();
+        self.comp.push(ev, &mut self.pending, &mut errs);
+        for e in errs {
+            self.error(None, e);
+        }
+    }
+
+    /// T: selects a tool table entry (lathe `T####`: the offset is the
+    /// last two digits, 00 cancels it; mill `T<n>`: tool n). False: an
+    /// error was reported.
+    fn select_tool(&mut self, n: u32, t: &Word) -> bool {
+        if self.tools.is_empty() {
+            return true;
+        }
+        let number = if self.lathe { n % 100 } else { n };
+        if number == 0 {
+            self.tool_cfg = None;
+            self.comp.set_geometry_offset(V3::zeros());
+            return true;
+        }
+        match self.tools.iter().find(|x| x.number == number) {
+            Some(cfg) => {
+                self.comp.set_geometry_offset(cfg.offset());
+                self.tool_cfg = Some(cfg.clone());
+                true
+            }
+            None => {
+                let have: Vec<String> = self.tools.iter().map(|x| x.number.to_string()).collect();
+                let what = if self.lathe {
+                    format!("tool offset {number:02} (T{n:04})")
+                } else {
+                    format!("tool T{n}")
+                };
+                self.error(
+                    Some(t),
+                    format!(
+                        "{what} is not in the machine's tool table (it has {})",
+                        have.join(", ")
+                    ),
+                );
+                false
+            }
+        }
+    }
+
+    /// G40/G41/G42.
+    fn exec_comp(&mut self, code: u8, g: &Word) {
+        if code == 40 {
+            self.comp.set_mode(None);
+            return;
+        }
+        let Some(tool) = self.tool_cfg.clone() else {
+            self.error(
+                Some(g),
+                format!(
+                    "G{code} (radius compensation) needs a tool from the machine's tool table: select one with T first"
+                ),
+            );
+            return;
+        };
+        let r = tool.radius_mm;
+        let mut tip = V3::zeros();
+        if self.lathe {
+            let (x, z) = tip_vector(tool.tip);
+            tip[0] = x * r;
+            tip[2] = z * r;
+        }
+        self.comp.set_mode(Some(CompMode {
+            side: if code == 41 { 1.0 } else { -1.0 },
+            radius: r,
+            plane: self.modal.plane,
+            tip,
+        }));
     }
 
     /// G33: a thread block (cnc836). It is held back until the next block
@@ -1942,7 +2075,7 @@ impl<S: ProgramSource> Interpreter<S> {
             }
             m.decel = Some(delta);
         }
-        self.pending.push_back(Event::Thread(m));
+        self.emit(Event::Thread(m));
         chained.then_some(h.v_end)
     }
 
@@ -2007,7 +2140,7 @@ impl<S: ProgramSource> Interpreter<S> {
             });
         }
         if let Some(feed) = feed {
-            self.pending.push_back(Event::Move {
+            self.emit(Event::Move {
                 geom: *geom,
                 feed,
                 src,

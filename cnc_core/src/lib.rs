@@ -14,6 +14,7 @@
 //! [`source::ProgramSource`], so memory does not grow with program length.
 
 pub mod check;
+pub mod comp;
 pub mod diag;
 pub mod dialect;
 pub mod exec;

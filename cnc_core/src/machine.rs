@@ -230,6 +230,71 @@ pub struct Machine {
     pub spindle: Option<SpindleConfig>,
     #[serde(default)]
     pub constants: Constants,
+    /// radius compensation settings
+    #[serde(default)]
+    pub compensation: CompensationConfig,
+    /// the tool table: lathe offsets (`T0101` selects offset 1), mill tools
+    /// (`T5` selects tool 5)
+    #[serde(default, rename = "tool")]
+    pub tools: Vec<ToolConfig>,
+}
+
+/// One entry of the tool table.
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolConfig {
+    /// lathe: the offset number (the last two digits of `T####`, 1..99);
+    /// mill: the tool number (`T<n>`, 1..9999)
+    pub number: u32,
+    /// nose (lathe) or cutter (mill) radius, mm
+    #[serde(default)]
+    pub radius_mm: f64,
+    /// lathe tool type 0-9: where the imaginary tip lies from the nose
+    /// centre (compensation.md); 0 and 9: the nose centre is programmed
+    #[serde(default)]
+    pub tip: u8,
+    /// geometry offsets: where the controlled point (the imaginary tip, or
+    /// the cutter's end) lies from the slide's reference point, mm
+    #[serde(default)]
+    pub x_mm: f64,
+    #[serde(default)]
+    pub y_mm: f64,
+    #[serde(default)]
+    pub z_mm: f64,
+}
+
+impl ToolConfig {
+    /// The geometry offset as a vector (X, Y, Z).
+    pub fn offset(&self) -> V3 {
+        V3::new(self.x_mm, self.y_mm, self.z_mm)
+    }
+}
+
+/// Radius compensation settings.
+#[derive(Clone, Debug, Default, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CompensationConfig {
+    /// outside corners: false (the default, as the seed's control) joins
+    /// the offset elements at their intersection, extending both; true
+    /// rounds them with an arc of the tool radius about the corner
+    #[serde(default)]
+    pub round_outside_corners: bool,
+}
+
+/// The direction of the imaginary tip from the nose centre for tool type
+/// 0-9, in units of the nose radius, as (X, Z) (compensation.md).
+pub fn tip_vector(tip: u8) -> (f64, f64) {
+    match tip {
+        1 => (1.0, 1.0),
+        2 => (1.0, -1.0),
+        3 => (-1.0, -1.0),
+        4 => (-1.0, 1.0),
+        5 => (0.0, 1.0),
+        6 => (1.0, 0.0),
+        7 => (0.0, -1.0),
+        8 => (-1.0, 0.0),
+        _ => (0.0, 0.0),
+    }
 }
 
 /// An error in a machine file; the text names the key.
@@ -359,6 +424,31 @@ impl Machine {
         if self.limits.max_errors == 0 {
             return bad("limits.max_errors".into(), "must be at least 1".into());
         }
+        let max_tool = if self.kind == MachineKind::Lathe {
+            99
+        } else {
+            9999
+        };
+        for (i, t) in self.tools.iter().enumerate() {
+            let k = |f: &str| format!("tool[{i}].{f}");
+            if !(1..=max_tool).contains(&t.number) {
+                return bad(k("number"), format!("must be 1..{max_tool}"));
+            }
+            if self.tools[..i].iter().any(|o| o.number == t.number) {
+                return bad(k("number"), format!("{} is in the table twice", t.number));
+            }
+            if !(t.radius_mm.is_finite() && (0.0..=1000.0).contains(&t.radius_mm)) {
+                return bad(k("radius_mm"), "must be between 0 and 1000".into());
+            }
+            if t.tip > 9 {
+                return bad(k("tip"), "must be a tool type 0..9".into());
+            }
+            for (f, v) in [("x_mm", t.x_mm), ("y_mm", t.y_mm), ("z_mm", t.z_mm)] {
+                if !(v.is_finite() && v.abs() <= 10_000.0) {
+                    return bad(k(f), "must be a length within ±10000 mm".into());
+                }
+            }
+        }
         if let Some(mc8) = &self.constants.mc8 {
             let r = decode_mc8(mc8)
                 .map_err(|e| MachineError(format!("machine file: key `constants.mc8`: {e}")))?;
@@ -443,6 +533,11 @@ impl Machine {
     /// Start position of the machine coordinates.
     pub fn home(&self) -> V3 {
         V3::from_fn(|i, _| self.axis(i).map_or(0.0, |a| a.home_mm))
+    }
+
+    /// The tool table entry `number` (lathe: offset number).
+    pub fn tool(&self, number: u32) -> Option<&ToolConfig> {
+        self.tools.iter().find(|t| t.number == number)
     }
 
     /// The thread runout of machine constant 8, if set (validated at load).
