@@ -11,7 +11,9 @@
 //!   long run does not grow memory or the file.
 //! - The CNC plots on top: [`plot_program`] (the programmed path from the
 //!   interpreter's moves, the setpoints and the simulated actual positions
-//!   of an offline run), [`plot_recording`] (the same from an MCAP
+//!   of an offline run; with G41/G42 the programmed contour, the nose- or
+//!   cutter-centre path and the imaginary tip's path, [`comp_paths`]),
+//!   [`plot_recording`] (the same from an MCAP
 //!   recording) and [`plot_thread_error`] (a G33 pass's lead error against
 //!   the spindle angle, from [`thread_error_series`]).
 //!
@@ -22,9 +24,10 @@
 use crate::offline::{simulate, Step};
 use crate::record::{self, topics};
 use cnc_core::exec::Sample;
-use cnc_core::geom::Geom;
+use cnc_core::geom::{Geom, Plane};
 use cnc_core::interp::{Event, Feed, Interpreter};
-use cnc_core::machine::{axis_index, MachineKind};
+use cnc_core::machine::{axis_index, tip_vector, MachineKind, ToolConfig};
+use cnc_core::parse::{parse_line, Block};
 use cnc_core::source::StrSource;
 use cnc_core::{check, Dialect, Machine, V3};
 use plotters::coord::Shift;
@@ -111,9 +114,14 @@ pub struct Panel {
     pub y_label: String,
     /// one data unit is as long on the x axis as on the y axis
     pub equal_aspect: bool,
-    /// height relative to the other panels of the figure
+    /// height (in a figure of columns: width) relative to the other
+    /// panels of the figure
     pub weight: f64,
-    /// the y axis's range as given (no padding); `None`: from the data
+    /// the x axis's range as given (no padding; widened for an equal
+    /// aspect); `None`: from the data
+    pub x_range: Option<(f64, f64)>,
+    /// the y axis's range as given (no padding; widened for an equal
+    /// aspect); `None`: from the data
     pub y_range: Option<(f64, f64)>,
     /// shaded spans of x, drawn under the grid and the series
     pub bands: Vec<Band>,
@@ -139,6 +147,7 @@ impl Panel {
             y_label: y_label.to_string(),
             equal_aspect: false,
             weight: 1.0,
+            x_range: None,
             y_range: None,
             bands: Vec::new(),
             series: Vec::new(),
@@ -164,14 +173,18 @@ impl Panel {
     }
 }
 
-/// A titled figure: a legend row (every distinct label of its panels) and
-/// the panels stacked top to bottom.
+/// A titled figure: a legend (every distinct label of its panels, in as
+/// many rows as it needs) and the panels stacked top to bottom, or side
+/// by side.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Figure {
     pub title: String,
     /// pixels (SVG: user units)
     pub width: u32,
     pub height: u32,
+    /// the panels left to right (widths by weight) instead of top to
+    /// bottom (heights by weight)
+    pub columns: bool,
     pub panels: Vec<Panel>,
 }
 
@@ -236,7 +249,7 @@ pub fn render_svg(fig: &Figure) -> Result<String, String> {
     let mut text = String::new();
     {
         let root = SVGBackend::with_string(&mut text, (w, h)).into_drawing_area();
-        draw_figure(fig, &root)?;
+        draw_figure(fig, &root, false)?;
         root.present().map_err(|e| format!("drawing: {e}"))?;
     }
     Ok(text)
@@ -249,7 +262,7 @@ pub fn render_png(fig: &Figure) -> Result<Vec<u8>, String> {
     let mut rgb = vec![0u8; w as usize * h as usize * 3];
     {
         let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
-        draw_figure(fig, &root)?;
+        draw_figure(fig, &root, true)?;
         root.present().map_err(|e| format!("drawing: {e}"))?;
     }
     let mut out = Vec::new();
@@ -288,9 +301,11 @@ const Y_LABEL_AREA_PX: u32 = 70;
 /// Least distance between drawn points of a polyline (Chebyshev), pixels.
 const MIN_STEP_PX: i32 = 3;
 
+/// `bitmap`: thick lines are drawn segment by segment (see [`draw_panel`]).
 fn draw_figure<DB: DrawingBackend>(
     fig: &Figure,
     root: &DrawingArea<DB, Shift>,
+    bitmap: bool,
 ) -> Result<(), String> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| format!("drawing: {e}");
     root.fill(&WHITE).map_err(e)?;
@@ -307,19 +322,26 @@ fn draw_figure<DB: DrawingBackend>(
                 .pos(Pos::new(HPos::Center, VPos::Top)),
         ))
         .map_err(e)?;
-    let (legend_area, rest) = rest.split_vertically(LEGEND_ROW_PX);
-    draw_legend(fig, &legend_area)?;
+    let legend = legend_layout(fig, root)?;
+    let rows = legend.iter().map(|l| l.row + 1).max().unwrap_or(1);
+    let (legend_area, rest) = rest.split_vertically(LEGEND_ROW_PX * rows);
+    draw_legend(&legend, &legend_area)?;
     let total: f64 = fig.panels.iter().map(|p| p.weight.max(0.01)).sum();
-    let (_, h) = rest.dim_in_pixel();
-    let mut y = 0.0;
+    let (w, h) = rest.dim_in_pixel();
+    let side = if fig.columns { w } else { h };
+    let mut at = 0.0;
     let mut breaks = Vec::new();
     for p in &fig.panels[..fig.panels.len() - 1] {
-        y += p.weight.max(0.01) / total * h as f64;
-        breaks.push(y.round() as i32);
+        at += p.weight.max(0.01) / total * side as f64;
+        breaks.push(at.round() as i32);
     }
-    let areas = rest.split_by_breakpoints::<i32, i32, _, _>(Vec::<i32>::new(), breaks);
+    let areas = if fig.columns {
+        rest.split_by_breakpoints::<i32, i32, _, _>(breaks, Vec::<i32>::new())
+    } else {
+        rest.split_by_breakpoints::<i32, i32, _, _>(Vec::<i32>::new(), breaks)
+    };
     for (panel, area) in fig.panels.iter().zip(&areas) {
-        draw_panel(panel, area)?;
+        draw_panel(panel, area, bitmap)?;
     }
     Ok(())
 }
@@ -359,19 +381,63 @@ fn legend_entries(fig: &Figure) -> Vec<Entry<'_>> {
         .collect()
 }
 
+/// A legend entry placed: its row and the x of its swatch.
+struct Placed<'a> {
+    entry: Entry<'a>,
+    row: u32,
+    x: i32,
+}
+
+fn entry_label<'a>(e: &Entry<'a>) -> &'a str {
+    match e {
+        Entry::Line(s) => &s.label,
+        Entry::Band(b) => &b.label,
+    }
+}
+
+fn legend_font() -> TextStyle<'static> {
+    (FONT, TEXT_PX as f64)
+        .into_font()
+        .color(&BLACK)
+        .pos(Pos::new(HPos::Left, VPos::Center))
+}
+
+/// The legend's entries in rows that fit the figure's width.
+fn legend_layout<'a, DB: DrawingBackend>(
+    fig: &'a Figure,
+    area: &DrawingArea<DB, Shift>,
+) -> Result<Vec<Placed<'a>>, String> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| format!("drawing: {e}");
+    let font = legend_font();
+    let left = Y_LABEL_AREA_PX as i32 + MARGIN_PX as i32;
+    let right = fig.width as i32 - MARGIN_PX as i32;
+    let (mut x, mut row) = (left, 0);
+    let mut out = Vec::new();
+    for entry in legend_entries(fig) {
+        let (tw, _) = area
+            .estimate_text_size(entry_label(&entry), &font)
+            .map_err(e)?;
+        let w = 36 + tw as i32;
+        if x > left && x + w > right {
+            row += 1;
+            x = left;
+        }
+        out.push(Placed { entry, row, x });
+        x += w + 24;
+    }
+    Ok(out)
+}
+
 fn draw_legend<DB: DrawingBackend>(
-    fig: &Figure,
+    legend: &[Placed<'_>],
     area: &DrawingArea<DB, Shift>,
 ) -> Result<(), String> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| format!("drawing: {e}");
-    let font = (FONT, TEXT_PX as f64)
-        .into_font()
-        .color(&BLACK)
-        .pos(Pos::new(HPos::Left, VPos::Center));
-    let y = LEGEND_ROW_PX as i32 / 2;
-    let mut x = Y_LABEL_AREA_PX as i32 + MARGIN_PX as i32;
-    for entry in legend_entries(fig) {
-        let label = match entry {
+    let font = legend_font();
+    for p in legend {
+        let x = p.x;
+        let y = (LEGEND_ROW_PX * p.row + LEGEND_ROW_PX / 2) as i32;
+        match p.entry {
             Entry::Line(s) => {
                 let style = s.color.color().stroke_width(s.width.max(1));
                 match s.dash {
@@ -386,7 +452,6 @@ fn draw_legend<DB: DrawingBackend>(
                         }
                     }
                 }
-                &s.label
             }
             Entry::Band(b) => {
                 area.draw(&Rectangle::new(
@@ -394,14 +459,14 @@ fn draw_legend<DB: DrawingBackend>(
                     b.color.color().filled(),
                 ))
                 .map_err(e)?;
-                &b.label
             }
-        };
-        x += 36;
-        let (tw, _) = area.estimate_text_size(label, &font).map_err(e)?;
-        area.draw(&Text::new(label.clone(), (x, y), font.clone()))
-            .map_err(e)?;
-        x += tw as i32 + 24;
+        }
+        area.draw(&Text::new(
+            entry_label(&p.entry).to_string(),
+            (x + 36, y),
+            font.clone(),
+        ))
+        .map_err(e)?;
     }
     Ok(())
 }
@@ -439,18 +504,27 @@ fn tick(v: f64) -> String {
     s.to_string()
 }
 
+/// `bitmap`: a thick solid line is drawn as its segments with round
+/// joins, because plotters fills a thick polyline's outline as one polygon
+/// (even-odd), which leaves holes and stray areas where the line crosses
+/// or retraces itself (a helix's turns, a move back along the same line).
+/// SVG keeps one polyline (the viewer strokes it).
 fn draw_panel<DB: DrawingBackend>(
     panel: &Panel,
     area: &DrawingArea<DB, Shift>,
+    bitmap: bool,
 ) -> Result<(), String> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| format!("drawing: {e}");
     let ((x0, x1), (y0, y1)) = panel.bounds().unwrap_or(((0.0, 1.0), (0.0, 1.0)));
     let (mut xr, mut yr) = (pad(x0, x1), pad(y0, y1));
-    if let Some((lo, hi)) = panel
-        .y_range
-        .filter(|r| r.0.is_finite() && r.1.is_finite() && r.0 < r.1)
-    {
-        yr = (lo, hi);
+    let valid = |r: &(f64, f64)| r.0.is_finite() && r.1.is_finite() && r.0 < r.1;
+    let fixed_x = panel.x_range.filter(valid);
+    let fixed_y = panel.y_range.filter(valid);
+    if let Some(r) = fixed_x {
+        xr = r;
+    }
+    if let Some(r) = fixed_y {
+        yr = r;
     }
     if panel.equal_aspect {
         // the plotting area's size is known only once a chart is built;
@@ -515,7 +589,7 @@ fn draw_panel<DB: DrawingBackend>(
         // a fixed range leaves points outside: cut the lines at its edges
         // (the drawing area would pin them to the edge instead)
         let clipped: Vec<Vec<Point>>;
-        let lines = if panel.y_range.is_some() {
+        let lines = if fixed_x.is_some() || fixed_y.is_some() {
             clipped = s
                 .polylines
                 .iter()
@@ -551,6 +625,17 @@ fn draw_panel<DB: DrawingBackend>(
             }
             let root = plot.strip_coord_spec();
             match s.dash {
+                Dash::Solid if bitmap && s.width > 1 => {
+                    let px = shift(&px, &root);
+                    for seg in px.windows(2) {
+                        root.draw(&PathElement::new(seg.to_vec(), style))
+                            .map_err(e)?;
+                    }
+                    let r = s.width / 2;
+                    for &p in px.iter().skip(1).take(px.len().saturating_sub(2)) {
+                        root.draw(&Circle::new(p, r, style.filled())).map_err(e)?;
+                    }
+                }
                 Dash::Solid => root
                     .draw(&PathElement::new(shift(&px, &root), style))
                     .map_err(e)?,
@@ -750,8 +835,290 @@ const FEED: u8 = 0;
 /// Largest angle of one chord when an arc is sampled, rad (2°).
 const ARC_STEP_RAD: f64 = std::f64::consts::PI / 90.0;
 
-/// The programmed path: every move's geometry sampled with `Geom::eval`
-/// (lines: their ends; arcs: chords of at most 2°), tagged rapid or feed.
+/// A move's geometry sampled with `Geom::eval`: lines their ends, arcs
+/// chords of at most 2°.
+fn geom_points(geom: &Geom, mut f: impl FnMut(V3)) {
+    f(geom.start());
+    let n = match geom {
+        Geom::Line { .. } => 1,
+        Geom::Arc(a) => ((a.sweep.abs() / ARC_STEP_RAD).ceil() as usize).clamp(4, 100_000),
+    };
+    let len = geom.length();
+    for i in 1..=n {
+        f(geom.eval(len * i as f64 / n as f64));
+    }
+}
+
+/// The machine with every tool's radius and tool type 0: on it the
+/// interpreter's moves are the programmed contour (G41/G42 offset by
+/// nothing; geometry offsets stay, so the contour is in the setpoints'
+/// frame).
+pub fn without_radii(machine: &Machine) -> Machine {
+    let mut m = machine.clone();
+    for t in &mut m.tools {
+        t.radius_mm = 0.0;
+        t.tip = 0;
+    }
+    m
+}
+
+/// The G words of one line the plot follows: the plane (G17-G19) and
+/// radius compensation (40, 41, 42).
+#[derive(Clone, Copy, Debug, Default)]
+struct LineModes {
+    plane: Option<Plane>,
+    comp: Option<u8>,
+}
+
+/// Each line's [`LineModes`] (index: line − 1). A line that does not
+/// parse counts with the words before its error (the program is checked
+/// before it is plotted anyway).
+fn line_modes(dialect: Dialect, text: &str) -> Vec<LineModes> {
+    let mut block = Block::default();
+    text.lines()
+        .enumerate()
+        .map(|(i, line)| {
+            let mut m = LineModes::default();
+            let _ = parse_line(dialect, i as u32 + 1, line.as_bytes(), &mut block);
+            for w in block.words.iter().filter(|w| w.letter == b'G') {
+                match w.as_int() {
+                    Some(17) => m.plane = Some(Plane::XY),
+                    Some(18) => m.plane = Some(Plane::ZX),
+                    Some(19) => m.plane = Some(Plane::YZ),
+                    Some(c @ 40..=42) => m.comp = Some(c as u8),
+                    _ => {}
+                }
+            }
+            m
+        })
+        .collect()
+}
+
+/// Follows the plane, radius compensation and the selected tool along the
+/// interpreter's events. Events come in the order the blocks run; the
+/// modes of the lines from the previous event's line to this event's are
+/// applied in order (after a jump back, G73, only the event's own line).
+struct CompTracker<'a> {
+    modes: &'a [LineModes],
+    next_line: u32,
+    plane: Plane,
+    active: bool,
+    lathe: bool,
+    tools: &'a [ToolConfig],
+    tool: Option<&'a ToolConfig>,
+}
+
+/// Where a move stands with respect to radius compensation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum CompMove {
+    Off,
+    /// the block with G41/G42: from the uncompensated to the compensated
+    /// position
+    Entry,
+    On,
+}
+
+impl<'a> CompTracker<'a> {
+    fn new(machine: &'a Machine, modes: &'a [LineModes]) -> CompTracker<'a> {
+        let lathe = machine.kind == MachineKind::Lathe;
+        CompTracker {
+            modes,
+            next_line: 1,
+            plane: if lathe { Plane::ZX } else { Plane::XY },
+            active: false,
+            lathe,
+            tools: &machine.tools,
+            tool: None,
+        }
+    }
+
+    /// The state of a move from `line`.
+    fn at(&mut self, line: u32) -> CompMove {
+        let from = if line >= self.next_line {
+            self.next_line
+        } else {
+            line
+        };
+        let mut entry = false;
+        for l in from.max(1)..=line {
+            let Some(m) = self.modes.get(l as usize - 1) else {
+                break;
+            };
+            if let Some(p) = m.plane {
+                self.plane = p;
+            }
+            if let Some(c) = m.comp {
+                self.active = c != 40;
+                entry = l == line && c != 40;
+            }
+        }
+        self.next_line = line.saturating_add(1);
+        match (self.active, entry) {
+            (false, _) => CompMove::Off,
+            (true, true) => CompMove::Entry,
+            (true, false) => CompMove::On,
+        }
+    }
+
+    /// A `T` word: the tool (mill) or offset (lathe, the last two digits).
+    fn select(&mut self, number: u32) {
+        let n = if self.lathe { number % 100 } else { number };
+        self.tool = (n != 0)
+            .then(|| self.tools.iter().find(|t| t.number == n))
+            .flatten();
+    }
+
+    /// The selected tool's radius, mm.
+    fn radius(&self) -> f64 {
+        self.tool.map_or(0.0, |t| t.radius_mm)
+    }
+
+    /// From the nose centre to the imaginary tip (lathe): R × the tool
+    /// type's tip vector, machine coordinates.
+    fn tip(&self) -> V3 {
+        match self.tool {
+            Some(t) if self.lathe => {
+                let (x, z) = tip_vector(t.tip);
+                V3::new(x, 0.0, z) * t.radius_mm
+            }
+            _ => V3::zeros(),
+        }
+    }
+}
+
+/// The outline of the tool (nose circle, cutter) at one point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ToolOutline {
+    pub centre: V3,
+    pub radius: f64,
+    pub plane: Plane,
+}
+
+/// A bounding box, `(min, max)`.
+type Box3 = (V3, V3);
+
+fn grow(b: &mut Option<Box3>, p: V3) {
+    match b {
+        Some((lo, hi)) => {
+            *lo = lo.inf(&p);
+            *hi = hi.sup(&p);
+        }
+        None => *b = Some((p, p)),
+    }
+}
+
+/// The paths of a program under radius compensation, for [`plot_program`].
+#[derive(Clone, Debug)]
+pub struct CompPaths {
+    /// the programmed contour: the interpreter's moves on
+    /// [`without_radii`] of the machine, as runs tagged rapid (1) or feed (0)
+    pub contour: Vec<(u8, Vec<V3>)>,
+    /// the nose (lathe) or cutter (mill) centre: the commanded point minus
+    /// R × the selected tool's tip vector (on a mill the commanded point)
+    pub centre: Vec<V3>,
+    /// the commanded point: the imaginary tip (lathe; the cutter centre on
+    /// a mill), the interpreter's moves on the machine itself
+    pub tip: Vec<V3>,
+    /// the tool's outline at the end of every compensated move (the entry
+    /// included, the G40 block not), thinned to at most
+    /// [`MAX_OUTLINES`]
+    pub outlines: Vec<ToolOutline>,
+    /// the bounding box of the compensated part: the three paths of the
+    /// compensated moves after the entry, the entries' ends, the outlines
+    pub comp_box: Option<Box3>,
+    /// the machine has tool types (a lathe): the tip and the centre differ
+    pub lathe: bool,
+}
+
+/// Most tool outlines [`comp_paths`] keeps.
+pub const MAX_OUTLINES: usize = 200;
+
+/// The programmed contour, the nose- or cutter-centre path and the
+/// commanded (tip) path of a program that uses G41/G42 (`None` if no line
+/// holds either). The program should pass the check first.
+pub fn comp_paths(machine: &Machine, dialect: Dialect, text: &str) -> Option<CompPaths> {
+    let modes = line_modes(dialect, text);
+    if !modes.iter().any(|m| matches!(m.comp, Some(41 | 42))) {
+        return None;
+    }
+    let mut comp_box = None;
+    // the contour
+    let bare = without_radii(machine);
+    let mut contour = Decimator::new(MAX_SERIES_POINTS);
+    let mut tr = CompTracker::new(&bare, &modes);
+    for ev in Interpreter::new(StrSource::new(text), dialect, &bare) {
+        let Event::Move { geom, feed, src } = ev else {
+            continue;
+        };
+        let state = tr.at(src.line);
+        let tag = if matches!(feed, Feed::Rapid) {
+            RAPID
+        } else {
+            FEED
+        };
+        geom_points(&geom, |p| {
+            contour.push(tag, p);
+            if state == CompMove::On {
+                grow(&mut comp_box, p);
+            }
+        });
+    }
+    // the machine itself: the tip, the centre, the outlines
+    let mut tip = Decimator::new(MAX_SERIES_POINTS);
+    let mut centre = Decimator::new(MAX_SERIES_POINTS);
+    let mut outlines = Decimator::new(MAX_OUTLINES);
+    let mut tr = CompTracker::new(machine, &modes);
+    for ev in Interpreter::new(StrSource::new(text), dialect, machine) {
+        let (geom, src) = match ev {
+            Event::Tool { number, .. } => {
+                tr.select(number);
+                continue;
+            }
+            Event::Move { geom, src, .. } => (geom, src),
+            _ => continue,
+        };
+        let state = tr.at(src.line);
+        let v = tr.tip();
+        geom_points(&geom, |p| {
+            tip.push(0, p);
+            centre.push(0, p - v);
+            if state == CompMove::On {
+                grow(&mut comp_box, p);
+                grow(&mut comp_box, p - v);
+            }
+        });
+        if state != CompMove::Off {
+            let c = geom.end() - v;
+            let r = tr.radius();
+            let (p, q, _) = tr.plane.axes();
+            let mut d = V3::zeros();
+            d[p] = r;
+            d[q] = r;
+            grow(&mut comp_box, c - d);
+            grow(&mut comp_box, c + d);
+            grow(&mut comp_box, geom.end());
+            outlines.push(
+                0,
+                ToolOutline {
+                    centre: c,
+                    radius: r,
+                    plane: tr.plane,
+                },
+            );
+        }
+    }
+    Some(CompPaths {
+        contour: contour.finish(),
+        centre: one_run(centre),
+        tip: one_run(tip),
+        outlines: one_run(outlines),
+        comp_box,
+        lathe: tr.lathe,
+    })
+}
+
+/// The programmed path: every move's geometry sampled (lines: their ends;
+/// arcs: chords of at most 2°), tagged rapid or feed.
 fn programmed_path(machine: &Machine, dialect: Dialect, text: &str) -> Vec<(u8, Vec<V3>)> {
     let mut d = Decimator::new(MAX_SERIES_POINTS);
     for ev in Interpreter::new(StrSource::new(text), dialect, machine) {
@@ -763,15 +1130,7 @@ fn programmed_path(machine: &Machine, dialect: Dialect, text: &str) -> Vec<(u8, 
         } else {
             FEED
         };
-        d.push(tag, geom.start());
-        let n = match geom {
-            Geom::Line { .. } => 1,
-            Geom::Arc(a) => ((a.sweep.abs() / ARC_STEP_RAD).ceil() as usize).clamp(4, 100_000),
-        };
-        let len = geom.length();
-        for i in 1..=n {
-            d.push(tag, geom.eval(len * i as f64 / n as f64));
-        }
+        geom_points(&geom, |p| d.push(tag, p));
     }
     d.finish()
 }
@@ -782,7 +1141,7 @@ struct Run {
     actual: Vec<V3>,
 }
 
-fn one_run(d: Decimator<V3>) -> Vec<V3> {
+fn one_run<T: Copy>(d: Decimator<T>) -> Vec<T> {
     d.finish().into_iter().flat_map(|(_, v)| v).collect()
 }
 
@@ -813,28 +1172,71 @@ pub mod labels {
     pub const RAPID: &str = "programmed rapid";
     pub const SETPOINTS: &str = "setpoints";
     pub const ACTUAL: &str = "simulated actual";
+    /// with G41/G42: the programmed path is the contour (tool radius 0)
+    pub const CONTOUR: &str = "programmed contour";
+    pub const NOSE_CENTRE: &str = "nose-centre path";
+    pub const TIP: &str = "imaginary tip path (commanded)";
+    pub const NOSE: &str = "nose circle at block ends";
+    pub const CUTTER_CENTRE: &str = "cutter-centre path (commanded)";
+    pub const CUTTER: &str = "cutter at block ends";
 }
+
+/// Colours of the compensation series.
+const CENTRE_COLOR: Rgb = Rgb::GREEN;
+const TIP_COLOR: Rgb = Rgb::ORANGE;
+const OUTLINE_COLOR: Rgb = Rgb(120, 190, 120);
+
+/// Points of a circle about `o.centre` in its plane, projected on axes
+/// `h`, `v`; `None` when the panel does not show that plane.
+fn outline_points(o: &ToolOutline, h: usize, v: usize) -> Option<Vec<Point>> {
+    let (p, q, _) = o.plane.axes();
+    if !((h, v) == (p, q) || (h, v) == (q, p)) {
+        return None;
+    }
+    Some(
+        (0..=72)
+            .map(|k| {
+                let t = k as f64 * std::f64::consts::TAU / 72.0;
+                let mut x = o.centre;
+                x[p] += o.radius * t.cos();
+                x[q] += o.radius * t.sin();
+                (x[h], x[v])
+            })
+            .collect(),
+    )
+}
+
+/// The compensated part's box must be smaller than this share of the
+/// whole view's area for a zoomed panel.
+const ZOOM_AREA_SHARE: f64 = 0.3;
+/// The zoomed panel's size relative to the other panels together.
+const ZOOM_WEIGHT: f64 = 2.0;
 
 fn path_figure(
     title: String,
     machine: &Machine,
-    programmed: &[(u8, Vec<V3>)],
+    dialect: Dialect,
+    text: &str,
     run: &Run,
 ) -> Figure {
-    let all = programmed
+    let comp = comp_paths(machine, dialect, text);
+    let programmed = match &comp {
+        Some(c) => c.contour.clone(),
+        None => programmed_path(machine, dialect, text),
+    };
+    let mut bbox = None;
+    for p in programmed
         .iter()
         .flat_map(|(_, v)| v)
         .chain(&run.setpoints)
-        .chain(&run.actual);
-    let (mut zlo, mut zhi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for p in all {
-        zlo = zlo.min(p[2]);
-        zhi = zhi.max(p[2]);
+        .chain(&run.actual)
+        .chain(comp.iter().flat_map(|c| c.centre.iter().chain(&c.tip)))
+    {
+        grow(&mut bbox, *p);
     }
-    let z_moves = zhi - zlo > 1e-6;
+    let z_moves = bbox.is_some_and(|(lo, hi)| hi[2] - lo[2] > 1e-6);
     let v = view(machine, z_moves);
-    let mut panels = Vec::new();
-    for (k, &(h, vert, xl, yl, weight)) in v.panels.iter().enumerate() {
+    let series = |h: usize, vert: usize| {
         let proj = |pts: &[V3]| pts.iter().map(|p| (p[h], p[vert])).collect::<Vec<Point>>();
         let runs = |tag: u8| {
             programmed
@@ -842,6 +1244,40 @@ fn path_figure(
                 .filter(move |(t, _)| *t == tag)
                 .map(|(_, v)| v.as_slice())
         };
+        let label = if comp.is_some() {
+            labels::CONTOUR
+        } else {
+            labels::PROGRAMMED
+        };
+        let mut s = vec![
+            Series::new(label, Rgb::GREY, 6, Dash::Solid).with(runs(FEED).map(proj)),
+            Series::new(labels::SETPOINTS, Rgb::BLUE, 3, Dash::Solid).with([proj(&run.setpoints)]),
+            Series::new(labels::ACTUAL, Rgb::RED, 1, Dash::Solid).with([proj(&run.actual)]),
+        ];
+        if let Some(c) = &comp {
+            let (centre, outline) = if c.lathe {
+                (labels::NOSE_CENTRE, labels::NOSE)
+            } else {
+                (labels::CUTTER_CENTRE, labels::CUTTER)
+            };
+            s.push(
+                Series::new(outline, OUTLINE_COLOR, 1, Dash::Solid)
+                    .with(c.outlines.iter().filter_map(|o| outline_points(o, h, vert))),
+            );
+            // the commanded path on top of the setpoints that follow it
+            s.push(Series::new(centre, CENTRE_COLOR, 2, Dash::Solid).with([proj(&c.centre)]));
+            if c.lathe {
+                s.push(Series::new(labels::TIP, TIP_COLOR, 2, Dash::Solid).with([proj(&c.tip)]));
+            }
+        }
+        // on top: where the setpoints hide it the dashes still show
+        s.push(
+            Series::new(labels::RAPID, Rgb::DARK_GREY, 1, Dash::Dashed).with(runs(RAPID).map(proj)),
+        );
+        s
+    };
+    let mut panels = Vec::new();
+    for (k, &(h, vert, xl, yl, weight)) in v.panels.iter().enumerate() {
         let mut p = Panel::new(xl, yl);
         p.equal_aspect = true;
         p.weight = weight;
@@ -853,29 +1289,80 @@ fn path_figure(
             }
             .to_string();
         }
-        p.series = vec![
-            Series::new(labels::PROGRAMMED, Rgb::GREY, 6, Dash::Solid).with(runs(FEED).map(proj)),
-            Series::new(labels::SETPOINTS, Rgb::BLUE, 3, Dash::Solid).with([proj(&run.setpoints)]),
-            Series::new(labels::ACTUAL, Rgb::RED, 1, Dash::Solid).with([proj(&run.actual)]),
-            // on top: where the setpoints hide it the dashes still show
-            Series::new(labels::RAPID, Rgb::DARK_GREY, 1, Dash::Dashed).with(runs(RAPID).map(proj)),
-        ];
+        p.series = series(h, vert);
         panels.push(p);
     }
-    let height = if panels.len() > 1 { 1000 } else { 760 };
+    // the compensated part zoomed, in the first panel's axes, when it is
+    // small in the whole view
+    if let (Some((lo, hi)), Some((blo, bhi)), Some(&(h, vert, xl, yl, _))) = (
+        comp.as_ref().and_then(|c| c.comp_box),
+        bbox,
+        v.panels.first(),
+    ) {
+        let area = |lo: V3, hi: V3| (hi[h] - lo[h]).max(1e-9) * (hi[vert] - lo[vert]).max(1e-9);
+        if area(lo, hi) < ZOOM_AREA_SHARE * area(blo, bhi) {
+            let mut p = Panel::new(xl, yl);
+            p.equal_aspect = true;
+            p.weight = ZOOM_WEIGHT * panels.iter().map(|p| p.weight).sum::<f64>();
+            p.caption = "compensated part (G41/G42), zoomed".to_string();
+            p.x_range = Some(pad(lo[h], hi[h]));
+            p.y_range = Some(pad(lo[vert], hi[vert]));
+            p.series = series(h, vert);
+            if let Some(first) = panels.first_mut() {
+                if first.caption.is_empty() {
+                    first.caption = "whole program".to_string();
+                }
+            }
+            panels.push(p);
+        }
+    }
+    // one view and its zoom: side by side (a lathe's whole program is
+    // tall and narrow, the compensated part wide)
+    let columns = panels.len() == 2 && v.panels.len() == 1;
+    let (width, height) = match panels.len() {
+        _ if columns => (1500, 860),
+        1 => (1200, 760),
+        2 => (1200, 1000),
+        _ => (1200, 1300),
+    };
     Figure {
         title,
-        width: 1200,
+        width,
         height,
+        columns,
         panels,
     }
+}
+
+/// The figure [`plot_program`] draws (the offline run included), for a
+/// program that passed the check.
+pub fn program_figure(
+    machine: &Machine,
+    dialect: Dialect,
+    program_name: &str,
+    text: &str,
+) -> Result<Figure, String> {
+    checked(machine, dialect, program_name, text)?;
+    let run = simulated_run(machine, dialect, text);
+    let title = format!(
+        "{program_name} on {} ({}, {})",
+        machine.name,
+        kind_name(machine),
+        dialect.id()
+    );
+    Ok(path_figure(title, machine, dialect, text, &run))
 }
 
 /// Plots a program: the programmed path, the setpoints and the simulated
 /// actual path of an offline run (as `cnc simulate`), mill in the XY plane
 /// (plus an XZ panel when Z moves), lathe with Z across and the X radius
-/// up. The program must pass the check; otherwise nothing is written and
-/// the errors are returned. `out`'s extension picks SVG or PNG.
+/// up. A program with G41/G42 shows the programmed contour (the
+/// interpreter on the machine with tool radius and type 0), the nose- or
+/// cutter-centre path, on a lathe the imaginary tip's path (what is
+/// commanded), the tool's outline at the ends of the compensated blocks,
+/// and the compensated part zoomed when it is small in the whole view.
+/// The program must pass the check; otherwise nothing is written and the
+/// errors are returned. `out`'s extension picks SVG or PNG.
 pub fn plot_program(
     machine: &Machine,
     dialect: Dialect,
@@ -884,18 +1371,9 @@ pub fn plot_program(
     out: &Path,
 ) -> Result<(), String> {
     Format::from_path(out)?;
-    checked(machine, dialect, program_name, text)?;
-    let programmed = programmed_path(machine, dialect, text);
-    let run = simulated_run(machine, dialect, text);
-    let title = format!(
-        "{program_name} on {} ({}, {})",
-        machine.name,
-        kind_name(machine),
-        dialect.id()
-    );
-    render(&path_figure(title, machine, &programmed, &run), out)
+    let fig = program_figure(machine, dialect, program_name, text)?;
+    render(&fig, out)
 }
-
 fn kind_name(machine: &Machine) -> &'static str {
     match machine.kind {
         MachineKind::Lathe => "lathe",
@@ -1019,7 +1497,6 @@ pub fn plot_recording(recording: &Path, out: &Path) -> Result<(), String> {
             .map_err(|e| err(format!("metadata cnc: {e}")))?,
         _ => machine.dialect,
     };
-    let programmed = programmed_path(&machine, dialect, &program);
     let run = Run {
         setpoints: one_run(r.setpoints),
         actual: one_run(r.actual),
@@ -1045,7 +1522,7 @@ pub fn plot_recording(recording: &Path, out: &Path) -> Result<(), String> {
         kind_name(&machine),
         dialect.id()
     );
-    render(&path_figure(title, &machine, &programmed, &run), out)
+    render(&path_figure(title, &machine, dialect, &program, &run), out)
 }
 
 /// One sample of a thread pass: the lead error against the spindle angle.
@@ -1382,6 +1859,7 @@ fn thread_figure(title: String, series: &ThreadErrorSeries, pass: &ThreadPass) -
         title,
         width: 1200,
         height: 900,
+        columns: false,
         panels: vec![whole, zoom],
     }
 }

@@ -38,6 +38,21 @@ fn examples() -> Vec<(&'static str, Machine, Dialect)> {
             Machine::builtin_mill(),
             Dialect::Heidenhain,
         ),
+        (
+            "lathe_compensation.nc",
+            Machine::builtin_lathe(),
+            Dialect::Cnc836,
+        ),
+        (
+            "mill_pocket_comp.nc",
+            Machine::builtin_mill(),
+            Dialect::Cnc836,
+        ),
+        (
+            "heidenhain_polar_comp.h",
+            Machine::builtin_mill(),
+            Dialect::Heidenhain,
+        ),
     ]
 }
 

@@ -2,7 +2,8 @@
 
 use cnc_core::{Dialect, Machine};
 use cnc_node::plot::{
-    labels, plot_program, plot_recording, plot_thread_error, thread_error_series, thread_labels,
+    labels, plot_program, plot_recording, plot_thread_error, program_figure, render_svg,
+    thread_error_series, thread_labels, Figure, Panel, Point,
 };
 use cnc_node::record::record_simulation;
 use std::path::{Path, PathBuf};
@@ -236,6 +237,200 @@ fn refusals() {
     assert!(e.contains("missing.mcap"), "{e}");
     let e = plot_recording(&junk, &dir.path().join("j.jpg")).unwrap_err();
     assert!(e.contains(".svg or .png"), "{e}");
+}
+
+/// A line and a convex arc under G42 on the lathe (X diameters; radius
+/// below): the line Z2..-10 at X10, the arc R5 about (Z-15, X10) from
+/// (Z-10, X10) to (Z-15, X15). Tool 1: nose radius 0.8, tool type 3 (tip
+/// at (-1, -1) x R from the nose centre).
+const COMP: &str = "N10 G18 G90 G94 M03 S1000 T0101
+N20 G00 X30 Z5
+N30 G42 G01 X20 Z2 F300
+N40 Z-10
+N50 G03 X30 Z-15 I0 K-5
+N60 G40 G00 X40 Z-10
+N70 M30
+";
+
+fn series<'a>(p: &'a Panel, label: &str) -> Vec<&'a [Point]> {
+    let s = p.series.iter().find(|s| s.label == label);
+    let s = s.unwrap_or_else(|| panic!("no series {label}"));
+    s.polylines.iter().map(Vec::as_slice).collect()
+}
+
+/// Distance in the (Z, X radius) plane from `p` to the contour of
+/// [`COMP`], from its geometry (not the compensation code).
+fn to_comp_contour(p: Point) -> f64 {
+    // the line Z2..-10 at X10
+    let line = {
+        let z = p.0.clamp(-10.0, 2.0);
+        ((p.0 - z).powi(2) + (p.1 - 10.0).powi(2)).sqrt()
+    };
+    // the arc about (-15, 10), R5, angles 0..90° in (Z, X)
+    let (dz, dx) = (p.0 + 15.0, p.1 - 10.0);
+    let a = dx.atan2(dz);
+    let arc = if (0.0..=std::f64::consts::FRAC_PI_2).contains(&a) {
+        ((dz * dz + dx * dx).sqrt() - 5.0).abs()
+    } else {
+        let e = |z: f64, x: f64| ((p.0 - z).powi(2) + (p.1 - x).powi(2)).sqrt();
+        e(-10.0, 10.0).min(e(-15.0, 15.0))
+    };
+    line.min(arc)
+}
+
+fn first_panel(f: &Figure) -> &Panel {
+    &f.panels[0]
+}
+
+#[test]
+fn compensation_series_contour_nose_centre_and_tip() {
+    let m = Machine::builtin_lathe();
+    let fig = program_figure(&m, Dialect::Cnc836, "comp.nc", COMP).unwrap();
+    let p = first_panel(&fig);
+    assert_eq!(
+        (p.x_label.as_str(), p.y_label.as_str()),
+        ("Z mm", "X (radius) mm")
+    );
+    let contour = series(p, labels::CONTOUR);
+    let nose = series(p, labels::NOSE_CENTRE);
+    let tip = series(p, labels::TIP);
+    assert!(series(p, labels::SETPOINTS)[0].len() > 100);
+    assert!(!series(p, labels::NOSE).is_empty());
+    // the programmed contour: drawing dimensions, with the corner points
+    let pts: Vec<Point> = contour.iter().flat_map(|l| l.iter().copied()).collect();
+    for c in [(2.0, 10.0), (-10.0, 10.0), (-15.0, 15.0)] {
+        assert!(
+            pts.iter().any(|q| (q.0 - c.0).hypot(q.1 - c.1) < 1e-9),
+            "contour lacks {c:?}"
+        );
+    }
+    // the nose centre: at R from the contour along the whole compensated
+    // part (the points in the box of the contour grown by R, between the
+    // entry's end and the G40 block's start), on the right of the travel
+    // (outside: X above the line, outside the arc); every point of every
+    // segment there, not just the vertices
+    let r = 0.8;
+    assert_eq!(nose.len(), 1);
+    let nose = nose[0];
+    let inside = |q: &Point| q.0 >= -15.0 - 1e-9 && q.0 <= 2.0 + r + 1e-9 && q.1 <= 15.0 + r + 1e-9;
+    let mut checked = 0;
+    for w in nose.windows(2) {
+        if !(inside(&w[0]) && inside(&w[1])) {
+            continue;
+        }
+        for k in 0..=10 {
+            let t = k as f64 / 10.0;
+            let q = (
+                w[0].0 + t * (w[1].0 - w[0].0),
+                w[0].1 + t * (w[1].1 - w[0].1),
+            );
+            let d = to_comp_contour(q);
+            // arcs are drawn as chords of at most 2°: 5.8 (1 - cos 1°) < 1 µm
+            assert!(
+                (d - r).abs() < 2e-3,
+                "nose centre {q:?} is {d} from the contour"
+            );
+            assert!(q.1 > 10.0, "{q:?} on the wrong side");
+            checked += 1;
+        }
+    }
+    assert!(checked > 200, "{checked}");
+    // the corner of the line and the arc (an inside corner): the offset
+    // line X10.8 meets the offset arc R5.8 at Z = -15 + sqrt(5.8² - 0.8²)
+    let corner = (-15.0 + (5.8f64 * 5.8 - 0.64).sqrt(), 10.8);
+    assert!(
+        nose.iter()
+            .any(|q| (q.0 - corner.0).hypot(q.1 - corner.1) < 1e-9),
+        "no corner point {corner:?}"
+    );
+    // the imaginary tip: the nose centre + R x (-1, -1) (type 3), point
+    // by point over the whole program (tool 1 is selected before any move)
+    assert_eq!(tip.len(), 1);
+    assert_eq!(tip[0].len(), nose.len());
+    for (t, n) in tip[0].iter().zip(nose) {
+        assert!((t.0 - (n.0 - r)).abs() < 1e-9 && (t.1 - (n.1 - r)).abs() < 1e-9);
+    }
+    // on the Z line the tip is on the contour (X10): from the entry's end
+    // (the nose centre R above the line's start, Z2) to the corner; on the
+    // arc it is not (the nose circle is tangent there, its imaginary tip
+    // off it)
+    for z in [2.0 - r, corner.0 - r] {
+        assert!(
+            tip[0]
+                .iter()
+                .any(|q| (q.0 - z).abs() < 1e-9 && (q.1 - 10.0).abs() < 1e-9),
+            "no tip point (Z{z}, X10)"
+        );
+    }
+    let off = tip[0]
+        .iter()
+        .filter(|q| q.0 < corner.0 - r - 0.1 && q.1 < 15.0)
+        .map(|q| to_comp_contour(*q))
+        .fold(0.0, f64::max);
+    assert!(off > 0.2, "{off}");
+    // the SVG names the series
+    let svg = render_svg(&fig).unwrap();
+    for label in [
+        labels::CONTOUR,
+        labels::NOSE_CENTRE,
+        labels::TIP,
+        labels::NOSE,
+        labels::SETPOINTS,
+    ] {
+        assert!(has_text(&svg, label), "legend label {label}");
+    }
+}
+
+#[test]
+fn compensation_plots_of_the_examples() {
+    // the lathe example: the compensated part zoomed beside the whole
+    // program
+    let m = Machine::builtin_lathe();
+    let text = example("lathe_compensation.nc");
+    let fig = program_figure(&m, Dialect::Cnc836, "lathe_compensation.nc", &text).unwrap();
+    assert!(fig.columns);
+    assert_eq!(fig.panels.len(), 2);
+    let zoom = &fig.panels[1];
+    assert!(zoom.caption.contains("zoomed"));
+    let (x, y) = (zoom.x_range.unwrap(), zoom.y_range.unwrap());
+    assert!(x.0 < -28.0 && x.1 > 2.0 && x.1 < 10.0, "{x:?}");
+    assert!(y.0 < 8.0 && y.1 > 28.0 && y.1 < 40.0, "{y:?}");
+    // the mill: the cutter centre is what is commanded (no tip series);
+    // the pocket is most of the view: no zoom
+    let m = Machine::builtin_mill();
+    let text = example("mill_pocket_comp.nc");
+    let fig = program_figure(&m, Dialect::Cnc836, "mill_pocket_comp.nc", &text).unwrap();
+    let p = first_panel(&fig);
+    assert!(p.series.iter().all(|s| s.label != labels::TIP));
+    let centre = series(p, labels::CUTTER_CENTRE);
+    // the first side: Y30 + 5
+    assert!(centre[0]
+        .windows(2)
+        .any(|w| w[0] == (38.0, 35.0) && w[1] == (122.0, 35.0)));
+    assert_eq!(fig.panels.len(), 2, "XY and XZ");
+    // HEIDENHAIN polar blocks under G42
+    let text = example("heidenhain_polar_comp.h");
+    let fig = program_figure(&m, Dialect::Heidenhain, "heidenhain_polar_comp.h", &text).unwrap();
+    assert!(!series(first_panel(&fig), labels::CUTTER).is_empty());
+    // no G41/G42: the plot as before
+    let text = example("mill_pocket.nc");
+    let fig = program_figure(&m, Dialect::Cnc836, "mill_pocket.nc", &text).unwrap();
+    let labels_of = |p: &Panel| p.series.iter().map(|s| s.label.clone()).collect::<Vec<_>>();
+    assert_eq!(
+        labels_of(first_panel(&fig)),
+        [
+            labels::PROGRAMMED,
+            labels::SETPOINTS,
+            labels::ACTUAL,
+            labels::RAPID
+        ]
+    );
+    if let Ok(keep) = std::env::var("CNC_PLOT_KEEP") {
+        let m = Machine::builtin_lathe();
+        let out = Path::new(&keep).join("lathe_compensation.png");
+        let text = example("lathe_compensation.nc");
+        plot_program(&m, Dialect::Cnc836, "lathe_compensation.nc", &text, &out).unwrap();
+    }
 }
 
 /// A single-pass thread: M20 x 1.5 over 25 mm at 800 rpm.

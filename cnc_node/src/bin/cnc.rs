@@ -51,12 +51,18 @@ enum Cmd {
         mcap: Option<PathBuf>,
     },
     /// Plot the programmed path, the setpoints and the simulated actual path
-    /// of a program or a recording (.mcap) to SVG or PNG; with --thread, the
-    /// lead error of a G33 thread pass against the spindle angle.
+    /// of a program or a recording (.mcap) to SVG or PNG (with G41/G42 also
+    /// the programmed contour, the nose- or cutter-centre path and the
+    /// imaginary tip's path); with --thread, the lead error of a G33 thread
+    /// pass against the spindle angle.
     Plot {
         /// a program, or a recording (.mcap)
         file: PathBuf,
-        /// output file of the path plot, .svg or .png
+        /// output file of the path plot, .svg or .png; a program with
+        /// G41/G42 adds the programmed contour (tool radius 0), the nose-
+        /// (cutter-) centre path, on a lathe the imaginary tip's path, the
+        /// tool at the ends of the compensated blocks, and the compensated
+        /// part zoomed when it is small in the whole view
         #[arg(short, long, required_unless_present = "thread")]
         out: Option<PathBuf>,
         /// (programs with G33) output file, .svg or .png, of the lead error
