@@ -1660,9 +1660,50 @@ impl<S: ProgramSource> Interpreter<S> {
             return;
         }
         let mut errs = Vec::new();
+        let before = self.pending.len();
         self.comp.push(ev, &mut self.pending, &mut errs);
         for e in errs {
             self.error(None, e);
+        }
+        // the commanded (compensated) path: travel limits and bounding box
+        for k in before..self.pending.len() {
+            let Event::Move { geom, src, .. } = self.pending[k] else {
+                continue;
+            };
+            let (lo, hi) = geom.bbox();
+            for i in 0..3 {
+                if !self.present[i] {
+                    continue;
+                }
+                let eps = 1e-9;
+                let bad = if lo[i] < self.lo[i] - eps {
+                    Some(lo[i])
+                } else if hi[i] > self.hi[i] + eps {
+                    Some(hi[i])
+                } else {
+                    None
+                };
+                // (a start outside was reported with the move before)
+                if let Some(v) = bad.filter(|&v| v != geom.start()[i]) {
+                    let k = if i == 0 && self.diameter { 2.0 } else { 1.0 };
+                    self.error(
+                        None,
+                        format!(
+                            "travel limit: with radius compensation the path of block {} reaches {}{} {}, outside the axis range {}..{}",
+                            crate::comp::block_name(src),
+                            AXIS_LETTERS[i] as char,
+                            if i == 0 && self.diameter { " (diameter)" } else { "" },
+                            num(v * k),
+                            num(self.lo[i] * k),
+                            num(self.hi[i] * k)
+                        ),
+                    );
+                }
+            }
+            self.bbox = Some(match self.bbox {
+                None => (lo, hi),
+                Some((a, b)) => (a.inf(&lo), b.sup(&hi)),
+            });
         }
     }
 
@@ -2131,7 +2172,9 @@ impl<S: ProgramSource> Interpreter<S> {
         if geom.length() == 0.0 {
             return;
         }
-        if !self.changes_nothing(geom) {
+        // (with radius compensation the commanded path is checked as it
+        // leaves the compensation, in `emit`)
+        if self.comp.idle() && !self.changes_nothing(geom) {
             let (lo, hi) = geom.bbox();
             self.check_travel(geom, (lo, hi), w, anchor);
             self.bbox = Some(match self.bbox {

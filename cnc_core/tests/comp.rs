@@ -317,6 +317,21 @@ fn every_compensation_error_names_its_blocks() {
         5,
         "radius compensation is cancelled (G40) on a line (G00/G01), but block N50 is an arc",
     );
+    // travel limits hold for the compensated path: the cutter centre at
+    // X-3 on the mill (X 0..500), and the bounding box is the commanded one
+    refused(
+        "N10 G17 G90 M03 S3000 T1\nN20 G00 X20 Y-20 Z-2\nN30 G41 G01 X2 Y0 F600\nN40 Y40\nN50 X20\nN60 G40 X30 Y60\n",
+        4,
+        "travel limit: with radius compensation the path of block N30 reaches X -3, outside the axis range 0..500",
+    );
+    let r = check(
+        StrSource::new(POCKET),
+        Dialect::Cnc836,
+        &Machine::builtin_mill(),
+    );
+    let (lo, hi) = r.bbox.unwrap();
+    // (from home at 0, 0; the contour reaches X130 Y90, the cutter 125, 85)
+    assert_eq!((lo[0], lo[1], hi[0], hi[1]), (0.0, 0.0, 125.0, 85.0));
     // the lathe's offset numbers
     let e = errors("N10 T0105\n", &Machine::builtin_lathe());
     assert_eq!(
