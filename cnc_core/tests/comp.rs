@@ -349,3 +349,58 @@ fn every_compensation_error_names_its_blocks() {
         "{e:#?}"
     );
 }
+
+#[test]
+fn polar_arcs_and_a_helix_are_compensated_in_the_plane_only() {
+    // the seed's polar programs with their G42 (HEIDENHAIN), tool R3
+    let text = include_str!("../../examples/heidenhain_polar_comp.h");
+    let m = Machine::builtin_mill();
+    let r = check(StrSource::new(text), Dialect::Heidenhain, &m);
+    assert!(r.ok(), "{}", r.message());
+    let s: Vec<Sample> = Executor::new(StrSource::new(text), Dialect::Heidenhain, &m).collect();
+    assert_eq!(s.last().unwrap().k, r.ticks);
+    let block = |n: u64| s.iter().filter(move |x| x.src.block_no == Some(n));
+    // the half circle N200 and the helix N210 about the pole (25, 25),
+    // programmed on R20, run on R23 (G42 outside a CCW arc)
+    let mut n = 0;
+    for x in block(200).chain(block(210)) {
+        let d = (x.pos[0] - 25.0).hypot(x.pos[1] - 25.0);
+        assert!((d - 23.0).abs() < 1e-9, "N{:?}: radius {d}", x.src.block_no);
+        n += 1;
+    }
+    assert!(n > 500);
+    // the helix drops 3 mm over its three turns, in proportion to the angle
+    let helix: Vec<_> = block(210).collect();
+    let mut turned = 0.0;
+    let mut prev = (helix[0].pos[1] - 25.0).atan2(helix[0].pos[0] - 25.0);
+    for x in &helix[1..] {
+        let a = (x.pos[1] - 25.0).atan2(x.pos[0] - 25.0);
+        let mut d = a - prev;
+        if d < -std::f64::consts::PI {
+            d += std::f64::consts::TAU;
+        }
+        turned += d;
+        prev = a;
+        let want = helix[0].pos[2] - 3.0 * turned / (3.0 * std::f64::consts::TAU);
+        assert!((x.pos[2] - want).abs() < 1e-6, "z {} want {want}", x.pos[2]);
+    }
+    // the polar lines N140..N160 run 3 mm outside the hexagon's sides
+    let side = |h0: f64, h1: f64| {
+        let p = |h: f64| {
+            let (sn, c) = h.to_radians().sin_cos();
+            (45.0 + 30.0 * c, 45.0 + 30.0 * sn)
+        };
+        El::Line(p(h0), p(h1))
+    };
+    for (b, el) in [
+        (140, side(0.0, 60.0)),
+        (150, side(60.0, 120.0)),
+        (160, side(120.0, 180.0)),
+    ] {
+        for x in block(b) {
+            let (d, sd) = dist(&el, (x.pos[0], x.pos[1]));
+            // (the corner points are farther: the offsets are extended)
+            assert!(d >= 3.0 - 1e-9 && sd < 0.0, "N{b}: {d}");
+        }
+    }
+}
