@@ -137,6 +137,8 @@ pub struct Spindle {
     cpr: i64,
     rng: SplitMix64,
     command_rpm: f64,
+    /// Stalled: stands still whatever the command (fault injection).
+    stalled: bool,
     nominal_rpm: f64,
     speed_rpm: f64,
     /// Ripple phase in cycles, `[0, 1)`.
@@ -163,6 +165,7 @@ impl Spindle {
             cpr: i64::from(params.encoder_counts_per_rev.max(1)),
             rng: SplitMix64::new(params.seed),
             command_rpm: 0.0,
+            stalled: false,
             nominal_rpm: 0.0,
             speed_rpm: 0.0,
             ripple_phase: 0.0,
@@ -189,6 +192,19 @@ impl Spindle {
         };
     }
 
+    /// Stalls the spindle (`true`): from the next step it stands still whatever its command,
+    /// as a blocked spindle or one whose drive ignores the command; the encoder keeps
+    /// reporting (a constant count). Released (`false`), it ramps from rest towards its
+    /// command again. For fault injection (the simulator node's `spindle_stalled` service).
+    pub fn set_stalled(&mut self, stalled: bool) {
+        self.stalled = stalled;
+    }
+
+    /// Whether the spindle is stalled (see [`set_stalled`](Self::set_stalled)).
+    pub fn stalled(&self) -> bool {
+        self.stalled
+    }
+
     /// Simulates one cycle of `dt` seconds. A `dt` that is not finite and > 0 makes the call a
     /// no-op.
     pub fn step(&mut self, dt: f64) {
@@ -197,10 +213,12 @@ impl Spindle {
         }
         let p = &self.params;
 
-        // 1. Ramp of the nominal speed.
+        // 1. Ramp of the nominal speed (a stalled spindle stands still).
         let max_dv = p.acceleration_rpm_per_s.max(0.0) * dt;
         let diff = self.command_rpm - self.nominal_rpm;
-        if diff.abs() <= max_dv {
+        if self.stalled {
+            self.nominal_rpm = 0.0;
+        } else if diff.abs() <= max_dv {
             self.nominal_rpm = self.command_rpm;
         } else {
             self.nominal_rpm += max_dv.copysign(diff);
@@ -679,6 +697,51 @@ mod tests {
             let n = v / q;
             assert!((n - n.round()).abs() < 1e-6, "not quantised: {v}");
         }
+    }
+
+    #[test]
+    fn a_stalled_spindle_stands_still_whatever_its_command_and_ramps_up_when_released() {
+        let dt = 0.001;
+        let mut sp = Spindle::new(SpindleParams {
+            ripple_fraction: 0.02,
+            noise_rpm: 2.0,
+            ..quiet(4096, 1000.0)
+        });
+        sp.set_command_rpm(600.0);
+        for _ in 0..1000 {
+            sp.step(dt);
+        }
+        assert!(sp.speed_rpm() > 500.0);
+        // stalled while turning: it stops at once and the count stays
+        sp.set_stalled(true);
+        assert!(sp.stalled());
+        sp.step(dt);
+        let c = sp.encoder().count;
+        let index = sp.encoder().index_count;
+        for _ in 0..500 {
+            sp.step(dt);
+            assert_eq!(sp.speed_rpm(), 0.0);
+            assert_eq!(sp.nominal_rpm(), 0.0);
+        }
+        let e = sp.encoder();
+        assert_eq!((e.count, e.index_count), (c, index));
+        assert_eq!(e.velocity, 0.0);
+        // a new command is ignored too
+        sp.set_command_rpm(-900.0);
+        sp.step(dt);
+        assert_eq!((sp.speed_rpm(), sp.encoder().count), (0.0, c));
+        assert_eq!(sp.command_rpm(), -900.0);
+        // released: it ramps from rest at its acceleration (1000 rpm/s)
+        sp.set_stalled(false);
+        for k in 1..=100 {
+            sp.step(dt);
+            assert!(
+                (sp.nominal_rpm() + k as f64).abs() < 1e-9,
+                "{}",
+                sp.nominal_rpm()
+            );
+        }
+        assert!(sp.encoder().count < c);
     }
 
     #[test]
