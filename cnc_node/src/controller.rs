@@ -1,9 +1,21 @@
 //! The controller behind the node: jobs, feed hold, abort, and one sample
 //! per interpolation cycle. No DDS, no clocks: the node's loop calls
-//! [`Controller::tick`] at its fixed rate, and tests call it directly.
+//! [`Controller::tick`] at its fixed rate with the time the cycle's sample
+//! is for, hands it the spindle encoder's readings with
+//! [`Controller::encoder`], and tests call both directly.
+//!
+//! Times are nanoseconds of one clock, the one the node stamps its
+//! setpoints with and the encoder stamps its readings with (the system
+//! clock of the host both nodes run on). A job's executor counts time from
+//! its sample 0: a reading stamped `s` is given to it at
+//! `t = (s − stamp of the job's sample 0) s`, and sample k is meant for
+//! `t = k·dt` — so the loop must call [`Controller::tick`] exactly one
+//! period apart in that clock (the node keeps its cycles on a fixed grid
+//! and catches up after a late wake-up).
 
 use crate::program::OwnedSource;
 use cnc_core::exec::Executor;
+use cnc_core::thread::EncoderReading;
 use cnc_core::{Dialect, Machine};
 
 /// Controller states, as in `cnc_msgs/ControllerStatus`.
@@ -39,6 +51,26 @@ pub struct Status {
     pub last_error: String,
 }
 
+/// A reading of the spindle encoder (`cnc_msgs/SpindleEncoder`), stamped
+/// in the controller's clock.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct EncoderSample {
+    /// when the count was latched, ns
+    pub stamp_ns: i64,
+    /// accumulated counts, signed
+    pub count: i64,
+    pub counts_per_rev: u32,
+    /// index pulses seen
+    pub index_count: i64,
+    /// the count at the last index pulse
+    pub count_at_index: i64,
+}
+
+/// How many recent readings the controller keeps for a job's start (a G95
+/// or G33 right at the start has the spindle's history at once): more
+/// than the executor's tracker fits.
+const RECENT: usize = 64;
+
 /// One cycle's output.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Tick {
@@ -58,6 +90,8 @@ struct Running {
     ticks: u64,
     k: u64,
     aborting: bool,
+    /// the time of the job's sample 0, ns (set by its first tick)
+    t0_ns: Option<i64>,
 }
 
 pub struct Controller {
@@ -70,11 +104,15 @@ pub struct Controller {
     tool: u32,
     line: u32,
     block: Option<u64>,
-    gcodes: Vec<String>,
+    gcodes: Option<[&'static str; 4]>,
     last_job: u32,
     last_error: String,
     progress: f64,
     feed_override: f64,
+    /// the latest encoder readings (ring), for the next job's start
+    recent: [EncoderSample; RECENT],
+    recent_head: usize,
+    recent_len: usize,
 }
 
 impl Controller {
@@ -95,11 +133,14 @@ impl Controller {
             tool: 0,
             line: 0,
             block: None,
-            gcodes: Vec::new(),
+            gcodes: None,
             last_job: 0,
             last_error: String::new(),
             progress: 0.0,
             feed_override: 1.0,
+            recent: [EncoderSample::default(); RECENT],
+            recent_head: 0,
+            recent_len: 0,
         }
     }
 
@@ -129,13 +170,19 @@ impl Controller {
         let m = self
             .machine
             .starting_at(&self.positions[..self.joints.len()]);
-        let exec = Executor::new(OwnedSource::owned(job.text), job.dialect, &m);
+        let mut exec = Executor::new(OwnedSource::owned(job.text), job.dialect, &m);
+        // G33 and G95 follow the measured spindle (readings from
+        // `encoder`); a machine without a spindle has nothing to follow
+        if self.machine.spindle.is_some() {
+            exec.attach_encoder();
+        }
         self.job = Some(Running {
             id: job.id,
             exec,
             ticks: job.ticks.max(1),
             k: 0,
             aborting: false,
+            t0_ns: None,
         });
         self.last_job = job.id;
         self.last_error.clear();
@@ -144,12 +191,27 @@ impl Controller {
         Ok(())
     }
 
-    /// Decelerates along the path, then ends the job.
+    /// A reading of the spindle encoder: kept for the next job's start and
+    /// given to the running job's executor in its time base. Call it before
+    /// the [`Controller::tick`] that should see it.
+    pub fn encoder(&mut self, e: EncoderSample) {
+        self.recent_head = (self.recent_head + 1) % RECENT;
+        self.recent[self.recent_head] = e;
+        self.recent_len = (self.recent_len + 1).min(RECENT);
+        if let Some(r) = self.job.as_mut() {
+            if let Some(t0) = r.t0_ns {
+                r.exec.encoder(reading(e, t0));
+            }
+        }
+    }
+
+    /// Decelerates along the path (a thread under control, at its lead
+    /// acceleration), then ends the job.
     pub fn abort(&mut self) -> Result<String, String> {
         match self.job.as_mut() {
             Some(r) => {
                 r.aborting = true;
-                r.exec.set_feed_target(0.0);
+                r.exec.abort();
                 Ok(format!("job {} stopping", r.id))
             }
             None => Ok("no job running".into()),
@@ -171,10 +233,36 @@ impl Controller {
         }
     }
 
-    /// One interpolation cycle.
-    pub fn tick(&mut self) -> Tick {
+    /// One interpolation cycle: the sample for time `now_ns` (consecutive
+    /// calls one period apart; the first of a job fixes its time base).
+    pub fn tick(&mut self, now_ns: i64) -> Tick {
         let before = (self.state, self.line);
+        let dt = self.machine.dt();
         if let Some(r) = self.job.as_mut() {
+            match r.t0_ns {
+                None => {
+                    // sample 0: the readings so far, in the job's time
+                    r.t0_ns = Some(now_ns);
+                    for i in (0..self.recent_len).rev() {
+                        let e = self.recent[(self.recent_head + RECENT - i) % RECENT];
+                        r.exec.encoder(reading(e, now_ns));
+                    }
+                }
+                Some(t0) => {
+                    let off = (now_ns - t0) as f64 * 1e-9 - r.k as f64 * dt;
+                    if off.abs() > 0.5 * dt {
+                        // cycles were lost: the samples no longer stand for
+                        // their instants (a thread would leave its groove)
+                        let why = format!(
+                            "line {}: the control loop fell {:.0} ms behind (cycles skipped); the job ended where it stood",
+                            self.line,
+                            off * 1000.0
+                        );
+                        self.fail(why);
+                        return self.output(before);
+                    }
+                }
+            }
             match r.exec.next_sample() {
                 Some(s) => {
                     for (j, &i) in self.joints.iter().enumerate() {
@@ -184,32 +272,34 @@ impl Controller {
                     self.tool = s.tool;
                     self.line = s.src.line;
                     self.block = s.src.block_no;
+                    self.gcodes = Some(r.exec.modal().gcodes());
                     r.k += 1;
                     self.progress = (r.k as f64 / r.ticks as f64).min(1.0);
                     let stopped = r.exec.feed_scale() == 0.0;
-                    if r.aborting && stopped {
+                    if let (true, Some(why)) = (s.last, r.exec.fault()) {
+                        // the executor stopped the axes under control
+                        let why = why.to_string();
+                        self.fail(why);
+                    } else if r.aborting && (stopped || s.last) {
                         self.last_error = format!("job {} aborted at line {}", r.id, s.src.line);
                         self.spindle_rpm = 0.0;
                         self.finish();
                     } else if s.last {
                         self.progress = 1.0;
                         self.finish();
-                    } else if self.state == State::Hold && !stopped {
-                        // still decelerating into the hold
-                    }
-                    if let Some(r) = self.job.as_ref() {
-                        self.gcodes = r
-                            .exec
-                            .modal()
-                            .gcodes()
-                            .iter()
-                            .map(|s| s.to_string())
-                            .collect();
                     }
                 }
-                None => self.finish(),
+                None => match r.exec.fault().map(str::to_string) {
+                    Some(why) => self.fail(why),
+                    None => self.finish(),
+                },
             }
         }
+        self.output(before)
+    }
+
+    /// This cycle's output, `before`: (state, line) at its start.
+    fn output(&self, before: (State, u32)) -> Tick {
         Tick {
             positions: self.positions,
             n: self.joints.len(),
@@ -217,6 +307,12 @@ impl Controller {
             state: self.state,
             changed: (self.state, self.line) != before,
         }
+    }
+
+    /// Why the running job's executor stops, if it does (it is still
+    /// decelerating; the job ends in [`State::Error`] with this text).
+    pub fn fault(&self) -> Option<&str> {
+        self.job.as_ref().and_then(|r| r.exec.fault())
     }
 
     fn finish(&mut self) {
@@ -238,12 +334,26 @@ impl Controller {
             job_id: self.last_job,
             source_line: self.line,
             block_number: self.block.map_or(-1, |b| b as i64),
-            active_g_codes: self.gcodes.clone(),
+            active_g_codes: self
+                .gcodes
+                .map_or_else(Vec::new, |g| g.iter().map(|s| s.to_string()).collect()),
             active_tool: self.tool as i32,
             spindle_rpm: self.spindle_rpm,
             feed_override: self.feed_override,
             progress: self.progress,
             last_error: self.last_error.clone(),
         }
+    }
+}
+
+/// An encoder sample in the executor's time base: seconds since the job's
+/// sample 0 at `t0_ns`.
+fn reading(e: EncoderSample, t0_ns: i64) -> EncoderReading {
+    EncoderReading {
+        t: (e.stamp_ns - t0_ns) as f64 * 1e-9,
+        count: e.count,
+        counts_per_rev: e.counts_per_rev,
+        index_count: e.index_count,
+        count_at_index: e.count_at_index,
     }
 }

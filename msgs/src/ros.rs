@@ -1,7 +1,7 @@
 //! What both nodes need to join a ROS 2 graph: a context on the right
 //! domain (loopback only when `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`, as
 //! ROS 2 does), QoS profiles that match rclpy's defaults, a spinner thread,
-//! and a fixed-rate ticker for control loops.
+//! and the fixed-rate cycle grid of control loops.
 
 use ros2_client::{
     qos::{Durability, History, WhenFull},
@@ -76,46 +76,191 @@ pub fn qos_services() -> QosProfile {
         .history(History::KeepLast { depth: 10 })
 }
 
-/// Wakes at a fixed period on absolute deadlines: sleeps until shortly
-/// before the deadline, then spins the rest, so the period does not drift
-/// and the wake-up jitter stays in microseconds.
-pub struct Ticker {
-    period: Duration,
-    next: Instant,
+/// The cycles of a fixed-rate loop on the grid `origin + n·dt` of the
+/// monotonic clock. Cycle n is *meant for* its grid instant: a loop that
+/// woke late runs the cycles it missed ([`Grid::due`]) rather than shifting
+/// every later one, so its n-th cycle always stands for the same instant
+/// and its stamps ([`WallClock::stamp`]) are exactly n·dt apart. Instants are
+/// computed from n (no accumulated rounding, also when dt is not a whole
+/// number of nanoseconds).
+#[derive(Clone, Copy, Debug)]
+pub struct Grid {
+    origin: Instant,
+    dt: f64,
+    next: u64,
     spin: Duration,
+    last_wake: Option<Instant>,
 }
 
-impl Ticker {
-    pub fn new(period: Duration) -> Self {
+impl Grid {
+    /// Cycle 0 at `origin`, one every `dt` seconds. Create it on the
+    /// loop's thread: it sets that thread's timer slack to 1 ns.
+    pub fn new(origin: Instant, dt: f64) -> Self {
         // SAFETY: prctl(PR_SET_TIMERSLACK) only changes this thread's timer
         // slack (1 ns instead of the default 50 µs); no memory is touched.
         unsafe {
             libc::prctl(libc::PR_SET_TIMERSLACK, 1 as libc::c_ulong, 0, 0, 0);
         }
-        Ticker {
-            period,
-            next: Instant::now() + period,
+        Grid {
+            origin,
+            dt,
+            next: 0,
             spin: Duration::from_micros(150),
+            last_wake: None,
         }
     }
 
-    /// Waits for the next deadline; returns that deadline. A loop that fell
-    /// more than a period behind starts afresh from now.
-    pub fn wait(&mut self) -> Instant {
-        let deadline = self.next;
-        let now = Instant::now();
-        if now + self.spin < deadline {
-            std::thread::sleep(deadline - now - self.spin);
+    /// The instant of cycle `n`.
+    pub fn at(&self, n: u64) -> Instant {
+        self.origin + Duration::from_secs_f64(n as f64 * self.dt)
+    }
+
+    /// The next cycle to run.
+    pub fn next(&self) -> u64 {
+        self.next
+    }
+
+    /// How many cycles are due at `now` and not run yet (0 when the next
+    /// one's instant is still to come).
+    pub fn due(&self, now: Instant) -> u64 {
+        if self.at(self.next) > now {
+            return 0;
         }
-        while Instant::now() < deadline {
+        let x = now.saturating_duration_since(self.origin).as_secs_f64() / self.dt;
+        let mut last = (x.floor() as u64).max(self.next);
+        // (the division may land a hair either side of a whole cycle)
+        while last > self.next && self.at(last) > now {
+            last -= 1;
+        }
+        while self.at(last + 1) <= now {
+            last += 1;
+        }
+        last + 1 - self.next
+    }
+
+    /// Marks the next cycle as run; returns its number.
+    pub fn advance(&mut self) -> u64 {
+        self.next += 1;
+        self.next - 1
+    }
+
+    /// Skips `n` cycles without running them (a loop too far behind).
+    pub fn skip(&mut self, n: u64) {
+        self.next += n;
+    }
+
+    /// Waits for the next cycle's instant and returns it: sleeps until
+    /// shortly before, then spins the rest, so wake-ups are on time within
+    /// microseconds. A loop that is behind returns at once, but at most
+    /// twice a period, so its catching up is spread out (and runs as many
+    /// cycles per wake-up as the caller allows).
+    pub fn wait(&mut self) -> Instant {
+        let deadline = self.at(self.next);
+        let mut until = deadline;
+        if let Some(w) = self.last_wake {
+            until = until.max(w + Duration::from_secs_f64(0.5 * self.dt));
+        }
+        let now = Instant::now();
+        if now + self.spin < until {
+            std::thread::sleep(until - now - self.spin);
+        }
+        while Instant::now() < until {
             std::hint::spin_loop();
         }
-        self.next += self.period;
-        let now = Instant::now();
-        if now > self.next {
-            self.next = now + self.period;
-        }
+        self.last_wake = Some(Instant::now());
         deadline
+    }
+}
+
+/// Maps instants of the monotonic clock to the system (wall) clock, the
+/// clock ROS stamps are in. Loops stamp their cycles with their grid
+/// instants this way, so stamps are exactly a period apart whatever the
+/// wake-up jitter, and in the clock every node on the host stamps with.
+///
+/// The offset between the clocks is measured by reading the wall clock
+/// between two reads of the monotonic one; a measurement the thread was
+/// interrupted in (the two more than [`WallClock::MAX_BRACKET`] apart)
+/// keeps the previous offset, so a preemption between the reads never
+/// shifts a stamp. The offset changes only when the system clock is
+/// slewed or stepped; [`WallClock::update`] once a cycle follows that.
+#[derive(Clone, Copy, Debug)]
+pub struct WallClock {
+    anchor: Instant,
+    /// wall clock (ns since the epoch) minus monotonic (ns since anchor)
+    offset_ns: i128,
+}
+
+impl Default for WallClock {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl WallClock {
+    /// The widest bracket a measurement of the offset may have.
+    pub const MAX_BRACKET: Duration = Duration::from_micros(20);
+
+    pub fn new() -> Self {
+        let mut c = WallClock {
+            anchor: Instant::now(),
+            offset_ns: 0,
+        };
+        // the first measurement is taken whatever its bracket (a narrow
+        // one is very likely within a few tries)
+        let mut best: Option<(Duration, i128)> = None;
+        for _ in 0..10 {
+            if let Some((w, off)) = c.measure() {
+                if best.is_none_or(|(bw, _)| w < bw) {
+                    best = Some((w, off));
+                }
+                if w <= Self::MAX_BRACKET {
+                    break;
+                }
+            }
+        }
+        if let Some((_, off)) = best {
+            c.offset_ns = off;
+        }
+        c
+    }
+
+    /// (bracket, offset) of one measurement.
+    fn measure(&self) -> Option<(Duration, i128)> {
+        let m1 = Instant::now();
+        let wall = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .ok()?;
+        let m2 = Instant::now();
+        let mid =
+            m1.duration_since(self.anchor).as_nanos() as i128 + (m2 - m1).as_nanos() as i128 / 2;
+        Some((m2 - m1, wall.as_nanos() as i128 - mid))
+    }
+
+    /// Measures the offset again (kept when the measurement was interrupted).
+    pub fn update(&mut self) {
+        if let Some((w, off)) = self.measure() {
+            if w <= Self::MAX_BRACKET {
+                self.offset_ns = off;
+            }
+        }
+    }
+
+    /// The wall clock's time at `at`, ns since the epoch.
+    pub fn ns_at(&self, at: Instant) -> i128 {
+        let mono = match at.checked_duration_since(self.anchor) {
+            Some(d) => d.as_nanos() as i128,
+            None => -(self.anchor.duration_since(at).as_nanos() as i128),
+        };
+        mono + self.offset_ns
+    }
+
+    /// The wall clock's time at `at`, as a ROS stamp.
+    pub fn stamp(&self, at: Instant) -> crate::Time {
+        let ns = self.ns_at(at).max(0);
+        crate::Time {
+            sec: (ns / 1_000_000_000).min(i32::MAX as i128) as i32,
+            nanosec: (ns % 1_000_000_000) as u32,
+        }
     }
 }
 
@@ -206,6 +351,61 @@ mod tests {
         assert_eq!(l.percentile(50.0), 500.0);
         assert_eq!(l.percentile(99.0), 990.0);
         assert!((l.max_us - 999.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn grid_counts_missed_cycles_and_keeps_its_instants() {
+        let o = Instant::now();
+        let mut g = Grid::new(o, 0.001);
+        assert_eq!(g.due(o), 1);
+        assert_eq!(g.advance(), 0);
+        assert_eq!(g.due(o), 0);
+        assert_eq!(g.due(o + Duration::from_micros(999)), 0);
+        assert_eq!(g.due(o + Duration::from_micros(1000)), 1);
+        // woke 3.5 cycles late: cycles 1..=4 are due
+        assert_eq!(g.due(o + Duration::from_micros(4500)), 4);
+        g.skip(2);
+        assert_eq!(g.next(), 3);
+        assert_eq!(g.due(o + Duration::from_micros(4500)), 2);
+        assert_eq!(g.due(o + Duration::from_micros(2999)), 0);
+        // no drift: the instant of cycle n is n·dt from the origin
+        let dt = 1.0 / 3000.0;
+        let g = Grid::new(o, dt);
+        let n = 3_000_000 * 3600;
+        assert_eq!(g.at(n) - o, Duration::from_secs(3_600_000));
+    }
+
+    #[test]
+    fn grid_waits_for_its_instants_and_spreads_a_catch_up() {
+        let o = Instant::now() + Duration::from_millis(2);
+        let mut g = Grid::new(o, 0.001);
+        assert_eq!(g.wait(), o);
+        assert!(Instant::now() >= o);
+        g.advance();
+        assert_eq!(g.wait(), g.at(1));
+        assert!(Instant::now() >= g.at(1));
+        // behind: the cycles are due at once, the wake-ups half a period apart
+        std::thread::sleep(Duration::from_millis(5));
+        g.advance();
+        let w0 = Instant::now();
+        g.wait();
+        g.advance();
+        g.wait();
+        assert!(Instant::now() - w0 >= Duration::from_micros(500));
+        assert!(g.due(Instant::now()) >= 2);
+    }
+
+    #[test]
+    fn wall_clock_stamps_an_instant_with_the_wall_clock_then() {
+        let mut c = WallClock::new();
+        c.update();
+        let now = Instant::now();
+        let a = c.stamp(now - Duration::from_millis(20)).as_secs_f64();
+        let w = super::wall_stamp().as_secs_f64();
+        assert!((w - a - 0.020).abs() < 0.005, "{}", w - a);
+        // instants a period apart are stamped a period apart, to the ns
+        let d = c.ns_at(now + Duration::from_micros(1000)) - c.ns_at(now);
+        assert_eq!(d, 1_000_000);
     }
 }
 
@@ -386,6 +586,32 @@ pub fn set_realtime(priority: i32) -> Result<(), String> {
         Ok(())
     } else {
         Err(std::io::Error::last_os_error().to_string())
+    }
+}
+
+/// Puts the calling thread back under the normal (time-sharing) policy,
+/// e.g. a worker spawned by a real-time thread, which inherits its policy.
+pub fn set_normal() -> Result<(), String> {
+    let param = libc::sched_param { sched_priority: 0 };
+    // SAFETY: as in set_realtime: the calling thread's policy only.
+    let r = unsafe { libc::sched_setscheduler(0, libc::SCHED_OTHER, &param) };
+    if r == 0 {
+        Ok(())
+    } else {
+        Err(std::io::Error::last_os_error().to_string())
+    }
+}
+
+/// The real-time priority of a node's DDS threads when its loop runs at
+/// `loop_priority` (0: none): below the loop, above every normal process,
+/// so that messages the loop depends on (the spindle encoder) are not held
+/// up by a busy machine. Set on the main thread before [`join`], it is
+/// inherited by the threads DDS starts there.
+pub fn dds_priority(loop_priority: i32) -> i32 {
+    if loop_priority > 0 {
+        (loop_priority - 20).max(1)
+    } else {
+        0
     }
 }
 

@@ -1,19 +1,36 @@
 //! The controller as a ROS 2 node (`ros_interface.md`).
 //!
-//! Three threads, so the control loop never waits on DDS, a file or a check:
-//! - control: at the interpolation rate (Ticker on absolute deadlines) it
-//!   takes commands without blocking, computes one sample and hands it to the
-//!   DDS thread through a bounded queue (`try_send`: a full queue drops, it
+//! Four threads, so the control loop never waits on DDS, a file or a check:
+//! - control: at the interpolation rate (on the instants of a fixed grid,
+//!   catching up after a late wake-up) it takes commands and encoder
+//!   readings without blocking, computes one sample and hands it to the DDS
+//!   thread through a bounded queue (`try_send`: a full queue drops, it
 //!   never blocks);
+//! - encoder: waits for the spindle encoder's readings and passes each on
+//!   to the control loop as it arrives (bounded queue, `try_send`);
 //! - check worker: reads and checks programs, answers run_program;
-//! - main (DDS): services, publishers, the encoder subscription.
+//! - main (DDS): services, publishers, recordings.
+//!
+//! With `--rt-priority P` the control loop runs under SCHED_FIFO P and the
+//! DDS threads (started by the main thread, which the encoder thread and
+//! DDS's own threads inherit from) under P − 20; the check worker runs at
+//! normal priority.
+//!
+//! Time: the control loop stamps each cycle's setpoints with the instant
+//! its sample is meant for, in the system clock (`ros::WallClock` of its
+//! grid instant); `sim_axes` stamps its encoder readings the same way
+//! with the instant each simulated step stands for. Both nodes must run on
+//! the same host (or on hosts whose clocks are synchronized far better than
+//! a count of the encoder takes to pass, e.g. PTP), and the system clock
+//! must not be stepped while a thread is cut. A job's executor gets a
+//! reading stamped `s` at `t = s − (stamp of the job's sample 0)`.
 
 use clap::Parser;
 use cnc_core::source::StrSource;
 use cnc_core::{check, Dialect, Machine};
-use cnc_msgs::ros::{self, Ticker};
+use cnc_msgs::ros::{self, Grid, WallClock};
 use cnc_msgs::*;
-use cnc_node::controller::{Controller, Job, State, Status, Tick};
+use cnc_node::controller::{Controller, EncoderSample, Job, State, Status, Tick};
 use cnc_node::files::load_machine;
 use cnc_node::program::{read_limited, resolve_in};
 use cnc_node::record::{stamp_ns, JobRecorder, RecordingInfo};
@@ -112,6 +129,15 @@ fn run(args: Args) -> Result<(), String> {
     }
     let dir = program_dir(&args, &machine);
     let domain = args.domain.unwrap_or_else(ros::domain_from_env);
+    // DDS's threads start in join and inherit this thread's policy: real
+    // time below the control loop, so a busy machine does not hold up the
+    // encoder readings (the check worker goes back to normal)
+    let dds_rt = ros::dds_priority(args.rt_priority);
+    if dds_rt > 0 {
+        if let Err(e) = ros::set_realtime(dds_rt) {
+            eprintln!("cnc_node: DDS threads stay at normal priority (SCHED_FIFO {dds_rt}: {e})");
+        }
+    }
     let (_ctx, mut node) = ros::join(domain, &args.namespace, "cnc_node")?;
     let ns = args.namespace.as_str();
     let pub_set = ros::publisher::<JointState>(&mut node, ns, "joint_setpoints")?;
@@ -137,6 +163,33 @@ fn run(args: Args) -> Result<(), String> {
     let (out_tx, out_rx) = mpsc::sync_channel::<Out>(8192);
     let (chk_tx, chk_rx) = mpsc::channel();
     let (resp_tx, resp_rx) = mpsc::channel();
+    // encoder readings to the control loop as they arrive (a thread of
+    // their own waits for them), and on to this thread for recordings:
+    // bounded, never blocking
+    let (enc_tx, enc_rx) = mpsc::sync_channel::<EncoderSample>(256);
+    let (enc_rec_tx, enc_rec_rx) = mpsc::sync_channel::<SpindleEncoder>(256);
+    std::thread::Builder::new()
+        .name("encoder".into())
+        .spawn(move || {
+            smol::block_on(async {
+                loop {
+                    let Ok((m, _)) = sub_enc.async_take().await else {
+                        continue;
+                    };
+                    // a full queue drops: the loop is stuck, and the
+                    // executor's timeout says so
+                    let _ = enc_tx.try_send(EncoderSample {
+                        stamp_ns: time_ns(&m.stamp),
+                        count: m.count,
+                        counts_per_rev: m.counts_per_rev,
+                        index_count: m.index_count,
+                        count_at_index: m.count_at_index,
+                    });
+                    let _ = enc_rec_tx.try_send(m);
+                }
+            })
+        })
+        .map_err(|e| e.to_string())?;
     {
         let m = machine.clone();
         let here = here.clone();
@@ -157,7 +210,7 @@ fn run(args: Args) -> Result<(), String> {
                         eprintln!("cnc_node: control loop stays at normal priority (SCHED_FIFO {rt}: {e})");
                     }
                 }
-                control_loop(m, cmd_rx, out_tx, here, state, stats)
+                control_loop(m, cmd_rx, enc_rx, out_tx, here, state, stats)
             })
             .map_err(|e| e.to_string())?;
     }
@@ -171,7 +224,12 @@ fn run(args: Args) -> Result<(), String> {
         };
         std::thread::Builder::new()
             .name("check".into())
-            .spawn(move || check_worker(m, dir, rec_opts, chk_rx, resp_tx, cmd_tx, here))
+            .spawn(move || {
+                if dds_rt > 0 {
+                    let _ = ros::set_normal();
+                }
+                check_worker(m, dir, rec_opts, chk_rx, resp_tx, cmd_tx, here)
+            })
             .map_err(|e| e.to_string())?;
     }
     let names: Vec<String> = machine.axes.iter().map(|a| a.name.clone()).collect();
@@ -183,7 +241,6 @@ fn run(args: Args) -> Result<(), String> {
         ns.trim_end_matches('/')
     );
     let mut last_spindle = f64::NAN;
-    let mut encoder: Option<SpindleEncoder> = None;
     let mut recording: Option<(u32, Rec)> = None;
     loop {
         // services
@@ -201,13 +258,11 @@ fn run(args: Args) -> Result<(), String> {
         while let Ok((id, resp)) = resp_rx.try_recv() {
             let _ = srv_run.send_response(id, resp);
         }
-        while let Ok(Some((m, _))) = sub_enc.take() {
+        while let Ok(m) = enc_rec_rx.try_recv() {
             if let Some((_, rec)) = recording.as_mut() {
                 let _ = rec.encoder(&m);
             }
-            encoder = Some(m);
         }
-        let _ = &encoder;
         while let Ok(Some((m, _))) = sub_js.take() {
             if let Some((_, rec)) = recording.as_mut() {
                 let _ = rec.joint_states(&m);
@@ -322,85 +377,179 @@ fn to_msg(s: &Status, stamp: Time) -> ControllerStatus {
     }
 }
 
+/// Cycles the loop runs in one wake-up at most when it woke late (wake-ups
+/// then come twice a period: it catches up at up to four times its rate),
+/// so the n-th cycle of a job stays meant for its instant (the executor's
+/// time base, which a thread synchronizes to the encoder in) while the
+/// encoder readings of the stall have time to arrive.
+const CATCH_UP: u64 = 2;
+/// A loop further behind than this skips the missed cycles; a running job
+/// then ends where it stands, in the error state (its time base is lost).
+const MAX_BEHIND_S: f64 = 0.2;
+
+/// What the control loop owns besides the controller.
+struct Loop {
+    ctl: Controller,
+    cmds: Receiver<Cmd>,
+    encoder: Receiver<EncoderSample>,
+    out: SyncSender<Out>,
+    here: Arc<[AtomicU64; 3]>,
+    state: Arc<AtomicU32>,
+    last_status: Instant,
+    line_changes: Instant,
+    dropped: u64,
+    pending_rec: Option<(u32, Rec)>,
+    /// with --loop-stats: the newest encoder reading's age at each cycle
+    enc_age: Option<ros::Lateness>,
+    newest_enc: i64,
+}
+
 fn control_loop(
     machine: Machine,
     cmds: Receiver<Cmd>,
+    encoder: Receiver<EncoderSample>,
     out: SyncSender<Out>,
     here: Arc<[AtomicU64; 3]>,
     state: Arc<AtomicU32>,
     stats: Option<Duration>,
 ) {
-    let period = Duration::from_secs_f64(machine.dt());
+    let dt = machine.dt();
+    let period = Duration::from_secs_f64(dt);
     let mut lateness = ros::Lateness::new();
     let mut stats_due = Instant::now() + stats.unwrap_or_default();
-    let mut ctl = Controller::new(machine);
-    let mut ticker = Ticker::new(period);
-    let mut last_status = Instant::now() - Duration::from_secs(1);
-    let mut line_changes = Instant::now();
-    let mut dropped = 0u64;
-    let mut pending_rec: Option<(u32, Rec)> = None;
+    let mut grid = Grid::new(Instant::now() + period, dt);
+    let mut clock = WallClock::new();
+    let mut lp = Loop {
+        ctl: Controller::new(machine),
+        cmds,
+        encoder,
+        out,
+        here,
+        state,
+        last_status: Instant::now() - Duration::from_secs(1),
+        line_changes: Instant::now(),
+        dropped: 0,
+        pending_rec: None,
+        enc_age: stats.map(|_| ros::Lateness::new()),
+        newest_enc: 0,
+    };
     loop {
-        let deadline = ticker.wait();
-        // the stamp is the wake-up time: stamp differences are the loop's period
-        let stamp = ros::wall_stamp();
+        // cycles are meant for the instants of a fixed grid and stamped
+        // with them (in the wall clock, as the simulator stamps the
+        // encoder): stamp differences are exact periods, and a late
+        // wake-up runs the missed cycles, catching up
+        let deadline = grid.wait();
+        let now = Instant::now();
+        if stats.is_some() {
+            lateness.record(now.saturating_duration_since(deadline));
+        }
+        let mut due = grid.due(now);
+        if due as f64 * dt > MAX_BEHIND_S {
+            eprintln!(
+                "cnc_node: the control loop fell {:.0} ms behind; {} cycles skipped",
+                due as f64 * dt * 1000.0,
+                due - 1
+            );
+            grid.skip(due - 1);
+            due = 1;
+        }
+        clock.update();
+        for _ in 0..due.min(CATCH_UP) {
+            let n = grid.advance();
+            let stamp = clock.stamp(grid.at(n));
+            if !lp.cycle(stamp) {
+                return;
+            }
+        }
         if let Some(every) = stats {
-            lateness.record(Instant::now().saturating_duration_since(deadline));
             if Instant::now() >= stats_due {
                 stats_due += every;
                 eprintln!("cnc_node: loop lateness {}", lateness.summary());
+                if let Some(a) = &lp.enc_age {
+                    if a.count() > 0 {
+                        eprintln!("cnc_node: encoder reading age {}", a.summary());
+                    }
+                }
             }
         }
+    }
+}
+
+impl Loop {
+    /// One control cycle for the instant `stamp`; false: the node is gone.
+    fn cycle(&mut self, stamp: Time) -> bool {
         loop {
-            match cmds.try_recv() {
+            match self.cmds.try_recv() {
                 Ok(Cmd::Start(job, rec, reply)) => {
                     let id = job.id;
-                    let r = ctl.start(job);
+                    let r = self.ctl.start(job);
                     if r.is_ok() {
-                        pending_rec = rec.map(|r| (id, r));
+                        self.pending_rec = rec.map(|r| (id, r));
                     }
                     let _ = reply.send(r);
                 }
                 Ok(Cmd::Abort(reply)) => {
-                    let _ = reply.send(ctl.abort());
+                    let _ = reply.send(self.ctl.abort());
                 }
                 Ok(Cmd::Hold(on, reply)) => {
-                    let _ = reply.send(ctl.feed_hold(on));
+                    let _ = reply.send(self.ctl.feed_hold(on));
                 }
                 Err(TryRecvError::Empty) => break,
-                Err(TryRecvError::Disconnected) => return,
+                Err(TryRecvError::Disconnected) => return false,
             }
         }
-        let prev_state = ctl.state();
-        let tick = ctl.tick();
-        for j in 0..tick.n {
-            here[j].store(tick.positions[j].to_bits(), Ordering::Relaxed);
+        let now_ns = time_ns(&stamp);
+        while let Ok(e) = self.encoder.try_recv() {
+            self.newest_enc = self.newest_enc.max(e.stamp_ns);
+            self.ctl.encoder(e);
         }
-        state.store(tick.state as u32, Ordering::Relaxed);
+        if let Some(a) = self.enc_age.as_mut() {
+            if self.newest_enc > 0 {
+                a.record(Duration::from_nanos(
+                    (now_ns - self.newest_enc).max(0) as u64
+                ));
+            }
+        }
+        let prev_state = self.ctl.state();
+        let tick = self.ctl.tick(now_ns);
+        for j in 0..tick.n {
+            self.here[j].store(tick.positions[j].to_bits(), Ordering::Relaxed);
+        }
+        self.state.store(tick.state as u32, Ordering::Relaxed);
         let now = Instant::now();
         // status: on a state change at once, on a line change at most 50 Hz,
         // and at least 10 Hz
         let due = tick.state != prev_state
-            || now.duration_since(last_status) >= Duration::from_millis(100)
-            || (tick.changed && now.duration_since(line_changes) >= Duration::from_millis(20));
+            || now.duration_since(self.last_status) >= Duration::from_millis(100)
+            || (tick.changed && now.duration_since(self.line_changes) >= Duration::from_millis(20));
         let status = due.then(|| {
-            last_status = now;
-            line_changes = now;
-            ctl.status()
+            self.last_status = now;
+            self.line_changes = now;
+            self.ctl.status()
         });
         let o = Out {
             stamp,
             tick,
             status,
-            job: ctl.job_id(),
-            recorder: pending_rec.take(),
+            job: self.ctl.job_id(),
+            recorder: self.pending_rec.take(),
         };
-        if out.try_send(o).is_err() {
-            dropped += 1;
-            if dropped.is_power_of_two() {
-                eprintln!("cnc_node: publisher queue full, {dropped} samples dropped");
+        if self.out.try_send(o).is_err() {
+            self.dropped += 1;
+            if self.dropped.is_power_of_two() {
+                eprintln!(
+                    "cnc_node: publisher queue full, {} samples dropped",
+                    self.dropped
+                );
             }
         }
+        true
     }
+}
+
+/// A stamp in nanoseconds (the controller's clock).
+fn time_ns(t: &Time) -> i64 {
+    i64::from(t.sec) * 1_000_000_000 + i64::from(t.nanosec)
 }
 
 /// Where and what the node records.

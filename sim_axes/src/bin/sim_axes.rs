@@ -5,12 +5,24 @@
 //! `<cnc>/spindle_command` (std_msgs/Float64, rad/s); publishes
 //! `<ns>/joint_states` (m, m/s) and `<ns>/spindle_encoder`
 //! (cnc_msgs/SpindleEncoder) at a fixed rate.
+//!
+//! Simulated time is locked to the clock: step n is the state at the
+//! instant n·dt after the start (of the monotonic clock), stamped with that
+//! instant in the system clock, as the controller stamps its setpoints; a
+//! late wake-up runs the missed steps at once, so the spindle turns on in
+//! real time whatever the scheduling (a reading is latched when it is
+//! simulated, like a hardware time stamp).
+//!
+//! Fault injection (std_srvs/SetBool): `<ns>/encoder_enabled` false stops
+//! publishing encoder readings (the spindle turns on; true resumes);
+//! `<ns>/spindle_stalled` true makes the spindle stand still whatever its
+//! command (false releases it: it ramps up to the command again).
 
 use clap::Parser;
-use cnc_msgs::ros::{self, Ticker};
-use cnc_msgs::{Float64, Header, JointState, SpindleEncoder};
+use cnc_msgs::ros::{self, Grid, WallClock};
+use cnc_msgs::{Float64, Header, JointState, SetBoolRequest, SetBoolResponse, SpindleEncoder};
 use sim_axes::machine::{load_machine, model_for};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 #[derive(Parser)]
 #[command(
@@ -52,6 +64,12 @@ struct Args {
     duration: Option<f64>,
 }
 
+/// A wake-up this late is reported on stderr (at most once a second), s.
+const STALL_WARN_S: f64 = 0.005;
+/// A loop further behind than this skips the missed steps (the simulated
+/// machine pauses) instead of running them all, s.
+const MAX_BEHIND_S: f64 = 1.0;
+
 fn main() {
     if let Err(e) = run(Args::parse()) {
         eprintln!("sim_axes: {e}");
@@ -75,19 +93,36 @@ fn run(a: Args) -> Result<(), String> {
     }
     let dt = 1.0 / rate;
     let domain = a.domain.unwrap_or_else(ros::domain_from_env);
+    // DDS's threads start in join and inherit this thread's policy: real
+    // time below the simulation loop, so a busy machine does not hold up
+    // the encoder readings
+    let dds_rt = ros::dds_priority(a.rt_priority);
+    if dds_rt > 0 {
+        if let Err(e) = ros::set_realtime(dds_rt) {
+            eprintln!("sim_axes: DDS threads stay at normal priority (SCHED_FIFO {dds_rt}: {e})");
+        }
+    }
     let (_ctx, mut node) = ros::join(domain, &a.namespace, "sim_axes")?;
     let cns = a.controller_namespace.as_str();
     let sub_set = ros::subscription::<JointState>(&mut node, cns, "joint_setpoints")?;
     let sub_spin = ros::subscription::<Float64>(&mut node, cns, "spindle_command")?;
     let pub_js = ros::publisher::<JointState>(&mut node, &a.namespace, "joint_states")?;
     let pub_enc = ros::publisher::<SpindleEncoder>(&mut node, &a.namespace, "spindle_encoder")?;
+    let srv_enc =
+        ros::server::<SetBoolRequest, SetBoolResponse>(&mut node, &a.namespace, "encoder_enabled")?;
+    let srv_stall =
+        ros::server::<SetBoolRequest, SetBoolResponse>(&mut node, &a.namespace, "spindle_stalled")?;
 
     let names: Vec<String> = machine.axes.iter().map(|x| x.name.clone()).collect();
     let mut model = model_for(&machine, a.seed);
     let mut set: Vec<f64> = machine.axes.iter().map(|x| x.home_mm).collect();
     let mut act = vec![0.0; set.len()];
     let mut spindle_rpm = 0.0;
+    let mut encoder_on = true;
     if a.rt_priority > 0 {
+        if let Err(e) = ros::lock_memory() {
+            eprintln!("sim_axes: memory not locked (mlockall: {e})");
+        }
         if let Err(e) = ros::set_realtime(a.rt_priority) {
             eprintln!(
                 "sim_axes: loop stays at normal priority (SCHED_FIFO {}: {e})",
@@ -95,15 +130,17 @@ fn run(a: Args) -> Result<(), String> {
             );
         }
     }
-    let mut ticker = Ticker::new(Duration::from_secs_f64(dt));
     let start = Instant::now();
+    let mut grid = Grid::new(start, dt);
+    let mut clock = WallClock::new();
+    let mut last_warn: Option<Instant> = None;
+    let mut states: Vec<JointState> = Vec::new();
     eprintln!(
-        "sim_axes: {} ({}), {} Hz, domain {domain}, {}/joint_states, {}/spindle_encoder",
+        "sim_axes: {} ({}), {} Hz, domain {domain}, {ns}/joint_states, {ns}/spindle_encoder, {ns}/encoder_enabled, {ns}/spindle_stalled",
         machine.name,
         names.join(" "),
         rate,
-        a.namespace.trim_end_matches('/'),
-        a.namespace.trim_end_matches('/')
+        ns = a.namespace.trim_end_matches('/'),
     );
     loop {
         while let Ok(Some((m, _))) = sub_set.take() {
@@ -120,36 +157,94 @@ fn run(a: Args) -> Result<(), String> {
                 spindle_rpm = m.data * 60.0 / std::f64::consts::TAU;
             }
         }
-        model.step(&set, spindle_rpm, dt);
-        model.positions_into(&mut act);
-        let now = ros::wall_stamp();
-        let js = JointState {
-            header: Header {
-                stamp: now,
-                frame_id: String::new(),
-            },
-            name: names.clone(),
-            position: act.iter().map(|p| p / 1000.0).collect(),
-            velocity: model.axes.iter().map(|x| x.velocity() / 1000.0).collect(),
-            effort: Vec::new(),
-        };
-        let _ = pub_js.publish(js);
-        if let Some(sp) = model.spindle.as_ref() {
-            let e = sp.encoder();
-            let _ = pub_enc.publish(SpindleEncoder {
-                stamp: now,
-                count: e.count,
-                counts_per_rev: e.counts_per_rev,
-                index_count: e.index_count,
-                count_at_index: e.count_at_index,
-                velocity: e.velocity,
+        while let Ok(Some((id, req))) = srv_enc.receive_request() {
+            encoder_on = req.data;
+            let message = match (model.spindle.is_some(), encoder_on) {
+                (false, _) => "this machine has no spindle encoder".to_string(),
+                (true, true) => "encoder readings published".to_string(),
+                (true, false) => "encoder readings stopped".to_string(),
+            };
+            let success = model.spindle.is_some();
+            let _ = srv_enc.send_response(id, SetBoolResponse { success, message });
+        }
+        while let Ok(Some((id, req))) = srv_stall.receive_request() {
+            let resp = match model.spindle.as_mut() {
+                Some(sp) => {
+                    sp.set_stalled(req.data);
+                    SetBoolResponse {
+                        success: true,
+                        message: if req.data {
+                            "spindle stalled: it stands still whatever its command"
+                        } else {
+                            "spindle released: it follows its command"
+                        }
+                        .to_string(),
+                    }
+                }
+                None => SetBoolResponse {
+                    success: false,
+                    message: "this machine has no spindle".to_string(),
+                },
+            };
+            let _ = srv_stall.send_response(id, resp);
+        }
+        // the steps due by now (one, or the ones a late wake-up missed)
+        let mut due = grid.due(Instant::now());
+        if due as f64 * dt > MAX_BEHIND_S {
+            eprintln!(
+                "sim_axes: the loop fell {:.0} ms behind; the simulation skips it",
+                due as f64 * dt * 1000.0
+            );
+            grid.skip(due - 1);
+            due = 1;
+        }
+        if due as f64 * dt >= STALL_WARN_S && last_warn.is_none_or(|w| w.elapsed().as_secs() >= 1) {
+            // (a reader of the encoder sees these readings late)
+            eprintln!(
+                "sim_axes: stalled: {} steps ({:.0} ms) ran late at once",
+                due,
+                due as f64 * dt * 1000.0
+            );
+            last_warn = Some(Instant::now());
+        }
+        clock.update();
+        // the encoder readings first (the controller waits for them), then
+        // the joint states
+        for _ in 0..due {
+            let n = grid.advance();
+            let stamp = clock.stamp(grid.at(n));
+            model.step(&set, spindle_rpm, dt);
+            if let (Some(sp), true) = (model.spindle.as_ref(), encoder_on) {
+                let e = sp.encoder();
+                let _ = pub_enc.publish(SpindleEncoder {
+                    stamp,
+                    count: e.count,
+                    counts_per_rev: e.counts_per_rev,
+                    index_count: e.index_count,
+                    count_at_index: e.count_at_index,
+                    velocity: e.velocity,
+                });
+            }
+            model.positions_into(&mut act);
+            states.push(JointState {
+                header: Header {
+                    stamp,
+                    frame_id: String::new(),
+                },
+                name: names.clone(),
+                position: act.iter().map(|p| p / 1000.0).collect(),
+                velocity: model.axes.iter().map(|x| x.velocity() / 1000.0).collect(),
+                effort: Vec::new(),
             });
+        }
+        for js in states.drain(..) {
+            let _ = pub_js.publish(js);
         }
         if a.duration
             .is_some_and(|d| start.elapsed().as_secs_f64() >= d)
         {
             return Ok(());
         }
-        ticker.wait();
+        grid.wait();
     }
 }
