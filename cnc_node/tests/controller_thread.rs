@@ -1,0 +1,306 @@
+//! The node's controller (`Controller`, as the node's loop drives it) cutting
+//! threads against the simulated machine with the encoder readings coming
+//! late, as over DDS: the simulator steps half a cycle after the controller
+//! (its own grid), its readings reach the controller a millisecond after
+//! they were latched, and the controller sees them at its next cycle. The
+//! lead error is measured as the ROS test measures it: the encoder count
+//! interpolated at each setpoint's stamp. Also the faults: a lost encoder
+//! (the axes stop under control, State::Error with the reason) and an abort
+//! in a thread (a controlled stop, not a jump).
+
+use cnc_core::source::StrSource;
+use cnc_core::{check, Dialect, Machine};
+use cnc_node::controller::{Controller, EncoderSample, Job, State};
+use sim_axes::machine::model_for;
+use std::collections::VecDeque;
+
+const MS: i64 = 1_000_000;
+/// some wall-clock time, ns (the controller's clock)
+const T0: i64 = 1_795_000_000 * 1_000_000_000;
+
+/// Called after each cycle with the Z setpoint (mm); false: readings are
+/// no longer delivered.
+type Hook = Box<dyn FnMut(&mut Controller, f64) -> bool>;
+
+/// When readings arrive and what the bench does during the run.
+struct Bench {
+    machine: Machine,
+    /// the simulator's step instants lag the controller's cycles by this, ns
+    phase_ns: i64,
+    /// a reading reaches the controller this long after it was latched, ns
+    latency_ns: i64,
+    /// readings latched within these cycles arrive together after them
+    /// (a stalled simulator or transport): (first cycle, cycles)
+    stalls: Vec<(i64, i64)>,
+    hook: Hook,
+}
+
+/// What a run produced.
+struct Run {
+    /// (stamp ns, setpoints mm in joint order, state)
+    setpoints: Vec<(i64, Vec<f64>, State)>,
+    /// (stamp ns, count, true revolutions of the spindle)
+    readings: Vec<(i64, i64, f64)>,
+    cpr: f64,
+    state: State,
+    last_error: String,
+    /// the spindle command after the run, rpm
+    spindle_rpm: f64,
+}
+
+impl Bench {
+    fn lathe() -> Self {
+        Bench {
+            machine: Machine::builtin_lathe(),
+            phase_ns: MS / 2,
+            latency_ns: MS,
+            stalls: Vec::new(),
+            hook: Box::new(|_, _| true),
+        }
+    }
+
+    fn run(mut self, program: &str) -> Run {
+        let m = self.machine.clone();
+        let report = check(StrSource::new(program), Dialect::Cnc836, &m);
+        assert!(report.ok(), "{}", report.message());
+        let mut model = model_for(&m, 7);
+        let mut ctl = Controller::new(m.clone());
+        let n = m.axes.len();
+        let z = m.axes.iter().position(|a| a.name == "z").unwrap();
+        let cpr = m.spindle.as_ref().unwrap().encoder_counts_per_rev as f64;
+        let dt = m.dt();
+        // a second of the spindle standing before the job, as in the node
+        let mut set: Vec<f64> = m.axes.iter().map(|a| a.home_mm).collect();
+        let mut spindle = 0.0;
+        let mut in_flight: VecDeque<(i64, EncoderSample)> = VecDeque::new();
+        let mut run = Run {
+            setpoints: Vec::new(),
+            readings: Vec::new(),
+            cpr,
+            state: State::Idle,
+            last_error: String::new(),
+            spindle_rpm: 0.0,
+        };
+        let mut deliver = true;
+        let mut started = false;
+        for k in -1000i64..600_000 {
+            let now = T0 + k * MS;
+            if k == 0 {
+                ctl.start(Job {
+                    id: 1,
+                    text: program.as_bytes().to_vec(),
+                    dialect: Dialect::Cnc836,
+                    ticks: report.ticks,
+                })
+                .unwrap();
+                started = true;
+            }
+            // the readings that arrived by now
+            while in_flight.front().is_some_and(|(at, _)| *at <= now) {
+                let (_, e) = in_flight.pop_front().unwrap();
+                if deliver {
+                    ctl.encoder(e);
+                }
+            }
+            let tick = ctl.tick(now);
+            set.copy_from_slice(&tick.positions[..n]);
+            spindle = tick.spindle_rpm;
+            if started {
+                run.setpoints.push((now, set.clone(), tick.state));
+                deliver = (self.hook)(&mut ctl, set[z]);
+                if tick.state != State::Running && tick.state != State::Hold {
+                    break;
+                }
+            }
+            // the simulator's step half a cycle later, with this setpoint
+            let t_sim = now + self.phase_ns;
+            model.step(&set, spindle, dt);
+            let sp = model.spindle.as_ref().unwrap();
+            let e = sp.encoder();
+            let held = self
+                .stalls
+                .iter()
+                .find(|(a, n)| (*a..a + n).contains(&k))
+                .map_or(0, |(a, n)| (a + n - k) * MS);
+            in_flight.push_back((
+                t_sim + self.latency_ns + held,
+                EncoderSample {
+                    stamp_ns: t_sim,
+                    count: e.count,
+                    counts_per_rev: e.counts_per_rev,
+                    index_count: e.index_count,
+                    count_at_index: e.count_at_index,
+                },
+            ));
+            run.readings.push((t_sim, e.count, sp.revolutions()));
+        }
+        let st = ctl.status();
+        run.state = st.state;
+        run.last_error = st.last_error;
+        run.spindle_rpm = spindle;
+        run
+    }
+}
+
+impl Run {
+    /// (lead travel mm, revolutions by the counts, true revolutions) at
+    /// each setpoint of the pass from Z `start` with Z within lo..hi, the
+    /// encoder interpolated at the setpoint's stamp.
+    fn pass(&self, z: usize, start: f64, lo: f64, hi: f64) -> Vec<(f64, f64, f64)> {
+        let last = (0..self.setpoints.len())
+            .min_by(|&a, &b| self.setpoints[a].1[z].total_cmp(&self.setpoints[b].1[z]))
+            .unwrap();
+        let first = (0..=last)
+            .rev()
+            .find(|&i| self.setpoints[i].1[z] >= start - 1e-9)
+            .unwrap();
+        let mut out = Vec::new();
+        for (t, sp, _) in &self.setpoints[first..=last] {
+            if sp[z] < lo || sp[z] > hi {
+                continue;
+            }
+            let i = self.readings.partition_point(|r| r.0 < *t);
+            let (a, b) = (self.readings[i - 1], self.readings[i]);
+            let f = (t - a.0) as f64 / (b.0 - a.0) as f64;
+            let counts = a.1 as f64 + f * (b.1 - a.1) as f64 + 0.5;
+            let truth = a.2 + f * (b.2 - a.2);
+            out.push((start - sp[z], counts / self.cpr, truth));
+        }
+        out
+    }
+}
+
+/// Spread (max − min) of `u/pitch − revs` in counts, and its mean as a
+/// phase in degrees (−180, 180].
+fn spread_and_phase(v: &[f64], cpr: f64) -> (f64, f64) {
+    let r = v[0];
+    let d: Vec<f64> = v.iter().map(|x| x - (x - r).round()).collect();
+    let mean = d.iter().sum::<f64>() / d.len() as f64;
+    let lo = d.iter().copied().fold(f64::MAX, f64::min);
+    let hi = d.iter().copied().fold(f64::MIN, f64::max);
+    let mut ph = mean.rem_euclid(1.0) * 360.0;
+    if ph > 180.0 {
+        ph -= 360.0;
+    }
+    ((hi - lo) * cpr, ph)
+}
+
+fn example1(rpm: f64, z_end: f64) -> String {
+    format!("N5 G00 X20 Z5\nN10 M03 S{rpm}\nN20 G33 Z{z_end} F1\nN30 G00 X30\nN40 Z5\nN50 M30\n")
+}
+
+#[test]
+fn late_readings_a_thread_follows_the_spindle_within_two_counts() {
+    let mut phases = Vec::new();
+    for rpm in [200.0, 800.0, 2000.0] {
+        let r = Bench::lathe().run(&example1(rpm, -40.0));
+        assert_eq!(r.state, State::Idle, "{}", r.last_error);
+        assert_eq!(r.last_error, "");
+        let last = &r.setpoints.last().unwrap().1;
+        assert_eq!((last[0], last[1]), (15.0, 5.0));
+        let pass = r.pass(1, 5.0, -35.0, -2.0);
+        assert!(pass.len() as f64 > 0.99 * 33.0 / (rpm / 60.0) * 1000.0);
+        let by_count: Vec<f64> = pass.iter().map(|p| p.0 - p.1).collect();
+        let by_truth: Vec<f64> = pass.iter().map(|p| p.0 - p.2).collect();
+        let (spread, phase) = spread_and_phase(&by_count, r.cpr);
+        let (spread_true, phase_true) = spread_and_phase(&by_truth, r.cpr);
+        eprintln!(
+            "S{rpm}: lead error spread {spread:.2} counts ({spread_true:.2} to the true angle), groove {phase:.4} deg ({phase_true:.4})"
+        );
+        assert!(spread <= 2.0, "S{rpm}: {spread} counts");
+        assert!(spread_true <= 2.0, "S{rpm}: {spread_true} counts");
+        assert!(phase.abs() <= 0.05, "S{rpm}: {phase} deg");
+        phases.push(phase_true);
+    }
+    let lo = phases.iter().copied().fold(f64::MAX, f64::min);
+    let hi = phases.iter().copied().fold(f64::MIN, f64::max);
+    assert!(hi - lo <= 0.05, "{phases:?}");
+}
+
+#[test]
+fn a_lost_encoder_stops_the_thread_under_control_and_the_job_ends_in_error() {
+    let mut b = Bench::lathe();
+    b.hook = Box::new(|_, z| z > -10.0);
+    let r = b.run(&example1(800.0, -20.0));
+    assert_eq!(r.state, State::Error);
+    assert!(
+        r.last_error
+            .starts_with("line 3: spindle encoder signal lost: no reading for"),
+        "{}",
+        r.last_error
+    );
+    assert_eq!(r.spindle_rpm, 0.0);
+    let zs: Vec<f64> = r.setpoints.iter().map(|s| s.1[1]).collect();
+    let end = *zs.last().unwrap();
+    assert!(end < -10.0 && end > -10.5, "{end}");
+    assert_no_jump(&zs, 800.0);
+    // it followed the spindle's predicted angle for a while, then decelerated
+    let lost = zs.iter().position(|z| *z <= -10.0).unwrap();
+    let v = 800.0 / 60.0 * 0.001;
+    let slowing = zs[lost..]
+        .windows(2)
+        .position(|w| (w[0] - w[1]) < 0.99 * v)
+        .unwrap();
+    // the last reading the controller got (at the cycle before) was latched
+    // 2.5 ms before this cycle: the thread went on until it was 10 ms old
+    assert!((7..=9).contains(&slowing), "{slowing}");
+}
+
+#[test]
+fn an_abort_in_a_thread_is_a_controlled_stop() {
+    let mut b = Bench::lathe();
+    let mut asked = false;
+    b.hook = Box::new(move |ctl, z| {
+        if z < -10.0 && !asked {
+            asked = true;
+            assert_eq!(ctl.abort().unwrap(), "job 1 stopping");
+        }
+        true
+    });
+    let r = b.run(&example1(800.0, -20.0));
+    assert_eq!(r.state, State::Idle);
+    assert_eq!(r.last_error, "job 1 aborted at line 3");
+    assert_eq!(r.spindle_rpm, 0.0);
+    let zs: Vec<f64> = r.setpoints.iter().map(|s| s.1[1]).collect();
+    let end = *zs.last().unwrap();
+    assert!(end < -10.0 && end > -10.2, "{end}");
+    assert_no_jump(&zs, 800.0);
+}
+
+/// In the thread (Z from 5 down), Z setpoints never step more than the
+/// lead speed (+5 % spindle margin) allows in a cycle, and their
+/// acceleration stays within the axis limit.
+fn assert_no_jump(zs: &[f64], rpm: f64) {
+    let dt = 0.001;
+    let v = rpm / 60.0;
+    for w in zs.windows(3).filter(|w| w[0] <= 5.0) {
+        let step = (w[2] - w[1]).abs();
+        assert!(step <= v * 1.05 * dt + 1e-9, "step {step} mm");
+        let a = (w[2] - 2.0 * w[1] + w[0]).abs() / (dt * dt);
+        assert!(a <= 2500.0, "{a} mm/s²");
+    }
+    // and at rest at the end: the last step is the one of a speed of at
+    // most one cycle's deceleration
+    let n = zs.len();
+    assert!((zs[n - 1] - zs[n - 2]).abs() <= 2500.0 * dt * dt);
+}
+
+#[test]
+fn readings_held_up_8_ms_now_and_then_keep_the_thread_within_two_counts() {
+    // a stalled simulator or transport: twenty times in the pass, 8 cycles
+    // of readings arrive together after the stall (the newest reading is
+    // then up to 9.5 ms old; the executor's timeout is 10 cycles)
+    for rpm in [200.0, 2000.0] {
+        let mut b = Bench::lathe();
+        b.stalls = (0..20).map(|i| (2000 + i * 400, 8)).collect();
+        let r = b.run(&example1(rpm, -40.0));
+        assert_eq!(r.state, State::Idle, "{}", r.last_error);
+        let pass = r.pass(1, 5.0, -35.0, -2.0);
+        let by_count: Vec<f64> = pass.iter().map(|p| p.0 - p.1).collect();
+        let (spread, phase) = spread_and_phase(&by_count, r.cpr);
+        eprintln!(
+            "S{rpm}, stalls of 8 ms: lead error spread {spread:.2} counts, groove {phase:.4} deg"
+        );
+        assert!(spread <= 2.0, "S{rpm}: {spread} counts");
+    }
+}
