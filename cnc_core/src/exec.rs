@@ -131,6 +131,8 @@ pub struct Executor<S> {
     spindle_ramp: f64,
     /// G95: measured over programmed spindle speed
     sp_scale: f64,
+    /// readings older than this are a lost signal, s
+    encoder_timeout: f64,
     /// why the run stopped early
     fault: Option<String>,
     /// stop now (abort): threads stop under control too
@@ -161,6 +163,11 @@ impl<S: ProgramSource> Executor<S> {
                 .as_ref()
                 .map_or(1000.0, |s| s.acceleration_rpm_s),
             sp_scale: 1.0,
+            encoder_timeout: machine
+                .spindle
+                .as_ref()
+                .and_then(|s| s.encoder_timeout_ms)
+                .map_or(ENCODER_TIMEOUT_CYCLES * lim.dt, |ms| ms * 1e-3),
             fault: None,
             halt: false,
         }
@@ -292,7 +299,7 @@ impl<S: ProgramSource> Executor<S> {
             return Err("no spindle encoder reading".into());
         };
         let late = t - last.t;
-        if late > ENCODER_TIMEOUT_CYCLES * self.dt {
+        if late > self.encoder_timeout {
             return Err(format!(
                 "spindle encoder signal lost: no reading for {:.0} ms",
                 late * 1000.0

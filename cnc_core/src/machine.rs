@@ -63,6 +63,11 @@ pub struct SpindleConfig {
     pub sim_ripple_hz: f64,
     #[serde(default)]
     pub sim_noise_rpm: f64,
+    /// encoder readings missing this long during G33/G95 motion are a
+    /// lost signal (controlled stop, error), ms; default 10 interpolation
+    /// cycles
+    #[serde(default)]
+    pub encoder_timeout_ms: Option<f64>,
 }
 
 fn default_ripple_hz() -> f64 {
@@ -459,6 +464,14 @@ impl Machine {
                         "the runout axis {} is not on this machine",
                         ["X", "Y", "Z"][r.axis]
                     ),
+                );
+            }
+        }
+        if let Some(t) = self.spindle.as_ref().and_then(|s| s.encoder_timeout_ms) {
+            if !(t.is_finite() && (1.0..=1000.0).contains(&t)) {
+                return bad(
+                    "spindle.encoder_timeout_ms".into(),
+                    "must be between 1 and 1000".into(),
                 );
             }
         }

@@ -38,7 +38,8 @@ pub const SPEED_MARGIN: f64 = 1.05;
 /// runout use (the rest absorbs the spindle's speed ripple).
 pub const THREAD_SHARE: f64 = 0.8;
 /// Encoder readings older than this many interpolation cycles mean the
-/// signal is lost (during G33 or G95 motion: controlled stop, error).
+/// signal is lost (during G33 or G95 motion: controlled stop, error),
+/// unless the machine file sets `spindle.encoder_timeout_ms`.
 pub const ENCODER_TIMEOUT_CYCLES: f64 = 10.0;
 /// The measured speed must be within this fraction of S before a thread
 /// starts (the spindle is at speed) ...

@@ -267,3 +267,19 @@ fn a_loop_of_thread_passes_checks_and_runs_as_estimated() {
         .count();
     assert_eq!(passes, 5);
 }
+
+#[test]
+fn the_encoder_timeout_is_a_machine_setting() {
+    let text = include_str!("../../config/lathe.toml").replace(
+        "encoder_counts_per_rev = 4096",
+        "encoder_counts_per_rev = 4096\nencoder_timeout_ms = 0.5",
+    );
+    let e = Machine::from_toml(&text).unwrap_err();
+    assert_eq!(
+        e.0,
+        "machine file: key `spindle.encoder_timeout_ms`: must be between 1 and 1000"
+    );
+    let ok = text.replace("encoder_timeout_ms = 0.5", "encoder_timeout_ms = 40");
+    let m = Machine::from_toml(&ok).unwrap();
+    assert_eq!(m.spindle.unwrap().encoder_timeout_ms, Some(40.0));
+}
