@@ -3,6 +3,7 @@
 //! records every error (and keeps going, so one check reports them all), and
 //! holds only the current block: memory does not grow with the program.
 
+use crate::blend::Blender;
 use crate::comp::{Comp, Mode as CompMode};
 use crate::diag::{num, Diagnostic};
 use crate::dialect::Dialect;
@@ -224,7 +225,9 @@ mod slot {
     pub const THREAD: usize = 27;
     /// G40/G41/G42: radius compensation
     pub const COMP: usize = 28;
-    pub const COUNT: usize = 29;
+    /// G61/G64: exact path / path tolerance
+    pub const PATH: usize = 29;
+    pub const COUNT: usize = 30;
 }
 
 /// The words of one block, sorted by meaning, each with its column. Each
@@ -243,6 +246,8 @@ struct Words<'b> {
     spindle: SpindleDir,
     /// 40, 41 or 42
     comp: u8,
+    /// 61 or 64
+    path: u8,
 }
 
 impl<'b> Words<'b> {
@@ -257,6 +262,7 @@ impl<'b> Words<'b> {
             per_rev: false,
             spindle: SpindleDir::Off,
             comp: 40,
+            path: 61,
         }
     }
     #[inline]
@@ -380,6 +386,14 @@ pub struct Interpreter<S> {
     tools: std::sync::Arc<[ToolConfig]>,
     lathe: bool,
     tool_cfg: Option<ToolConfig>,
+    /// the path tolerance (G64 P), mm; 0: exact path (G61)
+    tolerance: f64,
+    /// the machine's default tolerance (for a G64 without P)
+    default_tolerance: f64,
+    /// corner blending (the last stage) and a scratch queue for the
+    /// compensation's output
+    blend: Blender,
+    scratch: VecDeque<Event>,
 }
 
 /// What G33 needs of the machine.
@@ -472,6 +486,10 @@ impl<S: ProgramSource> Interpreter<S> {
             tools: machine.tools.clone().into(),
             lathe,
             tool_cfg: None,
+            tolerance: machine.planner.path_tolerance_mm,
+            default_tolerance: machine.planner.path_tolerance_mm,
+            blend: Blender::default(),
+            scratch: VecDeque::new(),
         }
     }
 
@@ -695,6 +713,10 @@ impl<S: ProgramSource> Interpreter<S> {
             tools,
             lathe,
             tool_cfg,
+            tolerance,
+            default_tolerance,
+            blend,
+            scratch,
         } = self;
         let new = Interpreter {
             src,
@@ -737,6 +759,10 @@ impl<S: ProgramSource> Interpreter<S> {
             tools,
             lathe,
             tool_cfg,
+            tolerance,
+            default_tolerance,
+            blend,
+            scratch,
         };
         (old, new)
     }
@@ -805,6 +831,7 @@ impl<S: ProgramSource> Interpreter<S> {
                         90 => once!(slot::DISTANCE, w.absolute = true, "G90/G91"),
                         91 => once!(slot::DISTANCE, w.absolute = false, "G90/G91"),
                         40..=42 => once!(slot::COMP, w.comp = code as u8, "G40/G41/G42"),
+                        61 | 64 => once!(slot::PATH, w.path = code as u8, "G61/G64"),
                         94 => once!(slot::FEED_MODE, w.per_rev = false, "G94/G95"),
                         95 => once!(slot::FEED_MODE, w.per_rev = true, "G94/G95"),
                         9 if self.dialect == Dialect::Cnc836 => once!(slot::HELIX_ON, "G09"),
@@ -1003,6 +1030,19 @@ impl<S: ProgramSource> Interpreter<S> {
         if let Some(g) = w.get(slot::COMP) {
             self.exec_comp(w.comp, &g);
         }
+        if w.has(slot::PATH) {
+            self.tolerance = 0.0;
+            if w.path == 64 {
+                match w.p() {
+                    Some(p) if !(0.0..=10.0).contains(&p.value) => self.error(
+                        Some(&p),
+                        format!("path tolerance P must be 0..10 mm, found P{}", num(p.value)),
+                    ),
+                    Some(p) => self.tolerance = p.value,
+                    None => self.tolerance = self.default_tolerance,
+                }
+            }
+        }
         if let (Some(g), true) = (g33, self.comp.active()) {
             self.error(
                 Some(&g),
@@ -1017,8 +1057,11 @@ impl<S: ProgramSource> Interpreter<S> {
         if let Some(g4) = w.dwell() {
             self.exec_dwell(w, &g4, src);
         } else {
-            if let Some(p) = w.p() {
-                self.error(Some(&p), "address P is only used with G04 (dwell)".into());
+            if let Some(p) = w.p().filter(|_| !(w.has(slot::PATH) && w.path == 64)) {
+                self.error(
+                    Some(&p),
+                    "address P is only used with G04 (dwell) and G64 (path tolerance)".into(),
+                );
             }
             if w.has(slot::LAST_DIR) {
                 match self.last_ccw {
@@ -1656,18 +1699,18 @@ impl<S: ProgramSource> Interpreter<S> {
     #[inline]
     fn emit(&mut self, ev: Event) {
         if self.comp.idle() {
-            self.pending.push_back(ev);
+            self.out(ev);
             return;
         }
         let mut errs = Vec::new();
-        let before = self.pending.len();
-        self.comp.push(ev, &mut self.pending, &mut errs);
+        let mut comped = std::mem::take(&mut self.scratch);
+        self.comp.push(ev, &mut comped, &mut errs);
         for e in errs {
             self.error(None, e);
         }
         // the commanded (compensated) path: travel limits and bounding box
-        for k in before..self.pending.len() {
-            let Event::Move { geom, src, .. } = self.pending[k] else {
+        for ev in &comped {
+            let Event::Move { geom, src, .. } = *ev else {
                 continue;
             };
             let (lo, hi) = geom.bbox();
@@ -1704,6 +1747,20 @@ impl<S: ProgramSource> Interpreter<S> {
                 None => (lo, hi),
                 Some((a, b)) => (a.inf(&lo), b.sup(&hi)),
             });
+        }
+        for ev in comped.drain(..) {
+            self.out(ev);
+        }
+        self.scratch = comped;
+    }
+
+    /// The last stage: corner blending within the path tolerance.
+    #[inline]
+    fn out(&mut self, ev: Event) {
+        if self.tolerance > 0.0 || self.blend.holds() {
+            self.blend.push(ev, self.tolerance, &mut self.pending);
+        } else {
+            self.pending.push_back(ev);
         }
     }
 

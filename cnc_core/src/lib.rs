@@ -13,6 +13,7 @@
 //! produces setpoint samples. Both read the program line by line through a
 //! [`source::ProgramSource`], so memory does not grow with program length.
 
+pub mod blend;
 pub mod check;
 pub mod comp;
 pub mod diag;

@@ -83,6 +83,11 @@ pub struct PlannerConfig {
     /// how many segments the look-ahead may hold
     #[serde(default = "default_lookahead")]
     pub lookahead_blocks: usize,
+    /// path tolerance at program start, mm: corners between feed lines are
+    /// blended with arcs that stay within it (0: the exact path, as G61;
+    /// programs set it with `G64 P<mm>`)
+    #[serde(default)]
+    pub path_tolerance_mm: f64,
 }
 
 fn default_exact_stop() -> f64 {
@@ -97,6 +102,7 @@ impl Default for PlannerConfig {
         PlannerConfig {
             exact_stop_angle_deg: default_exact_stop(),
             lookahead_blocks: default_lookahead(),
+            path_tolerance_mm: 0.0,
         }
     }
 }
@@ -415,6 +421,12 @@ impl Machine {
             return bad(
                 "planner.exact_stop_angle_deg".into(),
                 "must be between 0 and 90".into(),
+            );
+        }
+        if !(p.path_tolerance_mm.is_finite() && (0.0..=10.0).contains(&p.path_tolerance_mm)) {
+            return bad(
+                "planner.path_tolerance_mm".into(),
+                "must be between 0 and 10".into(),
             );
         }
         if !(2..=100_000).contains(&p.lookahead_blocks) {

@@ -120,3 +120,75 @@ proptest! {
         }
     }
 }
+
+/// Distance from `p` to the segment `a`-`b`.
+fn seg_dist(p: V3, a: V3, b: V3) -> f64 {
+    let d = b - a;
+    let l2 = d.norm_squared();
+    let t = if l2 > 0.0 {
+        ((p - a).dot(&d) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p - (a + d * t)).norm()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 128, ..ProptestConfig::default() })]
+
+    /// G64 P: corners blended within the tolerance, limits kept, the end
+    /// exact, the estimate exact; polylines of short and long lines, some
+    /// leaving the XY plane (not blended), at any feed.
+    #[test]
+    fn blended_polylines_stay_within_the_tolerance(
+        steps in prop::collection::vec(
+            (0.01..20.0f64, 0.0..std::f64::consts::TAU, prop::bool::weighted(0.15)),
+            2..40,
+        ),
+        tol in 0.001..0.5f64,
+        feed in 300.0..12000.0f64,
+    ) {
+        let m = Machine::builtin_mill();
+        let mut p = V3::new(250.0, 250.0, 0.0);
+        // (the first rapid comes from home)
+        let mut pts = vec![m.home(), p];
+        let mut text = format!("G17 G90 G64 P{}\nG00 X{} Y{} Z{}\nF{}\n", r4(tol), p.x, p.y, p.z, r4(feed));
+        for &(len, ang, lift) in &steps {
+            let e = V3::new(
+                r4(p.x + len * ang.cos()),
+                r4(p.y + len * ang.sin()),
+                if lift { r4(p.z + 1.0) } else { p.z },
+            );
+            if e == p {
+                continue;
+            }
+            text += &format!("G01 X{} Y{} Z{}\n", e.x, e.y, e.z);
+            p = e;
+            pts.push(p);
+        }
+        let r = check(StrSource::new(&text), Dialect::Cnc836, &m);
+        prop_assert!(r.ok(), "{}", r.message());
+        let s: Vec<Sample> = Executor::new(StrSource::new(&text), Dialect::Cnc836, &m).collect();
+        let last = s.last().unwrap();
+        prop_assert_eq!(last.pos, p);
+        prop_assert_eq!(last.k, r.ticks);
+        for x in &s {
+            let d = pts.windows(2).map(|w| seg_dist(x.pos, w[0], w[1])).fold(f64::MAX, f64::min);
+            prop_assert!(d <= r4(tol) + 1e-9, "{} mm off the path at k={} (P{})\n{}", d, x.k, r4(tol), text);
+        }
+        let dt = m.dt();
+        let (vmax, amax) = (m.vmax(), m.amax());
+        let vel: Vec<V3> = s.windows(2).map(|w| (w[1].pos - w[0].pos) / dt).collect();
+        for v in &vel {
+            for i in 0..3 {
+                prop_assert!(v[i].abs() <= vmax[i] * (1.0 + 1e-9));
+            }
+        }
+        for (k, w) in vel.windows(2).enumerate() {
+            let a = (w[1] - w[0]) / dt;
+            for i in 0..3 {
+                prop_assert!(a[i].abs() <= amax[i] * (1.0 + 1e-6) + 1e-6, "a[{}] = {} at sample {}\n{}", i, a[i], k + 1, text);
+            }
+        }
+    }
+}

@@ -1,0 +1,206 @@
+//! Corner blending within a path tolerance (`G64 P<mm>`): the last stage
+//! before the planner. A corner between two feed lines in one plane
+//! (G17/G18/G19) is replaced by the arc tangent to both whose deviation
+//! from the corner point is at most the tolerance, and which takes at most
+//! half of either line. The planner then passes line, arc and line at
+//! speed (the junctions are tangent), within the arc's centripetal limit,
+//! instead of stopping or crawling through the corner. Tolerance 0 (G61,
+//! the default) leaves the path exact. Rapids, arcs, corners out of a
+//! principal plane and reversals are not blended.
+//!
+//! The stage holds the last line back until the next event says whether
+//! its end is a corner to blend.
+
+use crate::geom::{Arc, Geom, Plane};
+use crate::interp::{Event, Feed, Src};
+use crate::V3;
+use std::collections::VecDeque;
+
+/// A held line: its (possibly trimmed) start, its end, feed and source.
+#[derive(Clone, Copy, Debug)]
+struct Held {
+    start: V3,
+    end: V3,
+    feed: Feed,
+    src: Src,
+}
+
+#[derive(Debug, Default)]
+pub(crate) struct Blender {
+    held: Option<Held>,
+}
+
+/// The principal plane holding both directions, if any.
+fn plane_of(u1: &V3, u2: &V3) -> Option<Plane> {
+    [Plane::XY, Plane::ZX, Plane::YZ].into_iter().find(|pl| {
+        let n = pl.axes().2;
+        u1[n] == 0.0 && u2[n] == 0.0
+    })
+}
+
+impl Blender {
+    /// A line is held back.
+    #[inline]
+    pub(crate) fn holds(&self) -> bool {
+        self.held.is_some()
+    }
+
+    /// Passes `ev` on to `out`, blending the corner between the held line
+    /// and `ev` within `tol` (mm).
+    pub(crate) fn push(&mut self, ev: Event, tol: f64, out: &mut VecDeque<Event>) {
+        let line = match ev {
+            Event::Move {
+                geom: Geom::Line { start, end },
+                feed,
+                src,
+            } if tol > 0.0 && !matches!(feed, Feed::Rapid) => Some(Held {
+                start,
+                end,
+                feed,
+                src,
+            }),
+            _ => None,
+        };
+        let Some(next) = line else {
+            self.flush(out);
+            out.push_back(ev);
+            return;
+        };
+        let Some(h) = self.held.take() else {
+            self.held = Some(next);
+            return;
+        };
+        match corner(&h, &next, tol) {
+            Some((t1, arc, t2)) => {
+                if t1 != h.start {
+                    out.push_back(Event::Move {
+                        geom: Geom::Line {
+                            start: h.start,
+                            end: t1,
+                        },
+                        feed: h.feed,
+                        src: h.src,
+                    });
+                }
+                out.push_back(Event::Move {
+                    geom: Geom::Arc(arc),
+                    feed: next.feed,
+                    src: next.src,
+                });
+                self.held = Some(Held { start: t2, ..next });
+            }
+            None => {
+                out.push_back(line_event(&h));
+                self.held = Some(next);
+            }
+        }
+    }
+
+    /// Passes the held line on unchanged.
+    pub(crate) fn flush(&mut self, out: &mut VecDeque<Event>) {
+        if let Some(h) = self.held.take() {
+            out.push_back(line_event(&h));
+        }
+    }
+}
+
+fn line_event(h: &Held) -> Event {
+    Event::Move {
+        geom: Geom::Line {
+            start: h.start,
+            end: h.end,
+        },
+        feed: h.feed,
+        src: h.src,
+    }
+}
+
+/// The blend of the corner at `a.end` (= `b.start`): (where the first
+/// line now ends, the arc, where the second now starts).
+fn corner(a: &Held, b: &Held, tol: f64) -> Option<(V3, Arc, V3)> {
+    let c = a.end;
+    if b.start != c {
+        return None;
+    }
+    let d1 = c - a.start;
+    let d2 = b.end - c;
+    let (l1, l2) = (d1.norm(), d2.norm());
+    if !(l1 > 0.0 && l2 > 0.0) {
+        return None;
+    }
+    let (u1, u2) = (d1 / l1, d2 / l2);
+    let cos = u1.dot(&u2).clamp(-1.0, 1.0);
+    let phi = cos.acos();
+    // tangent already, or turning back (no arc fits)
+    if phi < 1e-7 || phi > 179f64.to_radians() {
+        return None;
+    }
+    let plane = plane_of(&u1, &u2)?;
+    let half = 0.5 * phi;
+    let r_tol = tol / (1.0 / half.cos() - 1.0);
+    let r_len = 0.5 * l1.min(l2) / half.tan();
+    let r = r_tol.min(r_len);
+    let l = r * half.tan();
+    if !(l > 1e-9 && r.is_finite()) {
+        return None;
+    }
+    let t1 = c - u1 * l;
+    let t2 = c + u2 * l;
+    let n = (u2 - u1 * cos).normalize();
+    let centre = t1 + n * r;
+    let (p, q, _) = plane.axes();
+    let ccw = u1[p] * u2[q] - u1[q] * u2[p] > 0.0;
+    let arc = Arc::new(t1, t2, centre, plane, ccw, 0);
+    Some((t1, arc, t2))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn mv(a: V3, b: V3) -> Event {
+        Event::Move {
+            geom: Geom::Line { start: a, end: b },
+            feed: Feed::PerMin(1000.0),
+            src: Src::default(),
+        }
+    }
+
+    #[test]
+    fn a_right_angle_is_rounded_within_the_tolerance() {
+        let mut b = Blender::default();
+        let mut out = VecDeque::new();
+        let o = V3::zeros();
+        let c = V3::new(10.0, 0.0, 0.0);
+        let e = V3::new(10.0, 10.0, 0.0);
+        b.push(mv(o, c), 0.1, &mut out);
+        b.push(mv(c, e), 0.1, &mut out);
+        b.flush(&mut out);
+        assert_eq!(out.len(), 3);
+        let Event::Move {
+            geom: Geom::Arc(arc),
+            ..
+        } = out[1]
+        else {
+            panic!("an arc")
+        };
+        // r (√2 − 1) = 0.1
+        let r = 0.1 / (2f64.sqrt() - 1.0);
+        assert!((arc.radius - r).abs() < 1e-12);
+        let mid = arc.start + (arc.end - arc.start) * 0.5;
+        let apex = arc.center + (mid - arc.center).normalize() * arc.radius;
+        assert!(((apex - c).norm() - 0.1).abs() < 1e-12);
+        // the lines are tangent to it and keep their outer ends
+        let Event::Move { geom: g0, .. } = out[0] else {
+            panic!()
+        };
+        let Event::Move { geom: g2, .. } = out[2] else {
+            panic!()
+        };
+        assert_eq!(g0.start(), o);
+        assert_eq!(g2.end(), e);
+        let ga = Geom::Arc(arc);
+        assert!((g0.end_tangent() - ga.start_tangent()).norm() < 1e-12);
+        assert!((ga.end_tangent() - g2.start_tangent()).norm() < 1e-12);
+    }
+}
