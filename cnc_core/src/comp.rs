@@ -363,7 +363,7 @@ impl Comp {
                     start_block: true,
                 });
             }
-            (Some(m), None) => {
+            (Some(_), None) => {
                 // the end block: from the last compensated point to the
                 // programmed end
                 if !matches!(shape, Shape::Line { .. }) {
@@ -373,7 +373,6 @@ impl Comp {
                     ));
                 }
                 self.release_nominal(out);
-                let _ = m;
                 self.active = None;
                 let end = geom.end() - self.geo;
                 let g = Geom::Line {
@@ -470,18 +469,8 @@ impl Comp {
             // (compensation already on and nothing held: after a G40-less
             // program end) start from where the tool is
             let (p, q, _) = m.plane.axes();
-            let from = (
-                self.last[p] - m.tip[p] + self.geo[p],
-                self.last[q] - m.tip[q] + self.geo[q],
-            );
-            self.held = Some(Held {
-                geom,
-                shape,
-                feed,
-                src,
-                from,
-                start_block: false,
-            });
+            let at = self.last - self.shift();
+            self.hold(geom, shape, feed, src, (at[p], at[q]));
             return;
         };
         let pb = shape.offset_start(side, rt);

@@ -286,6 +286,12 @@ impl<S: ProgramSource> Executor<S> {
         }
     }
 
+    /// The last sample, at `pos`: the run ends here.
+    fn end_at(&mut self, pos: V3) -> Option<Sample> {
+        self.done = true;
+        Some(self.sample(pos, 0.0, true))
+    }
+
     /// The spindle angle for this tick's setpoint and the index position,
     /// revolutions counted in direction `dir`; `None` index: none seen yet.
     fn spindle_angle(&self, dir: f64) -> Result<(f64, Option<f64>, f64), String> {
@@ -294,8 +300,7 @@ impl<S: ProgramSource> Executor<S> {
             return Ok((dir * self.timeline.ideal_rev(self.vk), Some(0.0), rev_s));
         };
         let t = self.k as f64 * self.dt;
-        let (Some(last), Some(c), Some(cps)) = (tr.last, tr.counts_at(t), tr.counts_per_s(t))
-        else {
+        let (Some(last), Some((c, cps))) = (tr.last, tr.predict(t)) else {
             return Err("no spindle encoder reading".into());
         };
         let late = t - last.t;
@@ -335,10 +340,8 @@ impl<S: ProgramSource> Executor<S> {
                 if run.theta0.is_none() {
                     // not moving yet: the run ends here
                     self.fault = Some(why);
-                    self.done = true;
-                    let mut s = self.sample(m.seg.pos(run.u), 0.0, true);
-                    s.src = m.src;
-                    return Some(s);
+                    self.src = m.src;
+                    return self.end_at(m.seg.pos(run.u));
                 }
                 self.stop_thread(&m, run.u, run.v, Some(why));
                 return self.next_sample();
@@ -365,9 +368,6 @@ impl<S: ProgramSource> Executor<S> {
                     Some(ix) if at_speed && !held => {
                         let t0 = self.timeline.thread_begin(&m, theta, ix);
                         run.theta0 = Some(t0);
-                        if m.decel.is_some() && self.tracker.is_none() {
-                            run.end_tick = Some(self.timeline.ideal_thread_end(&m));
-                        }
                         t0
                     }
                     _ => {
@@ -384,10 +384,8 @@ impl<S: ProgramSource> Executor<S> {
                                 rev_s.abs() * 60.0,
                                 if index.is_none() { " and no index pulse was seen" } else { "" }
                             ));
-                            self.done = true;
-                            let mut s = self.sample(m.seg.start, 0.0, true);
-                            s.src = m.src;
-                            return Some(s);
+                            self.src = m.src;
+                            return self.end_at(m.seg.start);
                         }
                         self.src = m.src;
                         let s = self.sample(m.seg.start, 0.0, false);
@@ -398,6 +396,10 @@ impl<S: ProgramSource> Executor<S> {
                 }
             }
         };
+        if run.end_tick.is_none() && m.decel.is_some() && self.tracker.is_none() {
+            // the ideal spindle: the chain's last block ends on a known tick
+            run.end_tick = Some(self.timeline.ideal_thread_end(&m));
+        }
         let x = theta - theta0;
         let done = match run.end_tick {
             Some(k) => self.vk >= k as f64,
@@ -415,8 +417,8 @@ impl<S: ProgramSource> Executor<S> {
             }
             return None;
         }
-        let u = m.u_at(x);
-        let v = m.du_dx(x) * rev_s.max(0.0);
+        let (u, du) = m.at(x);
+        let v = du * rev_s.max(0.0);
         run.u = u;
         run.v = v;
         self.src = m.src;
@@ -433,7 +435,7 @@ impl<S: ProgramSource> Executor<S> {
             u,
             lead_start: m.seg.start[m.seg.lead],
             lead_sign: (m.seg.prog_end[m.seg.lead] - m.seg.start[m.seg.lead]).signum(),
-            on_line: m.du_dx(x) == m.seg.pitch,
+            on_line: du == m.seg.pitch,
         });
         self.cur = Some(Cur::Thread(run));
         self.advance(1.0);
@@ -456,15 +458,10 @@ impl<S: ProgramSource> Executor<S> {
                 if self.fault.is_some() && !matches!(item, Some(Item::Move(_))) {
                     // stopped (what is not a move comes after a stop): the
                     // run ends here
-                    self.done = true;
-                    return Some(self.sample(self.pos, 0.0, true));
+                    return self.end_at(self.pos);
                 }
                 match item {
-                    None | Some(Item::End { .. }) => {
-                        self.done = true;
-                        let s = self.sample(self.pos, 0.0, true);
-                        return Some(s);
-                    }
+                    None | Some(Item::End { .. }) => return self.end_at(self.pos),
                     Some(Item::Move(m)) => {
                         let stop = self.timeline.stop_tick(&m);
                         self.cur = Some(Cur::Move(m, stop));
@@ -488,22 +485,14 @@ impl<S: ProgramSource> Executor<S> {
                     Some(Item::Thread(m)) => {
                         self.cur = Some(Cur::Thread(ThreadRun {
                             m,
-                            theta0: None,
+                            // a chained block is synchronized already
+                            theta0: m.runin.is_none().then_some(self.timeline.theta0),
                             end_tick: None,
                             waited: 0,
                             settled: 0,
                             u: 0.0,
                             v: 0.0,
                         }));
-                        if m.runin.is_none() {
-                            // a chained block is synchronized already
-                            if let Some(Cur::Thread(run)) = self.cur.as_mut() {
-                                run.theta0 = Some(self.timeline.theta0);
-                                if m.decel.is_some() && self.tracker.is_none() {
-                                    run.end_tick = Some(self.timeline.ideal_thread_end(&m));
-                                }
-                            }
-                        }
                     }
                 }
                 continue;
@@ -518,8 +507,7 @@ impl<S: ProgramSource> Executor<S> {
                     if running {
                         if self.fault.is_some() && self.scale == 0.0 {
                             // stopped after a lost encoder
-                            self.done = true;
-                            return Some(self.sample(m.geom.eval(m.profile.s_at(tau)), 0.0, true));
+                            return self.end_at(m.geom.eval(m.profile.s_at(tau)));
                         }
                         let spindle = self.spindle_scale(&m);
                         self.src = m.src;
@@ -553,8 +541,7 @@ impl<S: ProgramSource> Executor<S> {
                     let pos = st.seg.pos(st.u);
                     self.pos = pos;
                     if v1 == 0.0 {
-                        self.done = true;
-                        return Some(self.sample(pos, 0.0, true));
+                        return self.end_at(pos);
                     }
                     let s = self.sample(pos, v1, false);
                     self.cur = Some(Cur::Stop(st));

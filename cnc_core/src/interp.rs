@@ -1398,12 +1398,7 @@ impl<S: ProgramSource> Interpreter<S> {
         // the normal axis, linearly (a helix in an arc block)
         let mut target = self.pos;
         if let Some(a) = w.axis(n) {
-            let v = if n == 0 && self.diameter {
-                a.value * 0.5
-            } else {
-                a.value
-            };
-            target[n] = if abs { v } else { self.pos[n] + v };
+            target[n] = self.axis_target(n, &a, abs);
         }
         let (sp, sq) = (self.pos[p] - pole[p], self.pos[q] - pole[q]);
         let feed = match motion {
@@ -1616,21 +1611,7 @@ impl<S: ProgramSource> Interpreter<S> {
             return;
         }
         // target position
-        let mut target = self.pos;
-        for i in 0..3 {
-            if let Some(a) = w.axis(i) {
-                let v = if i == 0 && self.diameter {
-                    a.value * 0.5
-                } else {
-                    a.value
-                };
-                target[i] = if self.modal.absolute {
-                    v
-                } else {
-                    self.pos[i] + v
-                };
-            }
-        }
+        let mut target = self.target_of(w);
         let anchor = w.get(slot::MOTION).or_else(|| w.axes().flatten().next());
         // feed
         let feed = match motion {
@@ -1715,38 +1696,17 @@ impl<S: ProgramSource> Interpreter<S> {
             };
             let (lo, hi) = geom.bbox();
             for i in 0..3 {
-                if !self.present[i] {
-                    continue;
-                }
-                let eps = 1e-9;
-                let bad = if lo[i] < self.lo[i] - eps {
-                    Some(lo[i])
-                } else if hi[i] > self.hi[i] + eps {
-                    Some(hi[i])
-                } else {
-                    None
-                };
-                // (a start outside was reported with the move before)
-                if let Some(v) = bad.filter(|&v| v != geom.start()[i]) {
-                    let k = if i == 0 && self.diameter { 2.0 } else { 1.0 };
+                if let Some((_, text)) = self.out_of_travel(i, geom.start()[i], lo[i], hi[i]) {
                     self.error(
                         None,
                         format!(
-                            "travel limit: with radius compensation the path of block {} reaches {}{} {}, outside the axis range {}..{}",
-                            crate::comp::block_name(src),
-                            AXIS_LETTERS[i] as char,
-                            if i == 0 && self.diameter { " (diameter)" } else { "" },
-                            num(v * k),
-                            num(self.lo[i] * k),
-                            num(self.hi[i] * k)
+                            "travel limit: with radius compensation the path of block {} reaches {text}",
+                            crate::comp::block_name(src)
                         ),
                     );
                 }
             }
-            self.bbox = Some(match self.bbox {
-                None => (lo, hi),
-                Some((a, b)) => (a.inf(&lo), b.sup(&hi)),
-            });
+            self.grow_bbox(lo, hi);
         }
         for ev in comped.drain(..) {
             self.out(ev);
@@ -1901,21 +1861,7 @@ impl<S: ProgramSource> Interpreter<S> {
             );
             return;
         }
-        let mut target = self.pos;
-        for i in 0..3 {
-            if let Some(a) = w.axis(i) {
-                let v = if i == 0 && self.diameter {
-                    a.value * 0.5
-                } else {
-                    a.value
-                };
-                target[i] = if self.modal.absolute {
-                    v
-                } else {
-                    self.pos[i] + v
-                };
-            }
-        }
+        let target = self.target_of(w);
         let anchor = w.axes().flatten().next().unwrap_or(*g33);
         let d = target - self.pos;
         // the lead axis has the largest travel; on a tie Z, then Y, then X
@@ -2104,10 +2050,7 @@ impl<S: ProgramSource> Interpreter<S> {
             end: seg.prog_end,
         };
         self.check_travel(&line, (lo, hi), w, Some(&anchor));
-        self.bbox = Some(match self.bbox {
-            None => (lo, hi),
-            Some((a, b)) => (a.inf(&lo), b.sup(&hi)),
-        });
+        self.grow_bbox(lo, hi);
         self.pos = end;
         let m = ThreadMove {
             seg,
@@ -2234,10 +2177,7 @@ impl<S: ProgramSource> Interpreter<S> {
         if self.comp.idle() && !self.changes_nothing(geom) {
             let (lo, hi) = geom.bbox();
             self.check_travel(geom, (lo, hi), w, anchor);
-            self.bbox = Some(match self.bbox {
-                None => (lo, hi),
-                Some((a, b)) => (a.inf(&lo), b.sup(&hi)),
-            });
+            self.grow_bbox(lo, hi);
         }
         if let Some(feed) = feed {
             self.emit(Event::Move {
@@ -2364,44 +2304,87 @@ impl<S: ProgramSource> Interpreter<S> {
     fn check_travel(&mut self, geom: &Geom, (lo, hi): (V3, V3), w: &Words, anchor: Option<&Word>) {
         let is_arc = matches!(geom, Geom::Arc(_));
         for i in 0..3 {
-            if !self.present[i] {
-                continue;
-            }
-            let eps = 1e-9;
-            let bad = if lo[i] < self.lo[i] - eps {
-                Some(lo[i])
-            } else if hi[i] > self.hi[i] + eps {
-                Some(hi[i])
-            } else {
-                None
-            };
-            // the start was checked with the block before
-            if let Some(v) = bad.filter(|&v| v != geom.start()[i]) {
-                let k = if i == 0 && self.diameter { 2.0 } else { 1.0 };
-                let what = if i == 0 && self.diameter {
-                    " (diameter)"
-                } else {
-                    ""
-                };
+            if let Some((v, text)) = self.out_of_travel(i, geom.start()[i], lo[i], hi[i]) {
                 let at = w.axis(i).or(anchor.copied());
                 let how = if is_arc && v != geom.end()[i] {
                     "the arc reaches"
                 } else {
                     "the move ends at"
                 };
-                self.error(
-                    at.as_ref(),
-                    format!(
-                        "travel limit: {how} {}{} {}, outside the axis range {}..{}",
-                        AXIS_LETTERS[i] as char,
-                        what,
-                        num(v * k),
-                        num(self.lo[i] * k),
-                        num(self.hi[i] * k)
-                    ),
-                );
+                self.error(at.as_ref(), format!("travel limit: {how} {text}"));
             }
         }
+    }
+
+    /// Where a move from `start` with extent `lo`..`hi` on axis `i` leaves
+    /// its travel, with the text "X (diameter) -3, outside the axis range
+    /// 0..500"; `None` inside it, or when only the start is outside (that
+    /// was reported with the move before).
+    fn out_of_travel(&self, i: usize, start: f64, lo: f64, hi: f64) -> Option<(f64, String)> {
+        if !self.present[i] {
+            return None;
+        }
+        let eps = 1e-9;
+        let v = if lo < self.lo[i] - eps {
+            lo
+        } else if hi > self.hi[i] + eps {
+            hi
+        } else {
+            return None;
+        };
+        if v == start {
+            return None;
+        }
+        let (k, what) = if i == 0 && self.diameter {
+            (2.0, " (diameter)")
+        } else {
+            (1.0, "")
+        };
+        Some((
+            v,
+            format!(
+                "{}{} {}, outside the axis range {}..{}",
+                AXIS_LETTERS[i] as char,
+                what,
+                num(v * k),
+                num(self.lo[i] * k),
+                num(self.hi[i] * k)
+            ),
+        ))
+    }
+
+    /// Adds a move's extent to the bounding box.
+    fn grow_bbox(&mut self, lo: V3, hi: V3) {
+        self.bbox = Some(match self.bbox {
+            None => (lo, hi),
+            Some((a, b)) => (a.inf(&lo), b.sup(&hi)),
+        });
+    }
+
+    /// Axis `i`'s word `a` in machine coordinates (lathe X: the radius),
+    /// absolute or from the current position.
+    fn axis_target(&self, i: usize, a: &Word, absolute: bool) -> f64 {
+        let v = if i == 0 && self.diameter {
+            a.value * 0.5
+        } else {
+            a.value
+        };
+        if absolute {
+            v
+        } else {
+            self.pos[i] + v
+        }
+    }
+
+    /// The block's end point from its axis words (the others stay).
+    fn target_of(&self, w: &Words) -> V3 {
+        let mut target = self.pos;
+        for i in 0..3 {
+            if let Some(a) = w.axis(i) {
+                target[i] = self.axis_target(i, &a, self.modal.absolute);
+            }
+        }
+        target
     }
 }
 

@@ -162,47 +162,35 @@ impl ThreadMove {
         self.seg.len / self.seg.pitch + self.decel.map_or(0.0, |d| 0.5 * d)
     }
 
-    /// Lead travel at `x` = θ − θ₀ revolutions (clamped to the block).
-    pub fn u_at(&self, x: f64) -> f64 {
+    /// Lead travel at `x` = θ − θ₀ revolutions (clamped to the block) and
+    /// its rate du/dθ (mm/rev) there.
+    pub fn at(&self, x: f64) -> (f64, f64) {
         let p = self.seg.pitch;
         let l = self.seg.len;
         if let Some((_, d)) = self.runin {
             if x < 0.5 * d {
-                let y = x + 0.5 * d;
-                return if y <= 0.0 { 0.0 } else { p * y * y / (2.0 * d) };
+                let y = (x + 0.5 * d).max(0.0);
+                return (p * y * y / (2.0 * d), p * y / d);
             }
         }
         if let Some(d) = self.decel {
             let xl = l / p;
             if x > xl - 0.5 * d {
-                let y = xl + 0.5 * d - x;
-                return if y <= 0.0 {
-                    l
-                } else {
-                    l - p * y * y / (2.0 * d)
-                };
+                let y = (xl + 0.5 * d - x).max(0.0);
+                return (l - p * y * y / (2.0 * d), p * y / d);
             }
         }
-        (p * x).clamp(0.0, l)
+        ((p * x).clamp(0.0, l), p)
     }
 
-    /// Lead speed per spindle speed (du/dθ, mm/rev) at `x`.
+    /// Lead travel at `x` (see [`ThreadMove::at`]).
+    pub fn u_at(&self, x: f64) -> f64 {
+        self.at(x).0
+    }
+
+    /// du/dθ at `x`, mm/rev (see [`ThreadMove::at`]).
     pub fn du_dx(&self, x: f64) -> f64 {
-        let p = self.seg.pitch;
-        if let Some((_, d)) = self.runin {
-            if x < 0.5 * d {
-                let y = x + 0.5 * d;
-                return if y <= 0.0 { 0.0 } else { p * y / d };
-            }
-        }
-        if let Some(d) = self.decel {
-            let xl = self.seg.len / p;
-            if x > xl - 0.5 * d {
-                let y = xl + 0.5 * d - x;
-                return if y <= 0.0 { 0.0 } else { p * y / d };
-            }
-        }
-        p
+        self.at(x).1
     }
 
     /// θ₀ for a chain's first block: the first instant the spindle, counted
@@ -292,13 +280,13 @@ impl SpindleTracker {
         self.last.map_or(0.0, |l| f64::from(l.counts_per_rev))
     }
 
-    /// Coefficients (c0, c1, c2, c3) of count − last count ≈ Σ cᵢ τⁱ,
+    /// Coefficients (c0, c1, c2) of count − last count ≈ Σ cᵢ τⁱ,
     /// τ = t − t_last in ms (well scaled for the normal equations).
-    fn fit(&self) -> Option<[f64; 4]> {
+    fn fit(&self) -> Option<[f64; DEGREE + 1]> {
         let last = self.last?;
         let (t1, c1) = (last.t, last.count);
-        let mut a = nalgebra::Matrix4::<f64>::zeros();
-        let mut b = nalgebra::Vector4::<f64>::zeros();
+        let mut a = nalgebra::Matrix3::<f64>::zeros();
+        let mut b = nalgebra::Vector3::<f64>::zeros();
         let mut n: usize = 0;
         for k in 0..self.len {
             let (t, c) = self.ring[(self.head + HISTORY - k) % HISTORY];
@@ -308,9 +296,9 @@ impl SpindleTracker {
             }
             let x = tau * 1000.0;
             let y = (c - c1) as f64;
-            let p = [1.0, x, x * x, x * x * x];
-            for r in 0..4 {
-                for q in 0..4 {
+            let p = [1.0, x, x * x];
+            for r in 0..=DEGREE {
+                for q in 0..=DEGREE {
                     a[(r, q)] += p[r] * p[q];
                 }
                 b[r] += p[r] * y;
@@ -325,44 +313,24 @@ impl SpindleTracker {
             let rhs = b.rows(0, m).clone_owned();
             if let Some(x) = sub.lu().solve(&rhs) {
                 if x.iter().all(|v| v.is_finite()) {
-                    let mut out = [0.0; 4];
-                    for i in 0..m {
-                        out[i] = x[i];
-                    }
+                    let mut out = [0.0; DEGREE + 1];
+                    out[..m].copy_from_slice(x.as_slice());
                     return Some(out);
                 }
             }
         }
-        Some([0.0; 4])
+        Some([0.0; DEGREE + 1])
     }
 
-    /// Predicted angle at time `t`, in counts (the centre of the count).
-    pub fn counts_at(&self, t: f64) -> Option<f64> {
+    /// The predicted angle at time `t`, in counts (the centre of the
+    /// count), and the speed then, counts per second: one fit for both.
+    pub fn predict(&self, t: f64) -> Option<(f64, f64)> {
         let last = self.last?;
         let c = self.fit()?;
         let x = (t - last.t) * 1000.0;
-        Some(last.count as f64 + 0.5 + c[0] + x * (c[1] + x * (c[2] + x * c[3])))
-    }
-
-    /// Measured speed at time `t`, counts per second.
-    pub fn counts_per_s(&self, t: f64) -> Option<f64> {
-        let last = self.last?;
-        let c = self.fit()?;
-        let x = (t - last.t) * 1000.0;
-        Some((c[1] + x * (2.0 * c[2] + 3.0 * x * c[3])) * 1000.0)
-    }
-
-    /// Measured speed at `t`, rpm, signed.
-    pub fn rpm_at(&self, t: f64) -> Option<f64> {
-        let cpr = self.cpr();
-        self.counts_per_s(t)
-            .filter(|_| cpr > 0.0)
-            .map(|c| c / cpr * 60.0)
-    }
-
-    /// Time of the newest reading.
-    pub fn last_t(&self) -> Option<f64> {
-        self.last.map(|l| l.t)
+        let counts = last.count as f64 + 0.5 + c[0] + x * (c[1] + x * c[2]);
+        let per_s = (c[1] + x * 2.0 * c[2]) * 1000.0;
+        Some((counts, per_s))
     }
 }
 
@@ -456,12 +424,12 @@ mod tests {
                 count_at_index: 0,
             });
             if k > 20 {
-                let p = tr.counts_at(t + 0.001).unwrap();
+                let p = tr.predict(t + 0.001).unwrap().0;
                 worst = worst.max((p - true_counts(t + 0.001)).abs());
             }
         }
         assert!(worst < 0.5, "worst {worst}");
-        let rpm = tr.rpm_at(0.2).unwrap();
+        let rpm = tr.predict(0.2).unwrap().1 / cpr * 60.0;
         assert!((rpm - 2000.0).abs() < 1.0, "{rpm}");
     }
 }
