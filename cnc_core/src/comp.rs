@@ -325,7 +325,7 @@ impl Comp {
     ) {
         let Event::Move { geom, feed, src } = ev else {
             if let Event::End { .. } = ev {
-                self.release_nominal(out);
+                self.release_nominal(out, errs);
             }
             if self.held.is_some() {
                 self.queue.push(Queued::Other(ev));
@@ -372,7 +372,7 @@ impl Comp {
                         block_name(src)
                     ));
                 }
-                self.release_nominal(out);
+                self.release_nominal(out, errs);
                 self.active = None;
                 let end = geom.end() - self.geo;
                 let g = Geom::Line {
@@ -429,7 +429,11 @@ impl Comp {
 
     /// The held element ends at its own offset end point (no next element:
     /// G40 or the end of the program).
-    fn release_nominal(&mut self, out: &mut std::collections::VecDeque<Event>) {
+    fn release_nominal(
+        &mut self,
+        out: &mut std::collections::VecDeque<Event>,
+        errs: &mut Vec<String>,
+    ) {
         let Some(h) = self.held.take() else {
             return;
         };
@@ -437,8 +441,7 @@ impl Comp {
             return;
         };
         let to = h.shape.offset_end(m.side, m.radius);
-        let mut errs = Vec::new();
-        self.emit_held(&h, m, to, out, &mut errs);
+        self.emit_held(&h, m, to, out, errs);
         self.flush_queue(m, out);
     }
 

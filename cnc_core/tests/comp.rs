@@ -284,6 +284,13 @@ fn every_compensation_error_names_its_blocks() {
         6,
         "radius compensation: block N50 is too short for the tool radius 5: its offset path would run backwards",
     );
+    // the same as the last element before G40: its offset, ending
+    // perpendicular at its end, runs backwards
+    refused(
+        &format!("{MILL_PRE}N30 G41 G01 X40 Y30 F600\nN40 X100\nN50 Y32\nN60 G40 X0 Y0\n"),
+        6,
+        "radius compensation: block N50 is too short for the tool radius 5: its offset path would run backwards",
+    );
     // no tool / a tool that is not in the table
     refused(
         "N20 G00 X0 Y0 Z-2\nN30 G41 G01 X40 Y30 F600\n",
