@@ -19,9 +19,8 @@ from std_srvs.srv import SetBool, Trigger
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram
+from ros_nodes import ROOT, TARGET, build, start, stop
 
-ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
-TARGET = os.environ.get("CNC_TARGET_DIR", os.path.join(ROOT, "target", "debug"))
 DOMAIN = str(100 + os.getpid() % 100)
 NS = "/cnc"
 
@@ -29,25 +28,15 @@ NS = "/cnc"
 @pytest.fixture(scope="module")
 def nodes():
     env = dict(os.environ, ROS_DOMAIN_ID=DOMAIN, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    if not os.environ.get("CNC_SKIP_BUILD"):
-        subprocess.run(["cargo", "build", "-q", "-p", "cnc_node", "-p", "sim_axes", "--bins"], cwd=ROOT, check=True)
-    procs = [
-        subprocess.Popen([os.path.join(TARGET, "sim_axes"), "--machine", "mill"], cwd=ROOT, env=env),
-        subprocess.Popen([os.path.join(TARGET, "cnc_node"), "--machine", "mill",
-                          "--record-dir", os.path.join("target", "test-recordings")], cwd=ROOT, env=env),
-    ]
+    build()
+    procs = start(env, ["--machine", "mill"],
+                  ["--machine", "mill", "--record-dir", os.path.join("target", "test-recordings")])
     os.environ["ROS_DOMAIN_ID"] = DOMAIN
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     rclpy.init()
     yield procs
     rclpy.shutdown()
-    for p in procs:
-        p.terminate()
-    for p in procs:
-        try:
-            p.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            p.kill()
+    stop(procs)
 
 
 class Peer:
@@ -260,12 +249,9 @@ def test_two_machines_share_a_domain_and_a_5mb_program_goes_by_path(nodes, tmp_p
     size = prog.stat().st_size
     assert size > 5_000_000, size
     env = dict(os.environ, ROS_DOMAIN_ID=DOMAIN)
-    procs = [
-        subprocess.Popen([os.path.join(TARGET, "sim_axes"), "--machine", "mill", "--namespace", "/sim2",
-                          "--controller-namespace", "/cnc2"], cwd=ROOT, env=env),
-        subprocess.Popen([os.path.join(TARGET, "cnc_node"), "--machine", "mill", "--namespace", "/cnc2",
-                          "--sim-namespace", "/sim2", "--program-dir", str(tmp_path)], cwd=ROOT, env=env),
-    ]
+    procs = start(env, ["--machine", "mill", "--namespace", "/sim2", "--controller-namespace", "/cnc2"],
+                  ["--machine", "mill", "--namespace", "/cnc2", "--sim-namespace", "/sim2",
+                   "--program-dir", str(tmp_path)])
     node = rclpy.create_node("peer2")
     got = {"cnc": [], "cnc2": []}
     node.create_subscription(JointState, "/cnc/joint_setpoints", lambda m: got["cnc"].append(list(m.position)), 10)
@@ -305,10 +291,7 @@ def test_two_machines_share_a_domain_and_a_5mb_program_goes_by_path(nodes, tmp_p
         print("5 MB program (%d bytes) accepted after %.2f s" % (size, answered))
     finally:
         node.destroy_node()
-        for p in procs:
-            p.terminate()
-        for p in procs:
-            p.wait(timeout=5)
+        stop(procs)
 
 
 def test_a_job_recorded_by_the_node_decodes_with_an_independent_reader(peer):

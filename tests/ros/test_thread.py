@@ -12,7 +12,6 @@ The measured numbers are printed (-s shows them).
 import bisect
 import math
 import os
-import subprocess
 import threading
 import time
 
@@ -26,9 +25,8 @@ from std_srvs.srv import SetBool
 
 from cnc_msgs.msg import ControllerStatus, SpindleEncoder
 from cnc_msgs.srv import RunProgram
+from ros_nodes import ROOT, build, start, stop
 
-ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
-TARGET = os.environ.get("CNC_TARGET_DIR", os.path.join(ROOT, "target", "debug"))
 DOMAIN = str(100 + os.getpid() % 100)
 NS, SIM = "/cnc", "/sim"
 ERROR = ControllerStatus.STATE_ERROR
@@ -41,8 +39,7 @@ def machine(request):
     parametrization: one pair at a time, on the default namespaces)."""
     name = request.param
     env = dict(os.environ, ROS_DOMAIN_ID=DOMAIN, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    if not os.environ.get("CNC_SKIP_BUILD"):
-        subprocess.run(["cargo", "build", "-q", "-p", "cnc_node", "-p", "sim_axes", "--bins"], cwd=ROOT, check=True)
+    build()
     # the simulator's stderr (its stall reports) for Peer.attempts
     logs = os.path.join(ROOT, "target", "test-logs")
     os.makedirs(logs, exist_ok=True)
@@ -51,11 +48,7 @@ def machine(request):
     # readings' age every S seconds
     stats = ["--loop-stats", os.environ["CNC_LOOP_STATS"]] if os.environ.get("CNC_LOOP_STATS") else []
     with open(sim_log, "wb") as f:
-        procs = [
-            subprocess.Popen([os.path.join(TARGET, "sim_axes"), "--machine", name], cwd=ROOT, env=env,
-                             stderr=f),
-            subprocess.Popen([os.path.join(TARGET, "cnc_node"), "--machine", name] + stats, cwd=ROOT, env=env),
-        ]
+        procs = start(env, ["--machine", name], ["--machine", name] + stats, sim_stderr=f)
     os.environ["ROS_DOMAIN_ID"] = DOMAIN
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     rclpy.init()
@@ -68,13 +61,7 @@ def machine(request):
         if peer is not None:
             peer.close()
         rclpy.shutdown()
-        for p in procs:
-            p.terminate()
-        for p in procs:
-            try:
-                p.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                p.kill()
+        stop(procs)
 
 
 class Peer:

@@ -1,0 +1,32 @@
+"""Starting and stopping the controller (`cnc_node`) and simulator
+(`sim_axes`) nodes for the ROS tests."""
+import os
+import subprocess
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+TARGET = os.environ.get("CNC_TARGET_DIR", os.path.join(ROOT, "target", "debug"))
+
+
+def build():
+    """Builds both nodes (unless CNC_SKIP_BUILD: scripts/test.sh built them)."""
+    if not os.environ.get("CNC_SKIP_BUILD"):
+        subprocess.run(["cargo", "build", "-q", "-p", "cnc_node", "-p", "sim_axes", "--bins"], cwd=ROOT, check=True)
+
+
+def start(env, sim_args, node_args, sim_stderr=None):
+    """The simulator and the controller with these arguments, in `env`."""
+    return [
+        subprocess.Popen([os.path.join(TARGET, "sim_axes")] + sim_args, cwd=ROOT, env=env, stderr=sim_stderr),
+        subprocess.Popen([os.path.join(TARGET, "cnc_node")] + node_args, cwd=ROOT, env=env),
+    ]
+
+
+def stop(procs, timeout=5):
+    """Terminates the processes, killing those that do not end in time."""
+    for p in procs:
+        p.terminate()
+    for p in procs:
+        try:
+            p.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            p.kill()
