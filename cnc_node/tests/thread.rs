@@ -377,6 +377,9 @@ fn faulty(
             exec.encoder(encoder_reading(&e, s.t));
         }
         out.push(s);
+        // (a run that never ends, e.g. held at a stop after a fault, fails
+        // here instead of hanging the test)
+        assert!(out.len() < 2_000_000, "the run did not end after 2000 s");
     }
     (out, exec.fault().map(str::to_string))
 }
