@@ -28,6 +28,10 @@ struct Held {
 #[derive(Debug, Default)]
 pub(crate) struct Blender {
     held: Option<Held>,
+    /// what the jerk filter may add to a blend's deviation, mm
+    /// ([`crate::Machine::smoothing_error_mm`]): blends keep within the
+    /// tolerance less this
+    shrink: f64,
 }
 
 /// The principal plane holding both directions, if any.
@@ -39,6 +43,10 @@ fn plane_of(u1: &V3, u2: &V3) -> Option<Plane> {
 }
 
 impl Blender {
+    pub(crate) fn new(shrink: f64) -> Self {
+        Blender { held: None, shrink }
+    }
+
     /// A line is held back.
     #[inline]
     pub(crate) fn holds(&self) -> bool {
@@ -48,6 +56,7 @@ impl Blender {
     /// Passes `ev` on to `out`, blending the corner between the held line
     /// and `ev` within `tol` (mm).
     pub(crate) fn push(&mut self, ev: Event, tol: f64, out: &mut VecDeque<Event>) {
+        let tol = tol - self.shrink;
         let line = match ev {
             Event::Move {
                 geom: Geom::Line { start, end },

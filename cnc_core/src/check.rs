@@ -109,7 +109,7 @@ impl Plan {
         Plan {
             look: Lookahead::new(lim),
             totals: Totals {
-                tl: Timeline::new(lim.dt),
+                tl: Timeline::for_limits(&lim),
                 moves: 0,
                 ended: false,
             },
@@ -438,7 +438,7 @@ mod tests {
         let lim = PlanLimits::from_machine(machine);
         let mut interp = Interpreter::new(src, dialect, machine);
         let mut planner = Planner::new(lim);
-        let mut tl = Timeline::new(lim.dt);
+        let mut tl = Timeline::for_limits(&lim);
         let mut moves = 0;
         let mut ended = false;
         while !ended {

@@ -10,6 +10,15 @@
 //! limits and the tool stays on the path. With σ = 1 the virtual counter is
 //! the tick index and the samples are exactly those of an unscaled run.
 //!
+//! Jerk: every sample passes a moving average over the last M positions
+//! ([`Machine::smoothing_samples`]), which turns the planner's
+//! acceleration-limited setpoints into jerk-limited ones (a trapezoid
+//! convolved with a rectangle is an S-curve). After each stop the
+//! setpoints hold still for M − 1 ticks ([`Timeline::hold`]), so that the
+//! filtered path reaches every stop point exactly; the check counts those
+//! ticks too. G33 samples bypass the filter: they follow the spindle angle,
+//! and a filter's delay would shift the groove with the speed.
+//!
 //! Spindle-synchronized motion (see [`crate::thread`]): G33 blocks are a
 //! function of the spindle angle and G95 moves scale their virtual time by
 //! the measured spindle speed over the programmed one. Without an encoder
@@ -119,6 +128,8 @@ pub struct Executor<S> {
     /// feed scale σ now, and where it is heading (0 = hold)
     scale: f64,
     target: f64,
+    /// path length per second between the last two samples of a move
+    w_prev: f64,
     cur: Option<Cur>,
     pos: V3,
     src: Src,
@@ -137,6 +148,58 @@ pub struct Executor<S> {
     fault: Option<String>,
     /// stop now (abort): threads stop under control too
     halt: bool,
+    /// the jerk filter (None: M = 1)
+    smooth: Option<Smoother>,
+    /// the raw run ended but the filter has not settled: its last sample
+    drain: Option<Sample>,
+    /// the raw sample just made is a thread's controlled stop: it bypasses
+    /// the filter as the thread did
+    bypass: bool,
+}
+
+/// A moving average of the last M setpoints (and path speeds).
+#[derive(Clone, Debug)]
+struct Smoother {
+    pos: Vec<V3>,
+    speed: Vec<f64>,
+    /// where the next sample goes
+    i: usize,
+}
+
+impl Smoother {
+    fn new(m: usize, at: V3) -> Self {
+        Smoother {
+            pos: vec![at; m],
+            speed: vec![0.0; m],
+            i: 0,
+        }
+    }
+
+    /// Forgets the past: every slot holds `p` (bypassed samples).
+    fn reset(&mut self, p: V3, v: f64) {
+        self.pos.fill(p);
+        self.speed.fill(v);
+    }
+
+    /// Adds a raw sample; the filtered position and speed. A full window of
+    /// equal positions gives that position exactly.
+    fn push(&mut self, p: V3, v: f64) -> (V3, f64) {
+        self.pos[self.i] = p;
+        self.speed[self.i] = v;
+        self.i = (self.i + 1) % self.pos.len();
+        let n = self.pos.len() as f64;
+        let avg = if self.settled() {
+            p
+        } else {
+            self.pos.iter().fold(V3::zeros(), |acc, q| acc + q) / n
+        };
+        (avg, self.speed.iter().sum::<f64>() / n)
+    }
+
+    /// Every slot holds the same position.
+    fn settled(&self) -> bool {
+        self.pos.iter().all(|q| *q == self.pos[0])
+    }
 }
 
 impl<S: ProgramSource> Executor<S> {
@@ -145,12 +208,13 @@ impl<S: ProgramSource> Executor<S> {
         Executor {
             interp: Interpreter::new(source, dialect, machine),
             planner: Planner::new(lim),
-            timeline: Timeline::new(lim.dt),
+            timeline: Timeline::for_limits(&lim),
             dt: lim.dt,
             k: 0,
             vk: 0.0,
             scale: 1.0,
             target: 1.0,
+            w_prev: 0.0,
             cur: None,
             pos: machine.home(),
             src: Src::default(),
@@ -170,7 +234,15 @@ impl<S: ProgramSource> Executor<S> {
                 .map_or(ENCODER_TIMEOUT_CYCLES * lim.dt, |ms| ms * 1e-3),
             fault: None,
             halt: false,
+            smooth: (lim.smooth > 1).then(|| Smoother::new(lim.smooth, machine.home())),
+            drain: None,
+            bypass: false,
         }
+    }
+
+    /// Held still (feed scale 0) and the filtered setpoint too.
+    pub fn at_rest(&self) -> bool {
+        self.scale == 0.0 && self.smooth.as_ref().is_none_or(Smoother::settled)
     }
 
     /// Couples G33 and G95 to the measured spindle: from now on the
@@ -228,28 +300,54 @@ impl<S: ProgramSource> Executor<S> {
         self.scale
     }
 
-    /// Moves σ towards its target: the path speed changes by the move's
-    /// path acceleration × dt, measured at the next sample's profile speed.
+    /// Moves σ towards its target so that the path speed *between samples*
+    /// (the secant, what the axes see) changes by at most the move's path
+    /// acceleration × dt per sample, whatever the profile itself does at
+    /// the same time. With σ at its target nothing changes.
     fn update_scale(&mut self, m: &PlannedMove, tau: f64) {
-        if self.scale == self.target {
-            return;
+        let dt = self.dt;
+        let p = &m.profile;
+        let s0 = p.s_at(tau);
+        // path length at local time t, continued past the end at the exit speed
+        let s_ext = |t: f64| {
+            if t > p.duration {
+                p.length + (t - p.duration) * p.v1
+            } else {
+                p.s_at(t)
+            }
+        };
+        let w = |sigma: f64| (s_ext(tau + sigma * dt) - s0) / dt;
+        if self.scale != self.target {
+            let step = p.a * dt;
+            let down = self.target < self.scale;
+            let (from, to) = (self.scale, self.target);
+            // the limit the secant must not pass, and whether σ = `to` keeps it
+            let ok = |x: f64| {
+                if down {
+                    x >= self.w_prev - step
+                } else {
+                    x <= self.w_prev + step
+                }
+            };
+            self.scale = if ok(w(to)) {
+                to
+            } else if !ok(w(from)) {
+                from
+            } else {
+                // bisection between σ that keeps the limit and σ that does not
+                let (mut good, mut bad) = (from, to);
+                for _ in 0..48 {
+                    let mid = 0.5 * (good + bad);
+                    if ok(w(mid)) {
+                        good = mid;
+                    } else {
+                        bad = mid;
+                    }
+                }
+                good
+            };
         }
-        let vp = m.profile.v_at(tau);
-        let v_now = vp * self.scale;
-        let step = m.profile.a * self.dt;
-        let vp_next = m.profile.v_at(tau + self.scale * self.dt);
-        let down = self.target < self.scale;
-        let v_next = if down { v_now - step } else { v_now + step };
-        let s = if vp_next > 1e-9 {
-            v_next / vp_next
-        } else {
-            self.target
-        };
-        self.scale = if down {
-            s.min(self.scale).max(self.target)
-        } else {
-            s.max(self.scale).min(self.target)
-        };
+        self.w_prev = w(self.scale);
     }
 
     /// Errors the interpreter met (none for a checked program).
@@ -344,12 +442,12 @@ impl<S: ProgramSource> Executor<S> {
                     return self.end_at(m.seg.pos(run.u));
                 }
                 self.stop_thread(&m, run.u, run.v, Some(why));
-                return self.next_sample();
+                return self.raw_sample();
             }
         };
         if self.halt {
             self.stop_thread(&m, run.u, run.v, None);
-            return self.next_sample();
+            return self.raw_sample();
         }
         let theta0 = match run.theta0 {
             Some(t) => t,
@@ -449,10 +547,50 @@ impl<S: ProgramSource> Executor<S> {
 
     /// The next sample, or `None` after the last one.
     pub fn next_sample(&mut self) -> Option<Sample> {
+        if self.smooth.is_none() {
+            return self.raw_sample();
+        }
+        let mut s = match self.drain.take() {
+            Some(mut last) => {
+                last.k += 1;
+                last.t = last.k as f64 * self.dt;
+                last.path_speed = 0.0;
+                last
+            }
+            None => self.raw_sample()?,
+        };
+        let f = self.smooth.as_mut()?;
+        if s.sync.is_some() || self.bypass {
+            f.reset(s.pos, s.path_speed);
+            return Some(s);
+        }
+        let (p, v) = f.push(s.pos, s.path_speed);
+        if s.last && !f.settled() {
+            // the run ended off the filter's rest (a fault or an abort):
+            // hold the end until the filter settles on it
+            s.last = false;
+            self.drain = Some(Sample { last: true, ..s });
+        }
+        s.pos = p;
+        s.path_speed = v;
+        Some(s)
+    }
+
+    /// The next unfiltered sample.
+    fn raw_sample(&mut self) -> Option<Sample> {
         if self.done {
             return None;
         }
+        self.bypass = false;
         loop {
+            if self.cur.is_none() && self.vk < self.timeline.group_k0 as f64 {
+                // the hold after a stop: the jerk filter settles
+                let s = self.sample(self.pos, 0.0, false);
+                self.scale = self.target;
+                self.w_prev = 0.0;
+                self.advance(self.scale);
+                return Some(s);
+            }
             if self.cur.is_none() {
                 let item = self.next_item();
                 if self.fault.is_some() && !matches!(item, Some(Item::Move(_))) {
@@ -468,6 +606,7 @@ impl<S: ProgramSource> Executor<S> {
                     }
                     Some(Item::Dwell { seconds, src }) => {
                         self.scale = self.target;
+                        self.w_prev = 0.0;
                         self.src = src;
                         let end = self.timeline.group_k0 + self.timeline.ticks(seconds);
                         self.timeline.finish_dwell(seconds);
@@ -524,6 +663,7 @@ impl<S: ProgramSource> Executor<S> {
                 Some(Cur::Dwell(end)) if self.vk < end as f64 => {
                     let s = self.sample(self.pos, 0.0, false);
                     self.scale = self.target;
+                    self.w_prev = 0.0;
                     self.cur = Some(Cur::Dwell(end));
                     self.advance(self.scale);
                     return Some(s);
@@ -535,6 +675,7 @@ impl<S: ProgramSource> Executor<S> {
                     }
                 }
                 Some(Cur::Stop(mut st)) => {
+                    self.bypass = true;
                     let v1 = (st.v - st.a * self.dt).max(0.0);
                     st.u = (st.u + 0.5 * (st.v + v1) * self.dt).min(st.seg.len);
                     st.v = v1;

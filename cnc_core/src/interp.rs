@@ -488,7 +488,7 @@ impl<S: ProgramSource> Interpreter<S> {
             tool_cfg: None,
             tolerance: machine.planner.path_tolerance_mm,
             default_tolerance: machine.planner.path_tolerance_mm,
-            blend: Blender::default(),
+            blend: Blender::new(machine.smoothing_error_mm()),
             scratch: VecDeque::new(),
         }
     }

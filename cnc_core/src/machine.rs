@@ -26,6 +26,11 @@ pub struct AxisConfig {
     pub home_mm: f64,
     pub max_velocity_mm_s: f64,
     pub max_acceleration_mm_s2: f64,
+    /// jerk limit, mm/s³ (absent: acceleration-limited only). The
+    /// setpoints pass a moving-average filter long enough that every axis's
+    /// sampled jerk stays under its limit (see `Machine::smoothing_samples`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_jerk_mm_s3: Option<f64>,
     /// lathe X programmed as a diameter (positions on topics stay radius)
     #[serde(default)]
     pub diameter_mode: bool,
@@ -39,6 +44,9 @@ pub struct AxisConfig {
     #[serde(default = "default_lag")]
     pub servo_lag_s: f64,
 }
+
+/// Longest jerk filter, samples.
+pub const MAX_SMOOTHING_SAMPLES: usize = 1000;
 
 fn default_kp() -> f64 {
     60.0
@@ -393,6 +401,14 @@ impl Machine {
                     return bad(k(f), format!("must be greater than 0 (got {v})"));
                 }
             }
+            if let Some(j) = a.max_jerk_mm_s3 {
+                if !(j.is_finite() && j > 0.0) {
+                    return bad(
+                        k("max_jerk_mm_s3"),
+                        format!("must be greater than 0 (got {j})"),
+                    );
+                }
+            }
             if !(0.0..=1.0).contains(&a.servo_feed_forward) {
                 return bad(k("servo_feed_forward"), "must be between 0 and 1".into());
             }
@@ -427,6 +443,17 @@ impl Machine {
             return bad(
                 "planner.path_tolerance_mm".into(),
                 "must be between 0 and 10".into(),
+            );
+        }
+        let m = self.smoothing_samples_f();
+        if m > MAX_SMOOTHING_SAMPLES as f64 {
+            return bad(
+                "axis.max_jerk_mm_s3".into(),
+                format!(
+                    "too low for the acceleration: the jerk filter would need {m:.0} samples \
+                     (at most {MAX_SMOOTHING_SAMPLES}); raise it to at least {:.0} mm/s³",
+                    self.min_jerk()
+                ),
             );
         }
         if !(2..=100_000).contains(&p.lookahead_blocks) {
@@ -545,6 +572,63 @@ impl Machine {
     /// never move).
     pub fn vmax(&self) -> V3 {
         V3::from_fn(|i, _| self.axis(i).map_or(f64::INFINITY, |a| a.max_velocity_mm_s))
+    }
+
+    /// Length of the setpoint filter that limits jerk, in samples (1: no
+    /// filter). A moving average over M samples turns the planner's
+    /// acceleration-limited setpoints into jerk-limited ones: the filtered
+    /// sampled jerk is (a[k] − a[k−M]) / (M·dt), at most 2·a_max/(M·dt),
+    /// so M = ⌈2·a_max / (j_max·dt)⌉ over the axes with a jerk limit.
+    pub fn smoothing_samples(&self) -> usize {
+        (self.smoothing_samples_f() as usize).clamp(1, MAX_SMOOTHING_SAMPLES)
+    }
+
+    fn smoothing_samples_f(&self) -> f64 {
+        let dt = self.dt();
+        self.axes
+            .iter()
+            .filter_map(|a| {
+                let j = a.max_jerk_mm_s3?;
+                Some((2.0 * a.max_acceleration_mm_s2 / (j * dt) - 1e-9).ceil())
+            })
+            .fold(1.0, f64::max)
+    }
+
+    /// The lowest jerk limit the filter allows (for the error message).
+    fn min_jerk(&self) -> f64 {
+        let a = self
+            .axes
+            .iter()
+            .map(|a| a.max_acceleration_mm_s2)
+            .fold(0.0, f64::max);
+        2.0 * a / (MAX_SMOOTHING_SAMPLES as f64 * self.dt())
+    }
+
+    /// Largest distance, mm, by which the jerk filter moves a setpoint off
+    /// the programmed path. The filtered point is the mean of the last M
+    /// raw points, which lie on a piece of path (M − 1)·v·dt long, so it
+    /// is no further from the path than that piece's chord: on an arc of
+    /// radius r its sagitta, (M−1)²·dt²·v²/(8r) ≤ (M−1)²·dt²·a_c/8 with a_c
+    /// the centripetal acceleration (the planner keeps it under
+    /// `plan::ARC_SHARE`·a_max; for steady speed the mean is inside by
+    /// only (M²−1)·dt²·a_c/24). A nearly tangent junction, whose velocity
+    /// jump is at most `plan::KINK_SHARE`·a_max·dt, is cut by at most
+    /// (M−1)·dt·Δv/4. Straight lines are not moved at all.
+    pub fn smoothing_error_mm(&self) -> f64 {
+        let m = self.smoothing_samples() as f64;
+        if m <= 1.0 {
+            return 0.0;
+        }
+        let dt = self.dt();
+        let a = self
+            .axes
+            .iter()
+            .map(|a| a.max_acceleration_mm_s2)
+            .fold(0.0, f64::max);
+        let w = (m - 1.0) * dt;
+        let arc = w * w * crate::plan::ARC_SHARE * a / 8.0;
+        let kink = w * crate::plan::KINK_SHARE * a * dt / 4.0;
+        arc + kink
     }
 
     /// Per-coordinate acceleration limits, mm/s².

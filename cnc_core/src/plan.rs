@@ -163,6 +163,9 @@ pub struct PlanLimits {
     pub dt: f64,
     pub exact_stop_cos: f64,
     pub lookahead: usize,
+    /// jerk filter length, samples (1: none); see
+    /// [`Machine::smoothing_samples`]
+    pub smooth: usize,
 }
 
 impl PlanLimits {
@@ -173,6 +176,7 @@ impl PlanLimits {
             dt: m.dt(),
             exact_stop_cos: m.planner.exact_stop_angle_deg.to_radians().cos(),
             lookahead: m.planner.lookahead_blocks,
+            smooth: m.smoothing_samples(),
         }
     }
 
@@ -467,6 +471,9 @@ pub struct Timeline {
     /// θ₀ of the thread block being run (revolutions, in the direction of
     /// rotation)
     pub theta0: f64,
+    /// ticks the setpoints hold still after each stop, so that the jerk
+    /// filter settles on the stop point (M − 1 for an M-sample filter)
+    pub hold: u64,
 }
 
 impl Timeline {
@@ -479,6 +486,15 @@ impl Timeline {
             spin_k: 0.0,
             spin_rev: 0.0,
             theta0: 0.0,
+            hold: 0,
+        }
+    }
+
+    /// The timeline of a planner with these limits (with its stop holds).
+    pub fn for_limits(lim: &PlanLimits) -> Self {
+        Timeline {
+            hold: lim.smooth.saturating_sub(1) as u64,
+            ..Timeline::new(lim.dt)
         }
     }
 
@@ -512,9 +528,9 @@ impl Timeline {
     /// Advances past a finished move with profile `p`.
     #[inline]
     pub(crate) fn finish_profile(&mut self, p: &Profile) {
-        // as `stop_tick`
+        // as `stop_tick`, then the hold
         if p.v1 == 0.0 {
-            self.group_k0 += self.ticks(self.seg_t0 + p.duration);
+            self.group_k0 += self.ticks(self.seg_t0 + p.duration) + self.hold;
             self.seg_t0 = 0.0;
         } else {
             self.seg_t0 += p.duration;
@@ -562,9 +578,10 @@ impl Timeline {
         self.group_k0 + self.ticks((self.theta0 + m.end_x() - now) / speed * self.dt)
     }
 
-    /// A group (a thread chain) ended at rest at tick `k`.
+    /// A group (a thread chain) ended at rest at tick `k`; the next starts
+    /// after the hold.
     pub fn finish_group_at(&mut self, k: u64) {
-        self.group_k0 = k;
+        self.group_k0 = k + self.hold;
         self.seg_t0 = 0.0;
     }
 

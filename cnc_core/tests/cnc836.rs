@@ -50,13 +50,20 @@ fn the_seed_helix_runs_21_and_a_half_turns_to_z_22_575() {
     assert!((e[21].z - 22.575).abs() < 1e-9, "{}", e[21].z);
     assert_eq!(e[22], V3::new(10.0, 10.0, 30.0));
     // every sample of N50 and N60 on the helix: on the circle, and Z the
-    // pitch times the turns made (clockwise from the start at angle pi)
+    // pitch times the turns made (clockwise from the start at angle pi).
+    // The jerk filter (4 samples) pulls a 50 mm/s arc of r = 100 inside by
+    // v²(M²−1)dt²/(24 r) = 2500·15·1e-6/2400 mm = 15.6 nm, everywhere on
+    // it (measured 15.62 nm): 17 nm allowed.
     let mut unwrapped = std::f64::consts::PI;
     let mut prev = std::f64::consts::PI;
     let mut n = 0;
     for x in s.iter().filter(|x| x.src.line == 7 || x.src.line == 8) {
         let r = ((x.pos.x - 100.0).powi(2) + x.pos.y.powi(2)).sqrt();
-        assert!((r - 100.0).abs() < 1e-6, "off the circle by {}", r - 100.0);
+        assert!(
+            (r - 100.0).abs() < 1.7e-5,
+            "off the circle by {}",
+            r - 100.0
+        );
         let a = x.pos.y.atan2(x.pos.x - 100.0);
         let mut d = a - prev;
         while d > std::f64::consts::PI {
@@ -69,7 +76,7 @@ fn the_seed_helix_runs_21_and_a_half_turns_to_z_22_575() {
         prev = a;
         let turns = (std::f64::consts::PI - unwrapped) / std::f64::consts::TAU;
         assert!(
-            (x.pos.z - 1.05 * turns).abs() < 1e-6,
+            (x.pos.z - 1.05 * turns).abs() < 1e-5,
             "z {} at {turns} turns",
             x.pos.z
         );

@@ -89,17 +89,37 @@ fn every_sample_of_a_polar_arc_is_on_its_circle() {
     let r = check(StrSource::new(EXAMPLE), Dialect::Heidenhain, &m);
     let s: Vec<Sample> = Executor::new(StrSource::new(EXAMPLE), Dialect::Heidenhain, &m).collect();
     assert_eq!(s.last().unwrap().k, r.ticks);
+    // the jerk filter (M samples) pulls a sample at speed v inside the
+    // circle by v²(M²−1)dt²/(24 r): never outside, never further in (the
+    // first M−1 samples average in the line before, which is outside)
+    let mm = m.smoothing_samples() as f64;
+    assert_eq!(mm, 4.0);
     let mut n = 0;
-    for x in s.iter().filter(|x| x.src.line == 16 || x.src.line == 17) {
+    let mut worst: f64 = 0.0;
+    let on = |x: &Sample| x.src.line == 16 || x.src.line == 17;
+    for (i, x) in s
+        .iter()
+        .enumerate()
+        .filter(|&(i, x)| on(x) && i >= 3 && s[i - 3..i].iter().all(on))
+    {
         let d = ((x.pos.x - 25.0).powi(2) + (x.pos.y - 25.0).powi(2)).sqrt();
+        // (the speeds averaged here: at most the fastest nearby)
+        let v = s[i - 3..(i + 4).min(s.len())]
+            .iter()
+            .map(|y| y.path_speed)
+            .fold(0.0, f64::max);
+        let inside = v * v * (mm * mm - 1.0) * m.dt() * m.dt() / (24.0 * 20.0);
         assert!(
-            (d - 20.0).abs() < 1e-9,
-            "line {}: off the circle by {:e}",
+            d <= 20.0 + 1e-9 && 20.0 - d <= inside * 1.01 + 1e-9,
+            "line {}: off the circle by {:e} at {v} mm/s (filter: {inside:e})",
             x.src.line,
             d - 20.0
         );
+        worst = worst.max(20.0 - d);
         n += 1;
     }
+    // F2500 = 41.67 mm/s: 41.67²·15·1e-6/480 = 5.43e-5 mm
+    assert!(worst > 5.4e-5 && worst < 5.45e-5, "{worst:e}");
     assert!(n > 5000, "{n}");
     // the helix: Z falls linearly with the turned angle
     // the stop after it is sampled exactly: the next block starts there

@@ -35,11 +35,12 @@ fn hold_decelerates_on_the_path_holds_still_and_resumes_to_the_exact_end() {
         s.push(ex.next_sample().unwrap());
     }
     assert_eq!(ex.feed_scale(), 0.0);
-    // 100 mm/s at 0.85 * 2000 mm/s² stops in 58.8 ms, 2.94 mm
+    // 100 mm/s at 0.85 * 2000 mm/s² stops in 58.8 ms, 2.94 mm, plus the
+    // 0.15 mm that the jerk filter's setpoint lags (1.5 samples)
     let stop = s[1999].pos;
     let travelled = stop[0] - s[1499].pos[0];
     assert!(
-        (travelled - 100.0 * 100.0 / (2.0 * 1700.0)).abs() < 0.15,
+        (travelled - 100.0 * 100.0 / (2.0 * 1700.0) - 0.15).abs() < 0.1,
         "{travelled}"
     );
     // held still for the last 400 samples, on the line
@@ -69,10 +70,16 @@ fn hold_decelerates_on_the_path_holds_still_and_resumes_to_the_exact_end() {
     while let Some(x) = ex.next_sample() {
         s.push(x);
     }
-    // every sample of the circle on the circle, through hold and resume
+    // every sample of the circle on the circle, through hold and resume:
+    // the jerk filter pulls it inside by at most v²(M²−1)dt²/(24 r) =
+    // 100²·15·1e-6/480 = 0.31 µm
     for x in s.iter().filter(|x| x.src.line == 3) {
         let r = ((x.pos[0] - 200.0).powi(2) + (x.pos[1] - 120.0).powi(2)).sqrt();
-        assert!((r - 20.0).abs() < 1e-9, "off the circle by {}", r - 20.0);
+        assert!(
+            r <= 20.0 + 1e-9 && 20.0 - r < 3.2e-4,
+            "off the circle by {}",
+            r - 20.0
+        );
     }
     assert_eq!(s.last().unwrap().pos, V3::new(200.0, 100.0, 0.0));
     assert!(s.last().unwrap().last);

@@ -3,6 +3,7 @@
 //! long as the check estimated.
 
 use cnc_core::exec::{Executor, Sample};
+use cnc_core::geom::{Arc, Plane};
 use cnc_core::source::StrSource;
 use cnc_core::{check, Dialect, Machine, V3};
 use proptest::prelude::*;
@@ -48,43 +49,8 @@ fn r4(v: f64) -> f64 {
 
 /// Builds a program; positions stay inside the mill's travel.
 fn program(moves: &[Mv], feed: f64) -> (String, V3) {
-    let mut p = V3::new(250.0, 250.0, 0.0);
-    let mut s = format!("G17 G90 G00 X{} Y{} Z{}\nF{}\n", p.x, p.y, p.z, r4(feed));
-    for m in moves {
-        match *m {
-            Mv::Line { dx, dy, dz, rapid } => {
-                let e = V3::new(
-                    r4(p.x + dx),
-                    r4(p.y + dy),
-                    r4((p.z + dz).clamp(-50.0, 50.0)),
-                );
-                s += &format!(
-                    "{} X{} Y{} Z{}\n",
-                    if rapid { "G00" } else { "G01" },
-                    e.x,
-                    e.y,
-                    e.z
-                );
-                p = e;
-            }
-            Mv::Arc { r, a0, sweep, ccw } => {
-                // centre at distance r from the start, in direction a0 + pi
-                let c = (p.x - r * a0.cos(), p.y - r * a0.sin());
-                let a1 = if ccw { a0 + sweep } else { a0 - sweep };
-                let e = (r4(c.0 + r * a1.cos()), r4(c.1 + r * a1.sin()));
-                s += &format!(
-                    "{} X{} Y{} I{} J{}\n",
-                    if ccw { "G03" } else { "G02" },
-                    e.0,
-                    e.1,
-                    r4(c.0 - p.x),
-                    r4(c.1 - p.y)
-                );
-                p = V3::new(e.0, e.1, p.z);
-            }
-        }
-    }
-    (s, p)
+    let (text, end, _) = program_path(moves, feed, 0.0);
+    (text, end)
 }
 
 proptest! {
@@ -104,21 +70,33 @@ proptest! {
         let last = s.last().unwrap();
         prop_assert_eq!(last.pos, end);
         prop_assert_eq!(last.k, r.ticks);
-        let dt = m.dt();
-        let (vmax, amax) = (m.vmax(), m.amax());
-        let vel: Vec<V3> = s.windows(2).map(|w| (w[1].pos - w[0].pos) / dt).collect();
-        for (k, v) in vel.iter().enumerate() {
-            for i in 0..3 {
-                prop_assert!(v[i].abs() <= vmax[i] * (1.0 + 1e-9), "v[{}] = {} at sample {}\n{}", i, v[i], k, text);
-            }
+        let over = over_a_limit(&s, &m, None);
+        prop_assert!(over.is_none(), "{}\n{}", over.unwrap_or_default(), text);
+    }
+}
+
+/// The first sample at which an axis exceeds its velocity, acceleration
+/// or (if given) jerk limit, as sampled second and third differences.
+fn over_a_limit(s: &[Sample], m: &Machine, jerk: Option<f64>) -> Option<String> {
+    let dt = m.dt();
+    let (vmax, amax) = (m.vmax(), m.amax());
+    let vel: Vec<V3> = s.windows(2).map(|w| (w[1].pos - w[0].pos) / dt).collect();
+    let acc: Vec<V3> = vel.windows(2).map(|w| (w[1] - w[0]) / dt).collect();
+    for i in 0..3 {
+        if let Some(k) = vel.iter().position(|v| v[i].abs() > vmax[i] * (1.0 + 1e-9)) {
+            return Some(format!("v[{i}] = {} at sample {}", vel[k][i], k + 1));
         }
-        for (k, w) in vel.windows(2).enumerate() {
-            let a = (w[1] - w[0]) / dt;
-            for i in 0..3 {
-                prop_assert!(a[i].abs() <= amax[i] * (1.0 + 1e-6) + 1e-6, "a[{}] = {} at sample {}\n{}", i, a[i], k + 1, text);
-            }
+        let over = |a: &V3| a[i].abs() > amax[i] * (1.0 + 1e-6) + 1e-6;
+        if let Some(k) = acc.iter().position(over) {
+            return Some(format!("a[{i}] = {} at sample {}", acc[k][i], k + 1));
+        }
+        let Some(j) = jerk else { continue };
+        let jk: Vec<f64> = acc.windows(2).map(|w| (w[1][i] - w[0][i]) / dt).collect();
+        if let Some(k) = jk.iter().position(|x| x.abs() > j * (1.0 + 1e-6) + 1e-3) {
+            return Some(format!("j[{i}] = {} > {j} at sample {}", jk[k], k + 2));
         }
     }
+    None
 }
 
 /// Distance from `p` to the segment `a`-`b`.
@@ -176,19 +154,146 @@ proptest! {
             let d = pts.windows(2).map(|w| seg_dist(x.pos, w[0], w[1])).fold(f64::MAX, f64::min);
             prop_assert!(d <= r4(tol) + 1e-9, "{} mm off the path at k={} (P{})\n{}", d, x.k, r4(tol), text);
         }
-        let dt = m.dt();
-        let (vmax, amax) = (m.vmax(), m.amax());
-        let vel: Vec<V3> = s.windows(2).map(|w| (w[1].pos - w[0].pos) / dt).collect();
-        for v in &vel {
-            for i in 0..3 {
-                prop_assert!(v[i].abs() <= vmax[i] * (1.0 + 1e-9));
+        let over = over_a_limit(&s, &m, None);
+        prop_assert!(over.is_none(), "{}\n{}", over.unwrap_or_default(), text);
+    }
+}
+
+/// A programmed path element, for the distance from the path.
+#[derive(Clone, Copy, Debug)]
+enum El {
+    Seg(V3, V3),
+    /// XY arc at height z: centre, radius, start angle, signed sweep
+    Arc(V3, f64, f64, f64),
+}
+
+fn el_dist(p: V3, e: &El) -> f64 {
+    match *e {
+        El::Seg(a, b) => seg_dist(p, a, b),
+        El::Arc(c, r, a0, sweep) => {
+            let end = |a: f64| V3::new(c.x + r * a.cos(), c.y + r * a.sin(), c.z);
+            let ends = (p - end(a0)).norm().min((p - end(a0 + sweep)).norm());
+            // angle of p from the start, in the direction of the sweep
+            let mut u = (p.y - c.y).atan2(p.x - c.x) - a0;
+            if sweep < 0.0 {
+                u = -u;
+            }
+            let u = u.rem_euclid(std::f64::consts::TAU);
+            if u <= sweep.abs() {
+                let d = ((p.x - c.x).hypot(p.y - c.y) - r).hypot(p.z - c.z);
+                d.min(ends)
+            } else {
+                ends
             }
         }
-        for (k, w) in vel.windows(2).enumerate() {
-            let a = (w[1] - w[0]) / dt;
-            for i in 0..3 {
-                prop_assert!(a[i].abs() <= amax[i] * (1.0 + 1e-6) + 1e-6, "a[{}] = {} at sample {}\n{}", i, a[i], k + 1, text);
+    }
+}
+
+/// A program in path tolerance `tol` (G64 P), its end, and the path's
+/// elements (from home); positions stay inside the mill's travel.
+fn program_path(moves: &[Mv], feed: f64, tol: f64) -> (String, V3, Vec<El>) {
+    let mut p = V3::new(250.0, 250.0, 0.0);
+    let mut els = vec![El::Seg(V3::zeros(), p)];
+    let mut s = format!(
+        "G17 G90 G64 P{}\nG00 X{} Y{} Z{}\nF{}\n",
+        r4(tol),
+        p.x,
+        p.y,
+        p.z,
+        r4(feed)
+    );
+    for m in moves {
+        match *m {
+            Mv::Line { dx, dy, dz, rapid } => {
+                let e = V3::new(
+                    r4(p.x + dx),
+                    r4(p.y + dy),
+                    r4((p.z + dz).clamp(-50.0, 50.0)),
+                );
+                let g = if rapid { "G00" } else { "G01" };
+                s += &format!("{g} X{} Y{} Z{}\n", e.x, e.y, e.z);
+                els.push(El::Seg(p, e));
+                p = e;
+            }
+            Mv::Arc { r, a0, sweep, ccw } => {
+                let c = (r4(p.x - r * a0.cos()), r4(p.y - r * a0.sin()));
+                let a1 = if ccw { a0 + sweep } else { a0 - sweep };
+                let e = (r4(c.0 + r * a1.cos()), r4(c.1 + r * a1.sin()));
+                s += &format!(
+                    "{} X{} Y{} I{} J{}\n",
+                    if ccw { "G03" } else { "G02" },
+                    e.0,
+                    e.1,
+                    r4(c.0 - p.x),
+                    r4(c.1 - p.y)
+                );
+                // the arc as the interpreter makes it (the centre moved
+                // onto the bisector of the rounded start and end)
+                let g = Arc::new(
+                    p,
+                    V3::new(e.0, e.1, p.z),
+                    V3::new(c.0, c.1, p.z),
+                    Plane::XY,
+                    ccw,
+                    0,
+                );
+                let (cv, rr, b0, sw) = (g.center, g.radius, g.theta0, g.sweep);
+                els.push(El::Arc(cv, rr, b0, sw));
+                p = V3::new(e.0, e.1, p.z);
             }
         }
+    }
+    (s, p, els)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+
+    /// Jerk-limited motion: for any jerk limit (a 2- to 80-sample filter),
+    /// path tolerance and feed, with a feed hold and resume somewhere, no
+    /// axis exceeds its velocity, acceleration or jerk at any sample; no
+    /// sample leaves the programmed path by more than the tolerance (or
+    /// the filter's own bound, `Machine::smoothing_error_mm`, if larger);
+    /// the run ends exactly on the end point, and without the hold exactly
+    /// when the check said.
+    #[test]
+    fn jerk_limited_runs_keep_every_limit_and_the_path(
+        moves in prop::collection::vec(mv(), 1..10),
+        feed in 100.0..20000.0f64,
+        jerk in 5.0e4..2.0e6f64,
+        tol in prop_oneof![Just(0.0), 0.001..0.2f64],
+        hold in prop::option::of((10usize..3000, 1usize..300)),
+    ) {
+        let mut m = Machine::builtin_mill();
+        for a in &mut m.axes {
+            a.max_jerk_mm_s3 = Some(jerk);
+        }
+        let (text, end, els) = program_path(&moves, feed, tol);
+        let r = check(StrSource::new(&text), Dialect::Cnc836, &m);
+        prop_assume!(r.ok());
+        let mut ex = Executor::new(StrSource::new(&text), Dialect::Cnc836, &m);
+        let mut s: Vec<Sample> = Vec::new();
+        while let Some(x) = ex.next_sample() {
+            if let Some((at, len)) = hold {
+                if s.len() == at {
+                    ex.set_feed_target(0.0);
+                } else if s.len() == at + len {
+                    ex.set_feed_target(1.0);
+                }
+            }
+            s.push(x);
+        }
+        let last = s.last().unwrap();
+        prop_assert_eq!(last.pos, end);
+        if hold.is_none() {
+            prop_assert_eq!(last.k, r.ticks);
+        }
+        let bound = r4(tol).max(m.smoothing_error_mm()) + 1e-9;
+        for x in &s {
+            let d = els.iter().map(|e| el_dist(x.pos, e)).fold(f64::MAX, f64::min);
+            prop_assert!(d <= bound, "{} mm off the path at k={} (bound {})\n{}", d, x.k, bound, text);
+        }
+        let over = over_a_limit(&s, &m, Some(jerk));
+        prop_assert!(over.is_none(), "{}\n{}", over.unwrap_or_default(), text);
     }
 }

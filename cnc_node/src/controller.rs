@@ -275,7 +275,7 @@ impl Controller {
                     self.gcodes = Some(r.exec.modal().gcodes());
                     r.k += 1;
                     self.progress = (r.k as f64 / r.ticks as f64).min(1.0);
-                    let stopped = r.exec.feed_scale() == 0.0;
+                    let stopped = r.exec.at_rest();
                     if let (true, Some(why)) = (s.last, r.exec.fault()) {
                         // the executor stopped the axes under control
                         let why = why.to_string();
