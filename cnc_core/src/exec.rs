@@ -41,6 +41,9 @@ use crate::thread::{
 };
 use crate::V3;
 
+/// The largest feed override, as a scale (200 %).
+pub const MAX_OVERRIDE: f64 = 2.0;
+
 /// One interpolation cycle's output.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sample {
@@ -125,6 +128,8 @@ pub struct Executor<S> {
     k: u64,
     /// virtual tick: advances by `scale` per sample
     vk: f64,
+    /// planner limits (for the override's speed caps)
+    lim: PlanLimits,
     /// feed scale σ now, and where it is heading (0 = hold)
     scale: f64,
     target: f64,
@@ -212,6 +217,7 @@ impl<S: ProgramSource> Executor<S> {
             dt: lim.dt,
             k: 0,
             vk: 0.0,
+            lim,
             scale: 1.0,
             target: 1.0,
             w_prev: 0.0,
@@ -285,14 +291,37 @@ impl<S: ProgramSource> Executor<S> {
         &self.interp.modal
     }
 
-    /// Sets the feed scale to head for: 0 holds (decelerating along the
-    /// path), 1 runs at the programmed feed. Values are clamped to 0..=1.
+    /// Sets the feed scale to head for (the feed override): 0 holds
+    /// (decelerating along the path), 1 runs at the programmed feed, up to
+    /// [`MAX_OVERRIDE`]. Values are clamped to that range.
+    ///
+    /// Below 1 the planned motion runs slower in time; every velocity
+    /// and acceleration shrinks. Above 1 time runs faster only where that
+    /// keeps every limit: in the cruise of a move, up to the speed its axes
+    /// (and an arc's centripetal limit) allow, and back to 1 before the
+    /// planned deceleration starts, so the moves' planned junction speeds
+    /// stay as they are; dwells and the holds after stops are not sped up.
     pub fn set_feed_target(&mut self, target: f64) {
         self.target = if target.is_nan() {
             0.0
         } else {
-            target.clamp(0.0, 1.0)
+            target.clamp(0.0, MAX_OVERRIDE)
         };
+    }
+
+    /// The fastest feed scale allowed at local time `tau` of `m` with an
+    /// override over 1 (see [`Executor::set_feed_target`]).
+    fn boost_limit(&self, m: &PlannedMove, tau: f64) -> f64 {
+        let p = &m.profile;
+        if p.vp <= 0.0 || tau < p.t_acc || tau >= p.t_acc + p.t_cruise {
+            return 1.0;
+        }
+        let cap = self.lim.move_limits(&m.geom, p.length, &Feed::Rapid).0;
+        // from σ·vp back to vp before the cruise ends, at the path
+        // acceleration, with a step in hand
+        let left = p.d_acc + p.d_cruise - p.s_at(tau) - 2.0 * cap * self.dt;
+        let brake = (1.0 + 2.0 * p.a * left.max(0.0) / (p.vp * p.vp)).sqrt();
+        (cap / p.vp).min(brake).max(1.0)
     }
 
     /// The feed scale in force (0 when held still).
@@ -317,10 +346,15 @@ impl<S: ProgramSource> Executor<S> {
             }
         };
         let w = |sigma: f64| (s_ext(tau + sigma * dt) - s0) / dt;
-        if self.scale != self.target {
+        let goal = if self.target > 1.0 {
+            self.target.min(self.boost_limit(m, tau))
+        } else {
+            self.target
+        };
+        if self.scale != goal {
             let step = p.a * dt;
-            let down = self.target < self.scale;
-            let (from, to) = (self.scale, self.target);
+            let down = goal < self.scale;
+            let (from, to) = (self.scale, goal);
             // the limit the secant must not pass, and whether σ = `to` keeps it
             let ok = |x: f64| {
                 if down {
@@ -586,7 +620,7 @@ impl<S: ProgramSource> Executor<S> {
             if self.cur.is_none() && self.vk < self.timeline.group_k0 as f64 {
                 // the hold after a stop: the jerk filter settles
                 let s = self.sample(self.pos, 0.0, false);
-                self.scale = self.target;
+                self.scale = self.target.min(1.0);
                 self.w_prev = 0.0;
                 self.advance(self.scale);
                 return Some(s);
@@ -605,7 +639,7 @@ impl<S: ProgramSource> Executor<S> {
                         self.cur = Some(Cur::Move(m, stop));
                     }
                     Some(Item::Dwell { seconds, src }) => {
-                        self.scale = self.target;
+                        self.scale = self.target.min(1.0);
                         self.w_prev = 0.0;
                         self.src = src;
                         let end = self.timeline.group_k0 + self.timeline.ticks(seconds);
@@ -662,7 +696,7 @@ impl<S: ProgramSource> Executor<S> {
                 }
                 Some(Cur::Dwell(end)) if self.vk < end as f64 => {
                     let s = self.sample(self.pos, 0.0, false);
-                    self.scale = self.target;
+                    self.scale = self.target.min(1.0);
                     self.w_prev = 0.0;
                     self.cur = Some(Cur::Dwell(end));
                     self.advance(self.scale);

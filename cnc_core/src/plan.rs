@@ -182,7 +182,7 @@ impl PlanLimits {
 
     /// (speed cap, path acceleration) of a move of length `len`.
     #[inline]
-    fn move_limits(&self, geom: &Geom, len: f64, feed: &Feed) -> (f64, f64) {
+    pub(crate) fn move_limits(&self, geom: &Geom, len: f64, feed: &Feed) -> (f64, f64) {
         let f = feed.speed_mm_s();
         match geom {
             Geom::Line { start, end } => {

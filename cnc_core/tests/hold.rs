@@ -102,3 +102,42 @@ fn without_hold_the_samples_are_the_unscaled_ones() {
     let r = cnc_core::check(StrSource::new(prog), Dialect::Cnc836, &m);
     assert_eq!(a.last().unwrap().k, r.ticks);
 }
+
+/// The feed override: 50 % halves the cruise, 150 % raises it, 200 % stops
+/// at the axis's velocity limit; the planned deceleration is kept, every
+/// sample within the acceleration and jerk limits, the end exact.
+#[test]
+fn feed_override_scales_the_cruise_within_every_limit() {
+    let m = Machine::builtin_mill();
+    let dt = m.dt();
+    // 300 mm in X at F9000 = 150 mm/s; X allows 250 mm/s
+    let prog = "G00 X10 Y10\nG01 X310 F9000\n";
+    let speeds = |ovr: f64| {
+        let mut ex = Executor::new(StrSource::new(prog), Dialect::Cnc836, &m);
+        ex.set_feed_target(ovr);
+        let s: Vec<Sample> = ex.collect();
+        let v: Vec<f64> = s
+            .windows(2)
+            .filter(|w| w[1].src.line == 2)
+            .map(|w| (w[1].pos[0] - w[0].pos[0]) / dt)
+            .collect();
+        let top = v.iter().cloned().fold(0.0, f64::max);
+        assert_eq!(s.last().unwrap().pos, V3::new(310.0, 10.0, 0.0));
+        let ra = max_accel_ratio(&s, &m);
+        assert!(ra <= 1.0 + 1e-6, "{ovr}: acceleration at {ra} of the limit");
+        (top, s.len())
+    };
+    let (v100, n100) = speeds(1.0);
+    assert!((v100 - 150.0).abs() < 1e-6, "{v100}");
+    let (v50, n50) = speeds(0.5);
+    assert!((v50 - 75.0).abs() < 1e-6, "{v50}");
+    let (v150, n150) = speeds(1.5);
+    assert!((v150 - 225.0).abs() < 1e-6, "{v150}");
+    let (v200, n200) = speeds(2.0);
+    assert!((v200 - 250.0).abs() < 1e-6, "{v200}");
+    // 300 mm: at 75 mm/s about 2 s longer, at 225 about 0.67 s shorter
+    assert!(
+        n50 > n100 + 1900 && n150 + 600 < n100 && n200 < n150,
+        "{n50} {n100} {n150} {n200}"
+    );
+}

@@ -247,10 +247,11 @@ fn program_path(moves: &[Mv], feed: f64, tol: f64) -> (String, V3, Vec<El>) {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 128, ..ProptestConfig::default() })]
 
     /// Jerk-limited motion: for any jerk limit (a 2- to 80-sample filter),
-    /// path tolerance and feed, with a feed hold and resume somewhere, no
+    /// path tolerance and feed, with a feed hold or an override of 5-200 %
+    /// for a while somewhere, no
     /// axis exceeds its velocity, acceleration or jerk at any sample; no
     /// sample leaves the programmed path by more than the tolerance (or
     /// the filter's own bound, `Machine::smoothing_error_mm`, if larger);
@@ -262,7 +263,11 @@ proptest! {
         feed in 100.0..20000.0f64,
         jerk in 5.0e4..2.0e6f64,
         tol in prop_oneof![Just(0.0), 0.001..0.2f64],
-        hold in prop::option::of((10usize..3000, 1usize..300)),
+        hold in prop::option::of((
+            10usize..3000,
+            1usize..3000,
+            prop_oneof![Just(0.0), 0.05..1.0f64, 1.0..2.0f64, Just(2.0)],
+        )),
     ) {
         let mut m = Machine::builtin_mill();
         for a in &mut m.axes {
@@ -274,9 +279,9 @@ proptest! {
         let mut ex = Executor::new(StrSource::new(&text), Dialect::Cnc836, &m);
         let mut s: Vec<Sample> = Vec::new();
         while let Some(x) = ex.next_sample() {
-            if let Some((at, len)) = hold {
+            if let Some((at, len, level)) = hold {
                 if s.len() == at {
-                    ex.set_feed_target(0.0);
+                    ex.set_feed_target(level);
                 } else if s.len() == at + len {
                     ex.set_feed_target(1.0);
                 }

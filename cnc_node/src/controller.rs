@@ -176,6 +176,7 @@ impl Controller {
         if self.machine.spindle.is_some() {
             exec.attach_encoder();
         }
+        exec.set_feed_target(self.feed_override);
         self.job = Some(Running {
             id: job.id,
             exec,
@@ -216,6 +217,26 @@ impl Controller {
             }
             None => Ok("no job running".into()),
         }
+    }
+
+    /// The feed override in percent, 0..=200 (0 stops on the path like a
+    /// hold, but the state stays running); it applies to the running job
+    /// at once and to later jobs. Anything else is refused and changes
+    /// nothing.
+    pub fn set_feed_override(&mut self, percent: f64) -> Result<(), String> {
+        let max = cnc_core::exec::MAX_OVERRIDE * 100.0;
+        if !(percent.is_finite() && (0.0..=max).contains(&percent)) {
+            return Err(format!(
+                "feed override {percent} % refused: expected 0 to {max} %"
+            ));
+        }
+        self.feed_override = percent / 100.0;
+        if let Some(r) = self.job.as_mut() {
+            if !r.aborting && self.state != State::Hold {
+                r.exec.set_feed_target(self.feed_override);
+            }
+        }
+        Ok(())
     }
 
     /// `true`: decelerate and hold on the path; `false`: resume.

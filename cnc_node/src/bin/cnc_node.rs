@@ -84,6 +84,8 @@ enum Cmd {
     Start(Job, Option<Rec>, Sender<Result<(), String>>),
     Abort(Sender<Result<String, String>>),
     Hold(bool, Sender<Result<String, String>>),
+    /// feed override, percent
+    Override(f64),
 }
 
 struct Out {
@@ -150,6 +152,7 @@ fn run(args: Args) -> Result<(), String> {
         ros::server::<RunProgramRequest, RunProgramResponse>(&mut node, ns, "run_program")?;
     let srv_abort = ros::server::<TriggerRequest, TriggerResponse>(&mut node, ns, "abort")?;
     let srv_hold = ros::server::<SetBoolRequest, SetBoolResponse>(&mut node, ns, "feed_hold")?;
+    let sub_ovr = ros::subscription::<Float64>(&mut node, ns, "feed_override")?;
 
     // where the machine stands (f64 bits per joint), for checks of new jobs
     let here: Arc<[AtomicU64; 3]> = Arc::new(Default::default());
@@ -254,6 +257,9 @@ fn run(args: Args) -> Result<(), String> {
         while let Ok(Some((id, req))) = srv_hold.receive_request() {
             let (success, message) = ask(&cmd_tx, |tx| Cmd::Hold(req.data, tx));
             let _ = srv_hold.send_response(id, SetBoolResponse { success, message });
+        }
+        while let Ok(Some((m, _))) = sub_ovr.take() {
+            let _ = cmd_tx.send(Cmd::Override(m.data));
         }
         while let Ok((id, resp)) = resp_rx.try_recv() {
             let _ = srv_run.send_response(id, resp);
@@ -493,6 +499,11 @@ impl Loop {
                 }
                 Ok(Cmd::Hold(on, reply)) => {
                     let _ = reply.send(self.ctl.feed_hold(on));
+                }
+                Ok(Cmd::Override(pct)) => {
+                    if let Err(e) = self.ctl.set_feed_override(pct) {
+                        eprintln!("cnc_node: {e}");
+                    }
                 }
                 Err(TryRecvError::Empty) => break,
                 Err(TryRecvError::Disconnected) => return false,
