@@ -303,6 +303,13 @@ def analyse(prog, samples, limits):
                 aat[k] = t[i]
             if a > limits[names[k]][1] + 2.0:
                 over[k] += 1
+    # jerk: sampled third differences, m/s³
+    jmax = [0.0] * 3
+    for i in range(1, n - 2):
+        for k in range(3):
+            j = abs(P[i + 2][k] - 3 * P[i + 1][k] + 3 * P[i][k] - P[i - 1][k]) / (dt ** 3) / 1000.0
+            if j > jmax[k]:
+                jmax[k] = j
     # stops: runs of samples whose path speed is under STOP_SPEED
     stops, slow = 0, False
     for i in range(k0 + 1, k1):
@@ -331,6 +338,7 @@ def analyse(prog, samples, limits):
         "max_vel_mm_s": dict(zip(names, vmax)),
         "max_acc_mm_s2": dict(zip(names, amax)),
         "max_acc_t_s": dict(zip(names, aat)),
+        "max_jerk_m_s3": dict(zip(names, jmax)),
         "samples_acc_over_limit": dict(zip(names, over)),
         "limits": {k: {"vel": v[0], "acc": v[1]} for k, v in limits.items()},
         "end_error_mm": math.dist(P[-1], segs[-1]["b"]),
@@ -354,10 +362,12 @@ def table(manifest, limits_path):
     print("| program | controller | mode | cycle time s | stops | max deviation mm (line) | samples > 0.01 mm "
           f"| max \\|a\\| X / Y / Z mm/s² (limit {L['x'][1]:g} / {L['y'][1]:g} / {L['z'][1]:g}) "
           "| samples over accel limit X / Y / Z "
-          f"| max \\|v\\| X / Y / Z mm/s (limit {L['x'][0]:g} / {L['y'][0]:g} / {L['z'][0]:g}) |")
-    print("|---|---|---|---:|---:|---:|---:|---:|---:|---:|")
+          f"| max \\|v\\| X / Y / Z mm/s (limit {L['x'][0]:g} / {L['y'][0]:g} / {L['z'][0]:g}) "
+          "| max \\|j\\| X / Y / Z m/s³ |")
+    print("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
         a, v, o = r["max_acc_mm_s2"], r["max_vel_mm_s"], r["samples_acc_over_limit"]
+        j = r["max_jerk_m_s3"]
 
         def acc(k):
             s = f"{a[k]:.0f}"
@@ -365,7 +375,8 @@ def table(manifest, limits_path):
         print(f"| {r['label']} | {r['controller']} | {r['mode']} | {r['cycle_s']:.3f} | {r['stops']} "
               f"| {r['max_dev_mm']:.5f} ({r['max_dev_line']}) | {r['samples_dev_over']['0.01']} "
               f"| {acc('x')} / {acc('y')} / {acc('z')} | {o['x']} / {o['y']} / {o['z']} "
-              f"| {v['x']:.1f} / {v['y']:.1f} / {v['z']:.1f} |")
+              f"| {v['x']:.1f} / {v['y']:.1f} / {v['z']:.1f} "
+              f"| {j['x']:.0f} / {j['y']:.0f} / {j['z']:.0f} |")
     return rows
 
 
