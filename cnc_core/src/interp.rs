@@ -368,6 +368,10 @@ pub struct Interpreter<S> {
     /// heidenhain: the last polar radius and angle (deg)
     polar_r: Option<f64>,
     polar_h: Option<f64>,
+    /// heidenhain: where the last polar move ended, about which pole, in
+    /// which plane: a polar arc starting there takes its radius and start
+    /// angle from `polar_r`/`polar_h` exactly instead of from coordinates
+    polar_end: Option<(V3, V3, Plane)>,
     /// heidenhain: the direction of the last G12/G13 (true: counter-clockwise)
     last_ccw: Option<bool>,
     /// G33: what the axes and the spindle allow
@@ -470,6 +474,7 @@ impl<S: ProgramSource> Interpreter<S> {
             pole: None,
             polar_r: None,
             polar_h: None,
+            polar_end: None,
             last_ccw: None,
             th: ThreadLimits {
                 vmax: machine.vmax(),
@@ -704,6 +709,7 @@ impl<S: ProgramSource> Interpreter<S> {
             pole,
             polar_r,
             polar_h,
+            polar_end,
             last_ccw,
             th,
             thread_pitch,
@@ -750,6 +756,7 @@ impl<S: ProgramSource> Interpreter<S> {
             pole,
             polar_r,
             polar_h,
+            polar_end,
             last_ccw,
             th,
             thread_pitch,
@@ -1442,6 +1449,7 @@ impl<S: ProgramSource> Interpreter<S> {
             target[q] = pole[q] + rr * sn;
             let start = self.pos;
             self.pos = target;
+            self.polar_end = Some((target, pole, self.modal.plane));
             let line = Geom::Line { start, end: target };
             self.add_move(&line, feed, w, anchor.as_ref(), src);
             return;
@@ -1453,7 +1461,13 @@ impl<S: ProgramSource> Interpreter<S> {
             self.error(Some(&r), "a polar arc takes no R: its radius is the distance from the start point to the pole".into());
             return;
         }
-        let radius = sp.hypot(sq);
+        // the radius and start angle: those of the polar move that ended
+        // here (exactly as programmed, so that H+90 lands exactly on
+        // pole + R), else from the coordinates
+        let (radius, start_deg) = match (self.polar_end, self.polar_r, self.polar_h) {
+            (Some(e), Some(r), Some(h)) if e == (self.pos, pole, self.modal.plane) => (r, h),
+            _ => (sp.hypot(sq), sq.atan2(sp).to_degrees()),
+        };
         if radius < 1e-6 {
             self.error(
                 anchor.as_ref(),
@@ -1478,7 +1492,6 @@ impl<S: ProgramSource> Interpreter<S> {
             );
             return;
         }
-        let start_deg = sq.atan2(sp).to_degrees();
         // the signed sweep, degrees
         let sweep = if abs {
             let mut d = h.value - start_deg;
@@ -1528,10 +1541,19 @@ impl<S: ProgramSource> Interpreter<S> {
             turns_f.floor() as u32
         };
         let mut arc = Arc::new(self.pos, target, pole, self.modal.plane, ccw, extra);
+        // the pole is the centre and the polar radius the radius: start and
+        // end lie on that circle by construction, so the centre is not moved
+        // onto their bisector (which, for an end close to the start, moves
+        // it by the rounding of their coordinates over their distance)
+        arc.center[p] = pole[p];
+        arc.center[q] = pole[q];
+        arc.radius = radius;
+        arc.theta0 = sq.atan2(sp);
         arc.set_sweep(sweep.to_radians());
         self.polar_r = Some(radius);
         self.polar_h = Some(end_deg.rem_euclid(360.0));
         self.pos = target;
+        self.polar_end = Some((target, pole, self.modal.plane));
         self.add_move(&Geom::Arc(arc), feed, w, anchor.as_ref(), src);
     }
 
