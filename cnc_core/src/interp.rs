@@ -352,9 +352,13 @@ pub struct Interpreter<S> {
     pitch: Option<(usize, f64)>,
     /// G09 is in force: (dragged axis value when it started, turns since)
     helix: Option<(f64, f64)>,
-    /// G73 loops repeating now: (line of the G73 block, jumps left),
-    /// innermost last
-    loops: Vec<(u32, u32)>,
+    /// G73 loops repeating now: (line of the G73 block, jumps left,
+    /// blocks executed when it last jumped), innermost last
+    loops: Vec<(u32, u32, Option<u64>)>,
+    /// blocks executed so far, repetitions included
+    executed: u64,
+    /// the machine's `limits.max_executed_blocks`
+    max_executed: u64,
     /// jump targets found, by the line of their G73 block
     targets: std::collections::HashMap<u32, SourcePos>,
     /// jumps taken so far
@@ -467,6 +471,8 @@ impl<S: ProgramSource> Interpreter<S> {
             pitch: None,
             helix: None,
             loops: Vec::new(),
+            executed: 0,
+            max_executed: machine.limits.max_executed_blocks,
             targets: std::collections::HashMap::new(),
             jumps: 0,
             reported: std::collections::HashSet::new(),
@@ -607,6 +613,7 @@ impl<S: ProgramSource> Interpreter<S> {
                     self.max_line = line;
                     self.blocks += 1;
                 }
+                self.executed += 1;
                 self.exec_block(words);
             }
         }
@@ -702,6 +709,8 @@ impl<S: ProgramSource> Interpreter<S> {
             pitch,
             helix,
             loops,
+            executed,
+            max_executed,
             targets,
             jumps,
             reported,
@@ -749,6 +758,8 @@ impl<S: ProgramSource> Interpreter<S> {
             pitch,
             helix,
             loops,
+            executed,
+            max_executed,
             targets,
             jumps,
             reported,
@@ -1267,7 +1278,7 @@ impl<S: ProgramSource> Interpreter<S> {
         let i = match self.loops.iter().position(|l| l.0 == line) {
             Some(i) => i,
             None => {
-                self.loops.push((line, count));
+                self.loops.push((line, count, None));
                 self.loops.len() - 1
             }
         };
@@ -1281,6 +1292,33 @@ impl<S: ProgramSource> Interpreter<S> {
             self.finished = true;
             return;
         }
+        // the blocks this loop will have run: every pass runs the same
+        // blocks (inner loops' counters reset), so after one repeated pass
+        // the total is known; before it, what has run so far
+        let (left, last) = (self.loops[i].1, self.loops[i].2);
+        let projected = match last {
+            Some(at) => self
+                .executed
+                .saturating_add((self.executed - at).saturating_mul(left as u64)),
+            None => self.executed,
+        };
+        if projected > self.max_executed {
+            let max = self.max_executed;
+            let text = match last {
+                Some(at) => format!(
+                    "this loop would make the program execute {projected} blocks, more than the machine's limit of {max} (limits.max_executed_blocks): {left} more passes of {} blocks back to N{n}",
+                    self.executed - at
+                ),
+                None => format!(
+                    "this loop would make the program execute more than the machine's limit of {max} blocks (limits.max_executed_blocks): {} have run, and {left} more passes back to N{n} are due",
+                    self.executed
+                ),
+            };
+            self.error(Some(g73), text);
+            self.finish();
+            return;
+        }
+        self.loops[i].2 = Some(self.executed);
         self.loops[i].1 -= 1;
         self.jumps += 1;
         if let Err(e) = self.src.seek(target) {
