@@ -327,6 +327,43 @@ fn a_recorder_that_never_closes_loses_only_the_open_chunk() {
     );
 }
 
+#[test]
+fn a_node_job_recording_loses_at_most_its_last_second() {
+    // the node's recorder (JobRecorder) as the node drives it: setpoints
+    // at 1 kHz for 2.5 s, the file read while the job still runs
+    let dir = tmp("job");
+    let path = dir.join("job_1_p.nc.mcap");
+    let m = Machine::builtin_mill();
+    let info = RecordingInfo {
+        program_name: "p.nc".into(),
+        program_text: "G01 X10 F600\n".into(),
+        ..Default::default()
+    };
+    let mut job = cnc_node::record::JobRecorder::create(&path, info, &m).unwrap();
+    for k in 0..2500u64 {
+        let ns = EPOCH_NS + k * 1_000_000;
+        job.setpoints(&JointState {
+            header: cnc_msgs::Header {
+                stamp: cnc_node::record::time_from_ns(ns),
+                frame_id: String::new(),
+            },
+            name: vec!["x".into(), "y".into(), "z".into()],
+            position: vec![k as f64 * 1e-6, 0.0, 0.0],
+            ..Default::default()
+        })
+        .unwrap();
+    }
+    let killed = dir.join("killed.mcap");
+    std::fs::write(&killed, std::fs::read(&path).unwrap()).unwrap();
+    let out = dir.join("recovered.mcap");
+    let r = recover(&killed, &out).unwrap();
+    // chunks closed at 1 s and 2 s: setpoints 0..1999 are on disk
+    let got = messages(&std::fs::read(&out).unwrap());
+    assert_eq!(check_setpoints(&got), 2000, "{r}");
+    assert_eq!(r.end_ns, Some(EPOCH_NS + 1_999_000_000), "{r}");
+    job.finish().unwrap();
+}
+
 /// A program of 48 h of motion: a pocket outline repeated 10000 times.
 const LONG: &str = "N10 G17 G90 G94 M03 S3000 T1
 N20 G00 X20 Y10 Z5
