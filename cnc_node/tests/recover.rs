@@ -416,6 +416,9 @@ fn a_killed_recording_is_recovered() {
     let out = dir.join("recovered.mcap");
     let o = cnc_recover(&killed, &out);
     let stdout = String::from_utf8_lossy(&o.stdout);
+    // the killed file itself is refused by the other commands, with the way out
+    let e = cnc_node::bag::Bag::read(&killed).unwrap_err();
+    assert!(e.contains("`cnc bag recover "), "{e}");
     assert!(
         o.status.success(),
         "{stdout}{}",
