@@ -352,9 +352,13 @@ pub struct Interpreter<S> {
     pitch: Option<(usize, f64)>,
     /// G09 is in force: (dragged axis value when it started, turns since)
     helix: Option<(f64, f64)>,
-    /// G73 loops repeating now: (line of the G73 block, jumps left),
-    /// innermost last
-    loops: Vec<(u32, u32)>,
+    /// G73 loops repeating now: (line of the G73 block, jumps left,
+    /// blocks executed when it last jumped), innermost last
+    loops: Vec<(u32, u32, Option<u64>)>,
+    /// blocks executed so far, repetitions included
+    executed: u64,
+    /// the machine's `limits.max_executed_blocks`
+    max_executed: u64,
     /// jump targets found, by the line of their G73 block
     targets: std::collections::HashMap<u32, SourcePos>,
     /// jumps taken so far
@@ -368,6 +372,10 @@ pub struct Interpreter<S> {
     /// heidenhain: the last polar radius and angle (deg)
     polar_r: Option<f64>,
     polar_h: Option<f64>,
+    /// heidenhain: where the last polar move ended, about which pole, in
+    /// which plane: a polar arc starting there takes its radius and start
+    /// angle from `polar_r`/`polar_h` exactly instead of from coordinates
+    polar_end: Option<(V3, V3, Plane)>,
     /// heidenhain: the direction of the last G12/G13 (true: counter-clockwise)
     last_ccw: Option<bool>,
     /// G33: what the axes and the spindle allow
@@ -463,6 +471,8 @@ impl<S: ProgramSource> Interpreter<S> {
             pitch: None,
             helix: None,
             loops: Vec::new(),
+            executed: 0,
+            max_executed: machine.limits.max_executed_blocks,
             targets: std::collections::HashMap::new(),
             jumps: 0,
             reported: std::collections::HashSet::new(),
@@ -470,6 +480,7 @@ impl<S: ProgramSource> Interpreter<S> {
             pole: None,
             polar_r: None,
             polar_h: None,
+            polar_end: None,
             last_ccw: None,
             th: ThreadLimits {
                 vmax: machine.vmax(),
@@ -602,6 +613,7 @@ impl<S: ProgramSource> Interpreter<S> {
                     self.max_line = line;
                     self.blocks += 1;
                 }
+                self.executed += 1;
                 self.exec_block(words);
             }
         }
@@ -697,6 +709,8 @@ impl<S: ProgramSource> Interpreter<S> {
             pitch,
             helix,
             loops,
+            executed,
+            max_executed,
             targets,
             jumps,
             reported,
@@ -704,6 +718,7 @@ impl<S: ProgramSource> Interpreter<S> {
             pole,
             polar_r,
             polar_h,
+            polar_end,
             last_ccw,
             th,
             thread_pitch,
@@ -743,6 +758,8 @@ impl<S: ProgramSource> Interpreter<S> {
             pitch,
             helix,
             loops,
+            executed,
+            max_executed,
             targets,
             jumps,
             reported,
@@ -750,6 +767,7 @@ impl<S: ProgramSource> Interpreter<S> {
             pole,
             polar_r,
             polar_h,
+            polar_end,
             last_ccw,
             th,
             thread_pitch,
@@ -1260,7 +1278,7 @@ impl<S: ProgramSource> Interpreter<S> {
         let i = match self.loops.iter().position(|l| l.0 == line) {
             Some(i) => i,
             None => {
-                self.loops.push((line, count));
+                self.loops.push((line, count, None));
                 self.loops.len() - 1
             }
         };
@@ -1274,6 +1292,33 @@ impl<S: ProgramSource> Interpreter<S> {
             self.finished = true;
             return;
         }
+        // the blocks this loop will have run: every pass runs the same
+        // blocks (inner loops' counters reset), so after one repeated pass
+        // the total is known; before it, what has run so far
+        let (left, last) = (self.loops[i].1, self.loops[i].2);
+        let projected = match last {
+            Some(at) => self
+                .executed
+                .saturating_add((self.executed - at).saturating_mul(left as u64)),
+            None => self.executed,
+        };
+        if projected > self.max_executed {
+            let max = self.max_executed;
+            let text = match last {
+                Some(at) => format!(
+                    "this loop would make the program execute {projected} blocks, more than the machine's limit of {max} (limits.max_executed_blocks): {left} more passes of {} blocks back to N{n}",
+                    self.executed - at
+                ),
+                None => format!(
+                    "this loop would make the program execute more than the machine's limit of {max} blocks (limits.max_executed_blocks): {} have run, and {left} more passes back to N{n} are due",
+                    self.executed
+                ),
+            };
+            self.error(Some(g73), text);
+            self.finish();
+            return;
+        }
+        self.loops[i].2 = Some(self.executed);
         self.loops[i].1 -= 1;
         self.jumps += 1;
         if let Err(e) = self.src.seek(target) {
@@ -1442,6 +1487,7 @@ impl<S: ProgramSource> Interpreter<S> {
             target[q] = pole[q] + rr * sn;
             let start = self.pos;
             self.pos = target;
+            self.polar_end = Some((target, pole, self.modal.plane));
             let line = Geom::Line { start, end: target };
             self.add_move(&line, feed, w, anchor.as_ref(), src);
             return;
@@ -1453,7 +1499,13 @@ impl<S: ProgramSource> Interpreter<S> {
             self.error(Some(&r), "a polar arc takes no R: its radius is the distance from the start point to the pole".into());
             return;
         }
-        let radius = sp.hypot(sq);
+        // the radius and start angle: those of the polar move that ended
+        // here (exactly as programmed, so that H+90 lands exactly on
+        // pole + R), else from the coordinates
+        let (radius, start_deg) = match (self.polar_end, self.polar_r, self.polar_h) {
+            (Some(e), Some(r), Some(h)) if e == (self.pos, pole, self.modal.plane) => (r, h),
+            _ => (sp.hypot(sq), sq.atan2(sp).to_degrees()),
+        };
         if radius < 1e-6 {
             self.error(
                 anchor.as_ref(),
@@ -1478,7 +1530,6 @@ impl<S: ProgramSource> Interpreter<S> {
             );
             return;
         }
-        let start_deg = sq.atan2(sp).to_degrees();
         // the signed sweep, degrees
         let sweep = if abs {
             let mut d = h.value - start_deg;
@@ -1528,10 +1579,19 @@ impl<S: ProgramSource> Interpreter<S> {
             turns_f.floor() as u32
         };
         let mut arc = Arc::new(self.pos, target, pole, self.modal.plane, ccw, extra);
+        // the pole is the centre and the polar radius the radius: start and
+        // end lie on that circle by construction, so the centre is not moved
+        // onto their bisector (which, for an end close to the start, moves
+        // it by the rounding of their coordinates over their distance)
+        arc.center[p] = pole[p];
+        arc.center[q] = pole[q];
+        arc.radius = radius;
+        arc.theta0 = sq.atan2(sp);
         arc.set_sweep(sweep.to_radians());
         self.polar_r = Some(radius);
         self.polar_h = Some(end_deg.rem_euclid(360.0));
         self.pos = target;
+        self.polar_end = Some((target, pole, self.modal.plane));
         self.add_move(&Geom::Arc(arc), feed, w, anchor.as_ref(), src);
     }
 

@@ -147,6 +147,15 @@ pub struct Limits {
     /// errors listed in one report before "and N more"
     #[serde(default = "default_max_errors")]
     pub max_errors: usize,
+    /// blocks a program may execute, loop repetitions (G73) included: a
+    /// program whose loops would run more is refused at the jump that
+    /// goes past it (written only when not the default, so machine files
+    /// recorded before this key read back the same)
+    #[serde(
+        default = "default_max_executed_blocks",
+        skip_serializing_if = "is_default_max_executed_blocks"
+    )]
+    pub max_executed_blocks: u64,
 }
 
 fn default_max_program() -> u64 {
@@ -158,6 +167,14 @@ fn default_max_line() -> usize {
 fn default_max_errors() -> usize {
     1000
 }
+/// 1e9: five times the 9999 × 9999 loops of `bench/loops_9999x9999.sh`
+/// (2e8 blocks, 80 s of check in a release build)
+fn default_max_executed_blocks() -> u64 {
+    1_000_000_000
+}
+fn is_default_max_executed_blocks(v: &u64) -> bool {
+    *v == default_max_executed_blocks()
+}
 
 impl Default for Limits {
     fn default() -> Self {
@@ -165,6 +182,7 @@ impl Default for Limits {
             max_program_bytes: default_max_program(),
             max_line_bytes: default_max_line(),
             max_errors: default_max_errors(),
+            max_executed_blocks: default_max_executed_blocks(),
         }
     }
 }
@@ -467,6 +485,12 @@ impl Machine {
         }
         if self.limits.max_errors == 0 {
             return bad("limits.max_errors".into(), "must be at least 1".into());
+        }
+        if self.limits.max_executed_blocks == 0 {
+            return bad(
+                "limits.max_executed_blocks".into(),
+                "must be at least 1".into(),
+            );
         }
         let max_tool = if self.kind == MachineKind::Lathe {
             99

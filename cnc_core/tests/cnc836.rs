@@ -253,3 +253,99 @@ fn loop_rule_errors() {
         "line 1, column 12: block N10: unsupported G code G73 in the heidenhain dialect"
     );
 }
+
+/// Two nested loops: N20..N30 runs 100 times (2 blocks a pass) inside
+/// N20..N40, which runs 10 times (201 blocks a pass): N10, 10 × 201, and
+/// N50 execute 2012 blocks.
+const NESTED: &str = "N10 G00 X1 Y1 Z0
+N20 G91 G01 X0.5 F1000
+N30 X-0.5 G73 L20 Q99
+N40 G73 L20 Q9
+N50 G90 M30
+";
+
+fn mill_with_max_blocks(n: u64) -> Machine {
+    let mut m = mill();
+    m.limits.max_executed_blocks = n;
+    m
+}
+
+#[test]
+fn executed_blocks_are_bounded_by_the_machine_file() {
+    let check_with = |n: u64| {
+        check(
+            StrSource::new(NESTED),
+            Dialect::Cnc836,
+            &mill_with_max_blocks(n),
+        )
+    };
+    // the loops end after 2011 blocks (N50 needs no jump)
+    let r = check_with(2011);
+    assert!(r.ok(), "{}", r.message());
+    assert_eq!(r.moves, 2001);
+    // one block less: refused at the outer G73 when its second pass ends
+    // (1 + 2 × 201 blocks run, 8 passes of 201 left), before any motion
+    let r = check_with(2010);
+    assert_eq!(r.error_count, 1, "{}", r.message());
+    assert_eq!(
+        r.errors[0].to_string(),
+        "line 4, column 5: block N40: this loop would make the program execute 2011 blocks, more than the machine's limit of 2010 (limits.max_executed_blocks): 8 more passes of 201 blocks back to N20"
+    );
+    // the inner loop: at its second pass (1 + 2 + 2 blocks run, 98
+    // passes of 2 left) it would reach 201 blocks
+    let r = check_with(200);
+    assert_eq!(r.error_count, 1, "{}", r.message());
+    assert_eq!(
+        r.errors[0].to_string(),
+        "line 3, column 11: block N30: this loop would make the program execute 201 blocks, more than the machine's limit of 200 (limits.max_executed_blocks): 98 more passes of 2 blocks back to N20"
+    );
+    // the executor stops there too: nothing runs past the limit
+    let m = mill_with_max_blocks(200);
+    let s: Vec<Sample> = Executor::new(StrSource::new(NESTED), Dialect::Cnc836, &m).collect();
+    assert!(s.len() < 1000, "{} samples", s.len());
+    // no pass repeated yet, and already over: the first jump is refused
+    let r = check_with(2);
+    assert_eq!(
+        r.errors[0].to_string(),
+        "line 3, column 11: block N30: this loop would make the program execute more than the machine's limit of 2 blocks (limits.max_executed_blocks): 3 have run, and 99 more passes back to N20 are due"
+    );
+}
+
+#[test]
+fn loops_that_would_never_end_in_practice_are_refused_in_bounded_time() {
+    // 10^4 × 10^4 × 10^4 × 2 blocks (2e12): with the default limit (1e9)
+    // the check stops at the outer loop's second pass (4e8 blocks run),
+    // with a limit of 1e6 at the middle loop's (1 + 2 × 20001 run, 9998
+    // passes of 20001 left: 2.0001e8)
+    let text = "N10 G00 X1 Y1 Z0
+N20 G91 G01 X0.001 F1000
+N30 X-0.001 G73 L20 Q9999
+N40 G73 L20 Q9999
+N50 G73 L20 Q9999
+N60 G90 M30
+";
+    let r = check(
+        StrSource::new(text),
+        Dialect::Cnc836,
+        &mill_with_max_blocks(1_000_000),
+    );
+    assert_eq!(r.error_count, 1, "{}", r.message());
+    assert!(
+        r.errors[0].to_string().starts_with(
+            "line 4, column 5: block N40: this loop would make the program execute 200010001 blocks, more than the machine's limit of 1000000 (limits.max_executed_blocks): 9998 more passes of 20001 blocks back to N20"
+        ),
+        "{}",
+        r.errors[0]
+    );
+    assert_eq!(mill().limits.max_executed_blocks, 1_000_000_000);
+    let e = Machine::from_toml(&include_str!("../../config/mill.toml").replace(
+        "max_executed_blocks = 1000000000",
+        "max_executed_blocks = 0",
+    ))
+    .unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("key `limits.max_executed_blocks`: must be at least 1"),
+        "{e}"
+    );
+}

@@ -64,11 +64,24 @@ pub struct Bag {
 }
 
 impl Bag {
-    /// Reads a whole recording. A file without a summary section (a
-    /// recording that was killed) is read as far as it goes.
+    /// Reads a whole recording. A file cut short (a killed recorder: no
+    /// summary, an unfinished chunk) is refused with a pointer to `cnc
+    /// bag recover` ([`crate::recover`]), which makes a complete file of
+    /// what it holds.
     pub fn read(path: &Path) -> Result<Bag, String> {
         let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        Bag::from_bytes(path, &bytes).map_err(|e| format!("{}: {e}", path.display()))
+        Bag::from_bytes(path, &bytes).map_err(|e| {
+            let cut = mcap::Summary::read(&bytes).map_or(true, |s| s.is_none());
+            let hint = if cut && bytes.starts_with(mcap::MAGIC) {
+                format!(
+                    " (the file has no summary: a recording that was cut short? `cnc bag recover {} -o OUT.mcap` makes a complete file of what it holds)",
+                    path.display()
+                )
+            } else {
+                String::new()
+            };
+            format!("{}: {e}{hint}", path.display())
+        })
     }
 
     /// A recording from its bytes; `path` is only kept for the reports.

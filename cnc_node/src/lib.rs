@@ -11,3 +11,4 @@ pub mod offline;
 pub mod plot;
 pub mod program;
 pub mod record;
+pub mod recover;

@@ -2,7 +2,9 @@
 //! `cnc bag replay` (a recording republished on DDS at its own pace).
 
 use crate::bag::Bag;
-use crate::record::{from_cdr, stamp_ns, RecordSummary, Recorder, RecordingInfo};
+use crate::record::{
+    from_cdr, stamp_ns, RecordSummary, Recorder, RecordingInfo, LIVE_CHUNK_SPAN_NS,
+};
 use cnc_msgs::ros;
 use cnc_msgs::schema::RosSchema;
 use cnc_msgs::*;
@@ -46,6 +48,9 @@ pub fn record_live(opts: &LiveOpts, out: &Path) -> Result<RecordSummary, String>
     let enc = ros::subscription::<SpindleEncoder>(&mut node, sns, "spindle_encoder")?;
     let topic = |ns: &str, base: &str| format!("{}/{base}", ns.trim_end_matches('/'));
     let mut rec = Recorder::create(out, RecordingInfo::default())?;
+    // a chunk per second of messages at most, also while the topics are
+    // quiet: a killed recorder loses about a second
+    rec.set_max_chunk_span(Some(LIVE_CHUNK_SPAN_NS));
     let c_sp = rec.channel::<JointState>(&topic(cns, "joint_setpoints"))?;
     let c_spin = rec.channel::<Float64>(&topic(cns, "spindle_command"))?;
     let c_st = rec.channel::<ControllerStatus>(&topic(cns, "status"))?;
@@ -77,6 +82,7 @@ pub fn record_live(opts: &LiveOpts, out: &Path) -> Result<RecordSummary, String>
             any = true;
         }
         if !any {
+            rec.close_stale_chunk(stamp_ns(&ros::wall_stamp()))?;
             std::thread::sleep(Duration::from_micros(500));
         }
     }

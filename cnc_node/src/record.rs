@@ -26,10 +26,15 @@
 //!   rosbag2's reader would not accept) and `ROS_DISTRO`; then the summary.
 //!
 //! Chunks are zstd-compressed, about [`CHUNK_SIZE`] each before
-//! compression: a killed process loses at most the open chunk (`mcap
-//! recover` or `rerun mcap convert --recover` read the rest). Compression
-//! is single-threaded, so equal inputs give byte-identical files on every
-//! machine.
+//! compression. Each chunk is written to the OS as soon as it is closed
+//! (its header is patched in place, then the file buffer is flushed), so
+//! a killed process loses at most the open chunk; `cnc bag recover`
+//! ([`crate::recover`]) turns what was written into a complete file. Live
+//! recordings ([`JobRecorder`], `cnc bag record`) also close a chunk once
+//! it spans [`LIVE_CHUNK_SPAN_NS`] of log time, so at low data rates a
+//! kill loses about a second, not minutes; offline recordings are chunked
+//! by size alone. Compression is single-threaded, so equal inputs give
+//! byte-identical files on every machine.
 //!
 //! ```no_run
 //! use cnc_node::record::{Recorder, RecordingInfo};
@@ -72,6 +77,27 @@ pub const ROS_DISTRO: &str = "kilted";
 pub const BAG_METADATA_VERSION: u32 = 9;
 /// Target chunk size before compression, bytes.
 pub const CHUNK_SIZE: u64 = 1 << 20;
+/// Live recordings close a chunk once its messages span this much log
+/// time (1 s), so that a killed node loses at most about a second.
+pub const LIVE_CHUNK_SPAN_NS: u64 = 1_000_000_000;
+
+/// The MCAP writer options of every recording this crate writes (profile,
+/// library, zstd, single-threaded compression); `chunk_size` None: the
+/// caller closes chunks itself.
+pub fn write_options(chunk_size: Option<u64>) -> mcap::WriteOptions {
+    mcap::WriteOptions::new()
+        .profile(PROFILE)
+        .library(LIBRARY)
+        .compression(Some(mcap::Compression::Zstd))
+        .chunk_size(chunk_size)
+        .compression_threads(0)
+}
+
+/// Bytes of a record's opcode and length prefix.
+const RECORD_PREFIX: u64 = 1 + 8;
+/// Bytes of a Message record before its data: prefix, channel id,
+/// sequence, log time, publish time.
+const MESSAGE_OVERHEAD: u64 = RECORD_PREFIX + 2 + 4 + 8 + 8;
 /// Time of sample 0 in offline recordings: 1_700_000_000 s after the Unix
 /// epoch, in ns (fixed, so that recordings are deterministic).
 pub const EPOCH_NS: u64 = 1_700_000_000_000_000_000;
@@ -283,6 +309,15 @@ pub struct Recorder<W: Write + Seek> {
     start_ns: Option<u64>,
     end_ns: u64,
     buf: Vec<u8>,
+    /// schema names written so far
+    schemas: Vec<&'static str>,
+    /// uncompressed bytes of the open chunk (as the MCAP writer counts
+    /// them), 0 when none is open
+    chunk_bytes: u64,
+    /// log time of the open chunk's first message
+    chunk_start_ns: Option<u64>,
+    /// close a chunk once its messages span this much log time
+    max_chunk_span_ns: Option<u64>,
 }
 
 impl Recorder<BufWriter<File>> {
@@ -302,13 +337,9 @@ impl<W: Write + Seek> Recorder<W> {
     /// A recording into any seekable writer; `file_name` is what the
     /// rosbag2 metadata lists as the file.
     pub fn new(w: W, file_name: &str, info: RecordingInfo) -> Result<Self, String> {
-        let opts = mcap::WriteOptions::new()
-            .profile(PROFILE)
-            .library(LIBRARY)
-            .compression(Some(mcap::Compression::Zstd))
-            .chunk_size(Some(CHUNK_SIZE))
-            .compression_threads(0);
-        let mut mcap = opts
+        // chunks are closed here (see `put`), not by the writer, so that
+        // each closed chunk is flushed at once and a time span can close one
+        let mut mcap = write_options(None)
             .create(w)
             .map_err(mcap_err("writing the MCAP header"))?;
         let mut cnc = BTreeMap::new();
@@ -333,6 +364,10 @@ impl<W: Write + Seek> Recorder<W> {
             start_ns: None,
             end_ns: 0,
             buf: Vec::with_capacity(256),
+            schemas: Vec::new(),
+            chunk_bytes: 0,
+            chunk_start_ns: None,
+            max_chunk_span_ns: None,
         };
         let program_ch = rec.channel_with_qos::<StringMsg>("/cnc/program", Qos::LATCHED)?;
         let machine_ch = rec.channel_with_qos::<StringMsg>("/cnc/machine_file", Qos::LATCHED)?;
@@ -385,6 +420,12 @@ impl<W: Write + Seek> Recorder<W> {
             .mcap
             .add_schema(type_name, ENCODING, text.as_bytes())
             .map_err(mcap_err(topic))?;
+        if !self.schemas.contains(&type_name) {
+            // a new schema record goes into the open chunk
+            self.schemas.push(type_name);
+            self.chunk_bytes +=
+                RECORD_PREFIX + 2 + str_len(type_name) + str_len(ENCODING) + 4 + text.len() as u64;
+        }
         let mut meta = BTreeMap::new();
         meta.insert("offered_qos_profiles".to_string(), qos_yaml(&qos));
         meta.insert("topic_type_hash".to_string(), String::new());
@@ -392,6 +433,16 @@ impl<W: Write + Seek> Recorder<W> {
             .mcap
             .add_channel(schema, topic, MESSAGE_ENCODING, &meta)
             .map_err(mcap_err(topic))?;
+        self.chunk_bytes += RECORD_PREFIX
+            + 2
+            + 2
+            + str_len(topic)
+            + str_len(MESSAGE_ENCODING)
+            + 4
+            + meta
+                .iter()
+                .map(|(k, v)| str_len(k) + str_len(v))
+                .sum::<u64>();
         self.topics.push(Topic {
             name: topic.to_string(),
             type_name,
@@ -424,6 +475,9 @@ impl<W: Write + Seek> Recorder<W> {
     /// The program and the machine file as attachments and (`latched`) as
     /// messages.
     fn write_job(&mut self, p: &Pending, time_ns: u64, latched: bool) -> Result<(), String> {
+        // an attachment closes the open chunk (the schemas and channels):
+        // flush it, as `put` does with every chunk it closes
+        self.close_chunk()?;
         for (name, text) in [("program.nc", &p.program), ("machine.toml", &p.machine)] {
             self.mcap
                 .attach(&mcap::Attachment {
@@ -469,9 +523,23 @@ impl<W: Write + Seek> Recorder<W> {
             log_time: time_ns,
             publish_time: time_ns,
         };
+        // the MCAP writer's rule (close the chunk before a message once it
+        // holds more than CHUNK_SIZE), or the open chunk spans the time bound
+        let span_over = match (self.chunk_start_ns, self.max_chunk_span_ns) {
+            (Some(start), Some(span)) => time_ns.saturating_sub(start) >= span,
+            _ => false,
+        };
+        if self.chunk_bytes > CHUNK_SIZE || span_over {
+            let name = t.name.clone();
+            self.close_chunk()
+                .map_err(|e| format!("writing {name}: {e}"))?;
+        }
+        let t = &self.topics[ch.index];
         self.mcap
             .write_to_known_channel(&header, &self.buf)
             .map_err(|e| format!("writing {}: {e}", t.name))?;
+        self.chunk_bytes += MESSAGE_OVERHEAD + self.buf.len() as u64;
+        self.chunk_start_ns.get_or_insert(time_ns);
         self.start_ns = Some(self.start_ns.map_or(time_ns, |s| s.min(time_ns)));
         self.end_ns = self.end_ns.max(time_ns);
         Ok(())
@@ -482,41 +550,52 @@ impl<W: Write + Seek> Recorder<W> {
         self.topics.get(ch.index).map_or(0, |t| t.count)
     }
 
+    /// Closes a chunk once its messages span `span_ns` of log time (None:
+    /// by size alone, the default). Live recordings use
+    /// [`LIVE_CHUNK_SPAN_NS`].
+    pub fn set_max_chunk_span(&mut self, span_ns: Option<u64>) {
+        self.max_chunk_span_ns = span_ns;
+    }
+
+    /// Closes the open chunk when its first message is at least the chunk
+    /// span older than `now_ns` (for a live recorder whose topics went
+    /// quiet); nothing without a span or an open chunk.
+    pub fn close_stale_chunk(&mut self, now_ns: u64) -> Result<(), String> {
+        match (self.chunk_start_ns, self.max_chunk_span_ns) {
+            (Some(start), Some(span)) if now_ns.saturating_sub(start) >= span => self.close_chunk(),
+            _ => Ok(()),
+        }
+    }
+
+    /// Closes the open chunk (if any) and flushes everything written to
+    /// the OS: what a kill after this leaves behind is readable.
+    pub fn close_chunk(&mut self) -> Result<(), String> {
+        self.mcap
+            .flush()
+            .map_err(mcap_err("writing the MCAP file"))?;
+        self.chunk_bytes = 0;
+        self.chunk_start_ns = None;
+        Ok(())
+    }
+
     /// rosbag2's `serialized_metadata`: `YAML::Dump` of its `BagMetadata`.
     fn bag_metadata_yaml(&self) -> String {
-        let start = self.start_ns.unwrap_or(0);
-        let duration = self.end_ns.saturating_sub(start);
-        let total: u64 = self.topics.iter().map(|t| t.count).sum();
-        let mut s = String::new();
-        let _ = write!(
-            s,
-            "version: {BAG_METADATA_VERSION}\nstorage_identifier: mcap\nduration:\n  nanoseconds: {duration}\nstarting_time:\n  nanoseconds_since_epoch: {start}\nmessage_count: {total}\n"
-        );
-        if self.topics.is_empty() {
-            s.push_str("topics_with_message_count: []\n");
-        } else {
-            s.push_str("topics_with_message_count:\n");
-        }
-        for t in &self.topics {
-            let _ = write!(
-                s,
-                "  - topic_metadata:\n      name: {}\n      type: {}\n      serialization_format: {MESSAGE_ENCODING}\n      offered_qos_profiles:\n",
-                yaml_scalar(&t.name),
-                yaml_scalar(t.type_name)
-            );
-            push_qos(&mut s, &t.qos, 8);
-            let _ = write!(
-                s,
-                "      type_description_hash: \"\"\n    message_count: {}\n",
-                t.count
-            );
-        }
-        let f = yaml_scalar(&self.file_name);
-        let _ = write!(
-            s,
-            "compression_format: \"\"\ncompression_mode: \"\"\nrelative_file_paths:\n  - {f}\nfiles:\n  - path: {f}\n    starting_time:\n      nanoseconds_since_epoch: {start}\n    duration:\n      nanoseconds: {duration}\n    message_count: {total}\ncustom_data: ~\nros_distro: {ROS_DISTRO}"
-        );
-        s
+        let topics: Vec<BagTopic> = self
+            .topics
+            .iter()
+            .map(|t| BagTopic {
+                name: t.name.clone(),
+                type_name: t.type_name.to_string(),
+                qos_yaml: qos_yaml(&t.qos),
+                count: t.count,
+            })
+            .collect();
+        bag_metadata_yaml(
+            &topics,
+            self.start_ns.unwrap_or(0),
+            self.end_ns,
+            &self.file_name,
+        )
     }
 
     /// Writes the `rosbag2` metadata and the summary, flushes, and returns
@@ -598,6 +677,68 @@ fn yaml_scalar(s: &str) -> String {
         q.push('"');
         q
     }
+}
+
+/// Bytes of a string in an MCAP record (u32 length, then the bytes).
+fn str_len(s: &str) -> u64 {
+    4 + s.len() as u64
+}
+
+/// One topic of rosbag2's metadata.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BagTopic {
+    pub name: String,
+    /// `pkg/msg/Type`
+    pub type_name: String,
+    /// the channel's `offered_qos_profiles` ([`qos_yaml`])
+    pub qos_yaml: String,
+    pub count: u64,
+}
+
+/// rosbag2's `serialized_metadata` (`YAML::Dump` of its `BagMetadata`,
+/// version [`BAG_METADATA_VERSION`]) of a single-file bag `file_name`
+/// whose messages span `start_ns..=end_ns`.
+pub fn bag_metadata_yaml(
+    topics: &[BagTopic],
+    start_ns: u64,
+    end_ns: u64,
+    file_name: &str,
+) -> String {
+    let start = start_ns;
+    let duration = end_ns.saturating_sub(start);
+    let total: u64 = topics.iter().map(|t| t.count).sum();
+    let mut s = String::new();
+    let _ = write!(
+        s,
+        "version: {BAG_METADATA_VERSION}\nstorage_identifier: mcap\nduration:\n  nanoseconds: {duration}\nstarting_time:\n  nanoseconds_since_epoch: {start}\nmessage_count: {total}\n"
+    );
+    if topics.is_empty() {
+        s.push_str("topics_with_message_count: []\n");
+    } else {
+        s.push_str("topics_with_message_count:\n");
+    }
+    for t in topics {
+        let _ = write!(
+            s,
+            "  - topic_metadata:\n      name: {}\n      type: {}\n      serialization_format: {MESSAGE_ENCODING}\n      offered_qos_profiles:\n",
+            yaml_scalar(&t.name),
+            yaml_scalar(&t.type_name)
+        );
+        for line in t.qos_yaml.lines() {
+            let _ = writeln!(s, "        {line}");
+        }
+        let _ = write!(
+            s,
+            "      type_description_hash: \"\"\n    message_count: {}\n",
+            t.count
+        );
+    }
+    let f = yaml_scalar(file_name);
+    let _ = write!(
+        s,
+        "compression_format: \"\"\ncompression_mode: \"\"\nrelative_file_paths:\n  - {f}\nfiles:\n  - path: {f}\n    starting_time:\n      nanoseconds_since_epoch: {start}\n    duration:\n      nanoseconds: {duration}\n    message_count: {total}\ncustom_data: ~\nros_distro: {ROS_DISTRO}"
+    );
+    s
 }
 
 /// The machine file of a machine, as TOML (what recordings attach).
@@ -972,6 +1113,7 @@ pub struct JobRecorder {
 impl JobRecorder {
     pub fn create(file: &Path, info: RecordingInfo, machine: &Machine) -> Result<Self, String> {
         let mut rec = Recorder::create(file, info)?;
+        rec.set_max_chunk_span(Some(LIVE_CHUNK_SPAN_NS));
         Ok(JobRecorder {
             setpoints: rec.channel(topics::JOINT_SETPOINTS)?,
             joint_states: rec.channel(topics::JOINT_STATES)?,

@@ -80,7 +80,7 @@ enum Cmd {
         #[arg(long, default_value = "mill")]
         machine: String,
     },
-    /// MCAP recordings: record, compare, replay, rerun.
+    /// MCAP recordings: record, compare, replay, rerun, recover.
     Bag {
         #[command(subcommand)]
         cmd: BagCmd,
@@ -151,6 +151,15 @@ enum BagCmd {
     /// Run the controller again on the recorded program and machine file and
     /// write a new recording (identical setpoints for the same code).
     Rerun {
+        file: PathBuf,
+        #[arg(short, long)]
+        out: PathBuf,
+    },
+    /// Make a complete recording from one that was cut short (a killed
+    /// recorder: no summary, an unfinished last chunk): every whole chunk's
+    /// messages, the schemas, channels, metadata and attachments, written
+    /// with a summary.
+    Recover {
         file: PathBuf,
         #[arg(short, long)]
         out: PathBuf,
@@ -614,6 +623,11 @@ fn cmd_bag(cmd: BagCmd) -> Result<ExitCode, String> {
                 out.display(),
                 s.messages
             );
+            Ok(ExitCode::SUCCESS)
+        }
+        BagCmd::Recover { file, out } => {
+            let r = cnc_node::recover::recover(&file, &out)?;
+            println!("{r}");
             Ok(ExitCode::SUCCESS)
         }
     }

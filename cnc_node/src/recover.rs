@@ -1,0 +1,624 @@
+//! `cnc bag recover`: a complete MCAP file from one that was cut short (a
+//! killed recorder, a full disk, a copy that broke off).
+//!
+//! The input is read record by record from its start, without its summary
+//! (which a killed recorder never wrote): every record whose bytes are all
+//! there is kept, every chunk that is whole and decompresses with a good
+//! CRC gives its schemas, channels and messages, and reading stops at the
+//! first record that runs past the end of the file (the chunk that was
+//! open when the process died: its header still holds the placeholder
+//! lengths the MCAP writer patches when it closes the chunk). A record
+//! that is whole but damaged (bad CRC, bad compression) is skipped and
+//! reported.
+//!
+//! The output is written the way [`crate::record`] writes recordings
+//! (profile of the input, zstd chunks of [`record::CHUNK_SIZE`], schema
+//! and channel ids kept, messages in file order), followed by the summary.
+//! Metadata and attachments are copied; rosbag2's metadata record is kept
+//! when the input has it (it is written last, so then every message was
+//! written) and otherwise written anew from the recovered channels, so
+//! `ros2 bag info`, `cnc bag rerun` and any MCAP reader accept the file.
+
+use crate::record::{self, BagTopic};
+use mcap::records::{op, Record};
+use std::collections::BTreeMap;
+use std::fmt;
+use std::fs::File;
+use std::io::{BufReader, BufWriter, Read, Seek, Write};
+use std::path::{Path, PathBuf};
+
+/// What [`recover`] found and wrote.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Recovery {
+    pub input: PathBuf,
+    pub output: PathBuf,
+    /// messages written to the output
+    pub messages: u64,
+    /// channels defined in the output, and those with at least one message
+    pub channels: usize,
+    pub channels_with_messages: usize,
+    /// complete chunks read
+    pub chunks: u32,
+    /// log time of the first and the last message, ns
+    pub start_ns: Option<u64>,
+    pub end_ns: Option<u64>,
+    /// metadata records copied (names, in file order)
+    pub metadata: Vec<String>,
+    /// attachments copied (names, in file order)
+    pub attachments: Vec<String>,
+    /// the input's rosbag2 metadata was kept (else written anew, or none
+    /// for a profile other than `ros2`)
+    pub rosbag2_kept: bool,
+    /// the input ended properly (its data section was complete)
+    pub complete: bool,
+    /// bytes at the end of the input that were not whole records, and
+    /// what they were (e.g. "an unfinished chunk")
+    pub dropped_bytes: u64,
+    pub dropped: Option<String>,
+    /// whole records that could not be read (bad CRC, bad compression), skipped
+    pub damaged: Vec<String>,
+    /// messages of channels whose definition was lost, skipped
+    pub orphans: u64,
+    /// size of the output, bytes
+    pub bytes: u64,
+}
+
+impl fmt::Display for Recovery {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}: recovered {} message{} on {} channel{}",
+            self.input.display(),
+            self.messages,
+            if self.messages == 1 { "" } else { "s" },
+            self.channels_with_messages,
+            if self.channels_with_messages == 1 {
+                ""
+            } else {
+                "s"
+            },
+        )?;
+        if self.channels != self.channels_with_messages {
+            write!(f, " ({} defined)", self.channels)?;
+        }
+        write!(
+            f,
+            " from {} complete chunk{}",
+            self.chunks,
+            if self.chunks == 1 { "" } else { "s" }
+        )?;
+        if let (Some(s), Some(e)) = (self.start_ns, self.end_ns) {
+            write!(
+                f,
+                ", up to t = {:.3} s (last log time {}.{:09} s)",
+                e.saturating_sub(s) as f64 * 1e-9,
+                e / 1_000_000_000,
+                e % 1_000_000_000
+            )?;
+        }
+        match (&self.dropped, self.complete) {
+            (Some(what), _) => write!(f, "; dropped {} bytes of {what}", self.dropped_bytes)?,
+            (None, true) => write!(f, "; the file was complete, nothing was lost")?,
+            (None, false) => write!(f, "; the file ended after a whole record, nothing was cut")?,
+        }
+        for d in &self.damaged {
+            write!(f, "; skipped {d}")?;
+        }
+        if self.orphans > 0 {
+            write!(
+                f,
+                "; skipped {} message(s) of channels whose definition was lost",
+                self.orphans
+            )?;
+        }
+        writeln!(f)?;
+        let list = |v: &[String]| {
+            if v.is_empty() {
+                "none".to_string()
+            } else {
+                v.join(", ")
+            }
+        };
+        write!(
+            f,
+            "{}: {} bytes with summary; metadata: {}{}; attachments: {}",
+            self.output.display(),
+            self.bytes,
+            list(&self.metadata),
+            if self.rosbag2_kept {
+                " (rosbag2 kept)"
+            } else if self.metadata.iter().any(|m| m == "rosbag2") {
+                " (rosbag2 written anew)"
+            } else {
+                ""
+            },
+            list(&self.attachments)
+        )
+    }
+}
+
+/// What a record with opcode `op` is, for the reports.
+fn record_name(opcode: u8) -> &'static str {
+    match opcode {
+        op::HEADER => "header",
+        op::FOOTER => "footer",
+        op::SCHEMA => "schema",
+        op::CHANNEL => "channel",
+        op::MESSAGE => "message",
+        op::CHUNK => "chunk",
+        op::MESSAGE_INDEX => "message index",
+        op::CHUNK_INDEX => "chunk index",
+        op::ATTACHMENT => "attachment",
+        op::ATTACHMENT_INDEX => "attachment index",
+        op::STATISTICS => "statistics record",
+        op::METADATA => "metadata record",
+        op::METADATA_INDEX => "metadata index",
+        op::SUMMARY_OFFSET => "summary offset",
+        op::DATA_END => "data end record",
+        _ => "record",
+    }
+}
+
+/// Whether an Attachment record's body holds its header (log time,
+/// create time, name, media type, data length) and its CRC, which the
+/// `mcap` crate's parser assumes.
+fn attachment_fits(body: &[u8]) -> bool {
+    let u32_at = |off: usize| -> Option<usize> {
+        let b = body.get(off..off + 4)?;
+        Some(u32::from_le_bytes(b.try_into().ok()?) as usize)
+    };
+    let mut off = 16usize;
+    for _ in 0..2 {
+        match u32_at(off).and_then(|n| off.checked_add(4)?.checked_add(n)) {
+            Some(o) => off = o,
+            None => return false,
+        }
+    }
+    off.checked_add(8 + 4).is_some_and(|end| end <= body.len())
+}
+
+/// Reads `input` (see the module documentation) and writes the complete
+/// recording `out`. Errors, with nothing left at `out`, for a file that is
+/// not MCAP, for `out` equal to `input`, and for I/O errors.
+pub fn recover(input: &Path, out: &Path) -> Result<Recovery, String> {
+    let same = match (input.canonicalize(), out.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    if same {
+        return Err(format!(
+            "{}: the output must be another file than the input",
+            out.display()
+        ));
+    }
+    let f = File::open(input).map_err(|e| format!("{}: {e}", input.display()))?;
+    let len = f
+        .metadata()
+        .map_err(|e| format!("{}: {e}", input.display()))?
+        .len();
+    let mut reader = BufReader::with_capacity(1 << 16, f);
+    // the input is checked before the output is created
+    check_magic(&mut reader, len).map_err(|e| format!("{}: {e}", input.display()))?;
+    let w = File::create(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let file_name = out
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let r = recover_records(
+        &mut reader,
+        len,
+        BufWriter::with_capacity(1 << 16, w),
+        &file_name,
+    )
+    .map(|(r, _)| r);
+    match r {
+        Ok(mut r) => {
+            r.input = input.to_path_buf();
+            r.output = out.to_path_buf();
+            Ok(r)
+        }
+        Err(e) => {
+            let _ = std::fs::remove_file(out);
+            Err(format!("{}: {e}", input.display()))
+        }
+    }
+}
+
+/// [`recover`] of a recording in memory into any writer; `file_name` is
+/// what a new rosbag2 metadata record names as the file.
+pub fn recover_bytes<W: Write + Seek>(
+    bytes: &[u8],
+    w: W,
+    file_name: &str,
+) -> Result<(Recovery, W), String> {
+    let mut r = std::io::Cursor::new(bytes);
+    check_magic(&mut r, bytes.len() as u64)?;
+    recover_records(&mut r, bytes.len() as u64, w, file_name)
+}
+
+fn check_magic(r: &mut impl Read, len: u64) -> Result<(), String> {
+    let not_mcap = |why: &str| {
+        format!(
+            "not an MCAP file: {why} (an MCAP file starts with the 8 bytes 89 4D 43 41 50 30 0D 0A, \"\\x89MCAP0\\r\\n\")"
+        )
+    };
+    if len == 0 {
+        return Err(not_mcap("the file is empty"));
+    }
+    let mut magic = [0u8; 8];
+    let n = (len.min(8)) as usize;
+    r.read_exact(&mut magic[..n])
+        .map_err(|e| format!("reading the file: {e}"))?;
+    if n < 8 || magic != mcap::MAGIC {
+        let shown: Vec<String> = magic[..n].iter().map(|b| format!("{b:02X}")).collect();
+        return Err(not_mcap(&format!(
+            "it starts with {}{}",
+            shown.join(" "),
+            if n < 8 { " and ends there" } else { "" }
+        )));
+    }
+    Ok(())
+}
+
+/// A schema and a channel as read, for the output and the report.
+struct ChannelInfo {
+    topic: String,
+    schema_name: String,
+    qos_yaml: String,
+    count: u64,
+}
+
+struct State<W: Write + Seek> {
+    w: mcap::Writer<W>,
+    rec: Recovery,
+    channels: BTreeMap<u16, ChannelInfo>,
+    schema_names: BTreeMap<u16, String>,
+    rosbag2: Option<mcap::records::Metadata>,
+    profile: String,
+}
+
+impl<W: Write + Seek> State<W> {
+    fn schema(&mut self, id: u16, name: &str, encoding: &str, data: &[u8]) -> Result<(), String> {
+        if id == 0 {
+            return Ok(());
+        }
+        self.w
+            .add_schema_with_id(id, name, encoding, data)
+            .map_err(|e| format!("schema {id} ({name}): {e}"))?;
+        self.schema_names.insert(id, name.to_string());
+        Ok(())
+    }
+
+    fn channel(&mut self, c: &mcap::records::Channel) -> Result<(), String> {
+        if c.schema_id != 0 && !self.schema_names.contains_key(&c.schema_id) {
+            // its schema was lost: the channel and its messages go
+            return Ok(());
+        }
+        self.w
+            .add_channel_with_id(
+                c.id,
+                c.schema_id,
+                &c.topic,
+                &c.message_encoding,
+                &c.metadata,
+            )
+            .map_err(|e| format!("channel {} ({}): {e}", c.id, c.topic))?;
+        self.channels.entry(c.id).or_insert_with(|| ChannelInfo {
+            topic: c.topic.clone(),
+            schema_name: self
+                .schema_names
+                .get(&c.schema_id)
+                .cloned()
+                .unwrap_or_default(),
+            qos_yaml: c
+                .metadata
+                .get("offered_qos_profiles")
+                .cloned()
+                .unwrap_or_else(|| record::qos_yaml(&record::Qos::DEFAULT)),
+            count: 0,
+        });
+        Ok(())
+    }
+
+    fn message(&mut self, h: &mcap::records::MessageHeader, data: &[u8]) -> Result<(), String> {
+        let Some(c) = self.channels.get_mut(&h.channel_id) else {
+            self.rec.orphans += 1;
+            return Ok(());
+        };
+        c.count += 1;
+        self.w
+            .write_to_known_channel(h, data)
+            .map_err(|e| format!("writing a message of {}: {e}", c.topic))?;
+        self.rec.messages += 1;
+        let t = h.log_time;
+        self.rec.start_ns = Some(self.rec.start_ns.map_or(t, |s| s.min(t)));
+        self.rec.end_ns = Some(self.rec.end_ns.map_or(t, |e| e.max(t)));
+        Ok(())
+    }
+
+    /// One whole top-level record. Ok(false): the data section ended.
+    fn record(&mut self, opcode: u8, body: &[u8], at: u64) -> Result<bool, String> {
+        let damaged =
+            |e: mcap::McapError| format!("a damaged {} at byte {at} ({e})", record_name(opcode));
+        if opcode == op::ATTACHMENT && !attachment_fits(body) {
+            self.rec.damaged.push(format!(
+                "a damaged attachment at byte {at} (shorter than its header and CRC)"
+            ));
+            return Ok(true);
+        }
+        let rec = match mcap::read::parse_record(opcode, body) {
+            Ok(r) => r,
+            Err(e) => {
+                self.rec.damaged.push(damaged(e));
+                return Ok(true);
+            }
+        };
+        match rec {
+            Record::Header(_) => {}
+            Record::Schema { header, data } => {
+                self.schema(header.id, &header.name, &header.encoding, &data)?
+            }
+            Record::Channel(c) => self.channel(&c)?,
+            Record::Message { header, data } => self.message(&header, &data)?,
+            Record::Chunk { header, data } => {
+                // the whole chunk or nothing of it
+                let records: Result<Vec<Record>, _> =
+                    match mcap::read::ChunkReader::new(header, &data) {
+                        Ok(r) => r.collect(),
+                        Err(e) => Err(e),
+                    };
+                let records = match records {
+                    Ok(r) => r,
+                    Err(e) => {
+                        self.rec.damaged.push(damaged(e));
+                        return Ok(true);
+                    }
+                };
+                self.rec.chunks += 1;
+                for r in records {
+                    match r {
+                        Record::Schema { header, data } => {
+                            self.schema(header.id, &header.name, &header.encoding, &data)?
+                        }
+                        Record::Channel(c) => self.channel(&c)?,
+                        Record::Message { header, data } => self.message(&header, &data)?,
+                        _ => {}
+                    }
+                }
+            }
+            Record::Attachment { header, data, .. } => {
+                self.w
+                    .attach(&mcap::Attachment {
+                        log_time: header.log_time,
+                        create_time: header.create_time,
+                        name: header.name.clone(),
+                        media_type: header.media_type,
+                        data,
+                    })
+                    .map_err(|e| format!("attachment {}: {e}", header.name))?;
+                self.rec.attachments.push(header.name);
+            }
+            Record::Metadata(m) => {
+                if m.name == "rosbag2" {
+                    // written last, as the recorder does
+                    self.rosbag2 = Some(m);
+                } else {
+                    self.w
+                        .write_metadata(&m)
+                        .map_err(|e| format!("metadata {}: {e}", m.name))?;
+                    self.rec.metadata.push(m.name);
+                }
+            }
+            Record::DataEnd(_) | Record::Footer(_) => {
+                self.rec.complete = true;
+                return Ok(false);
+            }
+            // indexes and the summary are written anew
+            _ => {}
+        }
+        Ok(true)
+    }
+}
+
+fn recover_records<R: Read, W: Write + Seek>(
+    r: &mut R,
+    len: u64,
+    w: W,
+    file_name: &str,
+) -> Result<(Recovery, W), String> {
+    let io = |e: std::io::Error| format!("reading the file: {e}");
+    // (opcode, length) of the next record, or what cut it off
+    let next = |r: &mut R, pos: u64| -> Result<Result<(u8, u64), Recovery>, String> {
+        let left = len - pos;
+        let cut = |what: String| {
+            Ok(Err(Recovery {
+                dropped_bytes: left,
+                dropped: Some(what),
+                ..Default::default()
+            }))
+        };
+        if left < 9 {
+            return cut("a record cut off in its opcode and length".into());
+        }
+        let mut head = [0u8; 9];
+        r.read_exact(&mut head).map_err(io)?;
+        let opcode = head[0];
+        let rec_len = u64::from_le_bytes(head[1..].try_into().unwrap_or_default());
+        if rec_len > left - 9 {
+            return cut(format!(
+                "an unfinished {}{}",
+                record_name(opcode),
+                if rec_len == u64::MAX {
+                    " (its length was never written: the recorder was stopped while it was open)"
+                } else {
+                    ""
+                }
+            ));
+        }
+        Ok(Ok((opcode, rec_len)))
+    };
+    let mut body = Vec::new();
+    let mut pos = 8u64;
+    // the header first: its profile is the output's
+    let mut profile = String::new();
+    let mut cut = None;
+    if pos < len {
+        match next(r, pos)? {
+            Ok((opcode, rec_len)) => {
+                if opcode != op::HEADER {
+                    return Err(format!(
+                        "not an MCAP file: the magic is not followed by a header record (opcode 0x{opcode:02x})"
+                    ));
+                }
+                body.resize(rec_len as usize, 0);
+                r.read_exact(&mut body).map_err(io)?;
+                match mcap::read::parse_record(opcode, &body) {
+                    Ok(Record::Header(h)) => profile = h.profile,
+                    _ => return Err("not an MCAP file: its header record is damaged".into()),
+                }
+                pos += 9 + rec_len;
+            }
+            Err(c) => cut = Some(c),
+        }
+    }
+    let w = record::write_options(Some(record::CHUNK_SIZE))
+        .profile(profile.clone())
+        .create(w)
+        .map_err(|e| format!("writing the MCAP header: {e}"))?;
+    let mut st = State {
+        w,
+        rec: Recovery::default(),
+        channels: BTreeMap::new(),
+        schema_names: BTreeMap::new(),
+        rosbag2: None,
+        profile,
+    };
+    while cut.is_none() && pos < len {
+        match next(r, pos)? {
+            Ok((opcode, rec_len)) => {
+                body.clear();
+                body.resize(rec_len as usize, 0);
+                r.read_exact(&mut body).map_err(io)?;
+                if !st.record(opcode, &body, pos)? {
+                    break;
+                }
+                pos += 9 + rec_len;
+            }
+            Err(c) => cut = Some(c),
+        }
+    }
+    if let Some(c) = cut {
+        st.rec.dropped_bytes = c.dropped_bytes;
+        st.rec.dropped = c.dropped;
+    }
+    let State {
+        mut w,
+        mut rec,
+        channels,
+        rosbag2,
+        profile,
+        ..
+    } = st;
+    let rosbag2 = match rosbag2 {
+        Some(m) => {
+            rec.rosbag2_kept = true;
+            Some(m)
+        }
+        None if profile == record::PROFILE => {
+            let topics: Vec<BagTopic> = channels
+                .values()
+                .map(|c| BagTopic {
+                    name: c.topic.clone(),
+                    type_name: c.schema_name.clone(),
+                    qos_yaml: c.qos_yaml.clone(),
+                    count: c.count,
+                })
+                .collect();
+            let mut meta = BTreeMap::new();
+            meta.insert(
+                "serialized_metadata".to_string(),
+                record::bag_metadata_yaml(
+                    &topics,
+                    rec.start_ns.unwrap_or(0),
+                    rec.end_ns.unwrap_or(0),
+                    file_name,
+                ),
+            );
+            meta.insert("ROS_DISTRO".to_string(), record::ROS_DISTRO.to_string());
+            Some(mcap::records::Metadata {
+                name: "rosbag2".into(),
+                metadata: meta,
+            })
+        }
+        None => None,
+    };
+    if let Some(m) = rosbag2 {
+        w.write_metadata(&m)
+            .map_err(|e| format!("writing metadata: {e}"))?;
+        rec.metadata.push(m.name);
+    }
+    w.finish()
+        .map_err(|e| format!("writing the summary: {e}"))?;
+    let mut out = w.into_inner();
+    out.flush()
+        .map_err(|e| format!("writing the MCAP file: {e}"))?;
+    rec.bytes = out
+        .stream_position()
+        .map_err(|e| format!("writing the MCAP file: {e}"))?;
+    rec.channels = channels.len();
+    rec.channels_with_messages = channels.values().filter(|c| c.count > 0).count();
+    Ok((rec, out))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::record::{Recorder, RecordingInfo};
+    use std::io::Cursor;
+
+    fn recording(n: u64) -> Vec<u8> {
+        let mut rec =
+            Recorder::new(Cursor::new(Vec::new()), "r.mcap", RecordingInfo::default()).unwrap();
+        let ch = rec.channel::<cnc_msgs::Float64>("/a").unwrap();
+        for k in 0..n {
+            rec.write(ch, 1_000 + k, &cnc_msgs::Float64 { data: k as f64 })
+                .unwrap();
+        }
+        rec.finish_into_inner().unwrap().1.into_inner()
+    }
+
+    #[test]
+    fn a_complete_file_is_copied_whole() {
+        let bytes = recording(10);
+        let (r, out) = recover_bytes(&bytes, Cursor::new(Vec::new()), "o.mcap").unwrap();
+        assert!(r.complete);
+        assert_eq!(r.messages, 12); // /a, /cnc/program, /cnc/machine_file
+        assert_eq!((r.start_ns, r.end_ns), (Some(1_000), Some(1_009)));
+        assert!(r.rosbag2_kept);
+        assert_eq!(r.metadata, ["cnc", "rosbag2"]);
+        assert_eq!(r.attachments, ["program.nc", "machine.toml"]);
+        let out = out.into_inner();
+        let s = mcap::Summary::read(&out).unwrap().unwrap();
+        assert_eq!(s.stats.unwrap().message_count, 12);
+    }
+
+    #[test]
+    fn not_mcap_is_an_error() {
+        for (bytes, want) in [
+            (&b""[..], "the file is empty"),
+            (b"\x89MCA", "it starts with 89 4D 43 41 and ends there"),
+            (b"G01 X10 Y20\n", "it starts with 47 30 31 20 58 31 30 20"),
+        ] {
+            let e = recover_bytes(bytes, Cursor::new(Vec::new()), "o.mcap").unwrap_err();
+            assert!(e.starts_with("not an MCAP file: "), "{e}");
+            assert!(e.contains(want), "{e}");
+        }
+        let mut b = mcap::MAGIC.to_vec();
+        b.extend_from_slice(&[0x05, 1, 0, 0, 0, 0, 0, 0, 0, 0]);
+        let e = recover_bytes(&b, Cursor::new(Vec::new()), "o.mcap").unwrap_err();
+        assert!(
+            e.contains("not followed by a header record (opcode 0x05)"),
+            "{e}"
+        );
+    }
+}

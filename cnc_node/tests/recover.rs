@@ -1,0 +1,560 @@
+//! Recordings survive a killed process: `cnc bag recover` on files cut at
+//! chosen bytes, on the file a SIGKILLed `cnc simulate --mcap` leaves, on a
+//! recorder that stops without closing (what a kill leaves in the OS), and
+//! on files that are not MCAP.
+
+use cnc_core::Machine;
+use cnc_msgs::{ControllerStatus, Float64, JointState, StringMsg};
+use cnc_node::record::{
+    from_cdr, record_simulation, topics, Recorder, RecordingInfo, CHUNK_SIZE, EPOCH_NS,
+    LIVE_CHUNK_SPAN_NS,
+};
+use cnc_node::recover::{recover, Recovery};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// A fresh directory for one test.
+fn tmp(test: &str) -> PathBuf {
+    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("recover_{test}"));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// One message as a reader sees it: topic, sequence, log time, payload.
+type Msg = (String, u32, u64, Vec<u8>);
+
+/// The chunks of a complete recording from its summary, in file order:
+/// (start offset, end offset, the chunk's messages in file order).
+fn chunks(bytes: &[u8]) -> Vec<(u64, u64, Vec<Msg>)> {
+    let s = mcap::Summary::read(bytes).unwrap().unwrap();
+    let mut idx = s.chunk_indexes.clone();
+    idx.sort_by_key(|c| c.chunk_start_offset);
+    idx.iter()
+        .map(|c| {
+            let mut msgs = Vec::new();
+            for m in s.stream_chunk(bytes, c).unwrap() {
+                let m = m.unwrap();
+                msgs.push((
+                    m.channel.topic.clone(),
+                    m.sequence,
+                    m.log_time,
+                    m.data.into_owned(),
+                ));
+            }
+            (
+                c.chunk_start_offset,
+                c.chunk_start_offset + c.chunk_length,
+                msgs,
+            )
+        })
+        .collect()
+}
+
+/// Every message of a complete file, in file order, checked against its
+/// summary's statistics.
+fn messages(bytes: &[u8]) -> Vec<Msg> {
+    let s = mcap::Summary::read(bytes).unwrap().expect("a summary");
+    let v: Vec<Msg> = mcap::MessageStream::new(bytes)
+        .unwrap()
+        .map(|m| {
+            let m = m.unwrap();
+            (
+                m.channel.topic.clone(),
+                m.sequence,
+                m.log_time,
+                m.data.into_owned(),
+            )
+        })
+        .collect();
+    assert_eq!(s.stats.unwrap().message_count, v.len() as u64);
+    v
+}
+
+/// Every setpoint decodes, and they are 1 ms apart from EPOCH_NS on.
+fn check_setpoints(msgs: &[Msg]) -> usize {
+    let mut n = 0;
+    for (topic, seq, t, data) in msgs {
+        if topic == topics::JOINT_SETPOINTS {
+            let js: JointState = from_cdr(data).unwrap();
+            assert_eq!(js.name, ["x", "y", "z"]);
+            assert_eq!(*t, EPOCH_NS + n as u64 * 1_000_000);
+            assert_eq!(*seq, n as u32 + 1);
+            n += 1;
+        }
+    }
+    n
+}
+
+fn mill_pocket(dir: &Path) -> PathBuf {
+    let m = Machine::builtin_mill();
+    let text = std::fs::read_to_string(root().join("examples/mill_pocket.nc")).unwrap();
+    let p = dir.join("mill_pocket.mcap");
+    record_simulation(&m, "mill_pocket.nc", &text, m.dialect, &p).unwrap();
+    p
+}
+
+/// `cnc bag recover INPUT -o OUT`
+fn cnc_recover(input: &Path, out: &Path) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_cnc"))
+        .args(["bag", "recover"])
+        .arg(input)
+        .arg("-o")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
+fn metadata_names(bytes: &[u8]) -> Vec<String> {
+    let s = mcap::Summary::read(bytes).unwrap().unwrap();
+    s.metadata_indexes.iter().map(|m| m.name.clone()).collect()
+}
+
+#[test]
+fn cut_recordings_keep_every_complete_chunk() {
+    let dir = tmp("cut");
+    let full_path = mill_pocket(&dir);
+    let full = std::fs::read(&full_path).unwrap();
+    let chunks = chunks(&full);
+    // the schemas and channels, then message chunks of about CHUNK_SIZE
+    assert_eq!(chunks.len(), 7);
+    assert!(chunks[0].2.is_empty());
+    let all = messages(&full);
+    assert_eq!(all.len(), 43_788);
+    assert_eq!(
+        chunks.iter().map(|c| c.2.len()).sum::<usize>(),
+        all.len(),
+        "every message is in a chunk"
+    );
+    let data_end = chunks.last().unwrap().1;
+    // (cut offset, what is dropped): just after a chunk, one byte into the
+    // next record, in the middle of a chunk, inside a chunk's header, the
+    // summary cut off, the whole file
+    let mut cuts: Vec<(u64, Option<&str>)> = Vec::new();
+    for c in &chunks[1..] {
+        cuts.push((c.1, None));
+        cuts.push(((c.0 + c.1) / 2, Some("an unfinished chunk")));
+        cuts.push((c.0 + 20, Some("an unfinished chunk")));
+    }
+    cuts.push((
+        chunks[3].1 + 1,
+        Some("a record cut off in its opcode and length"),
+    ));
+    cuts.push((full.len() as u64 - 100, None));
+    cuts.push((full.len() as u64, None));
+    for (cut, dropped) in cuts {
+        let cut_path = dir.join(format!("cut_{cut}.mcap"));
+        std::fs::write(&cut_path, &full[..cut as usize]).unwrap();
+        let out = dir.join(format!("rec_{cut}.mcap"));
+        let r = recover(&cut_path, &out).unwrap();
+        let got = std::fs::read(&out).unwrap();
+        assert_eq!(r.bytes, got.len() as u64);
+        let recovered = messages(&got);
+        // exactly the messages of the chunks that end at or before the cut
+        let complete: Vec<&(u64, u64, Vec<Msg>)> = chunks.iter().filter(|c| c.1 <= cut).collect();
+        let want: Vec<Msg> = complete.iter().flat_map(|c| c.2.clone()).collect();
+        assert_eq!(recovered.len(), want.len(), "cut at {cut}: {r}");
+        assert!(recovered == want, "cut at {cut}: other messages");
+        assert_eq!(r.messages, want.len() as u64);
+        assert_eq!(r.chunks as usize, complete.len(), "cut at {cut}");
+        let n = check_setpoints(&recovered);
+        assert_eq!(
+            n,
+            want.iter()
+                .filter(|m| m.0 == topics::JOINT_SETPOINTS)
+                .count()
+        );
+        if let Some(last) = want.iter().map(|m| m.2).max() {
+            assert_eq!(r.end_ns, Some(last));
+            let line = r.to_string();
+            let up_to = format!("recovered {} messages on ", want.len());
+            assert!(line.contains(&up_to), "{line}");
+            assert!(
+                line.contains(&format!(
+                    "up to t = {:.3} s",
+                    (last - EPOCH_NS) as f64 * 1e-9
+                )),
+                "{line}"
+            );
+        }
+        match dropped {
+            Some(what) => {
+                assert!(r.dropped.as_deref().unwrap().starts_with(what), "{r}");
+                let start = if what == "an unfinished chunk" {
+                    chunks.iter().find(|c| c.0 <= cut && cut < c.1).unwrap().0
+                } else {
+                    cut - 1
+                };
+                assert_eq!(r.dropped_bytes, cut - start, "cut at {cut}");
+                assert!(
+                    r.to_string()
+                        .contains(&format!("dropped {} bytes of {what}", cut - start)),
+                    "{r}"
+                );
+            }
+            None => {
+                assert_eq!((r.dropped_bytes, r.dropped.as_deref()), (0, None), "{r}");
+                // the data end record is there unless the cut is inside the data
+                assert_eq!(r.complete, cut >= full.len() as u64 - 100, "cut at {cut}");
+            }
+        }
+        // the job is there whenever its chunk and attachments are: rerun
+        // accepts the file
+        assert_eq!(r.attachments, ["program.nc", "machine.toml"]);
+        let job = cnc_node::bag::Bag::read(&out).unwrap().job().unwrap();
+        assert_eq!(job.program_name, "mill_pocket.nc");
+        // rosbag2's metadata: kept from a file that had it, else anew with
+        // the recovered counts and the new file's name
+        assert_eq!(metadata_names(&got), ["cnc", "rosbag2"]);
+        let s = mcap::Summary::read(&got).unwrap().unwrap();
+        let y = mcap::read::metadata(&got, &s.metadata_indexes[1]).unwrap();
+        let y = &y.metadata["serialized_metadata"];
+        if r.rosbag2_kept {
+            assert!(cut > data_end, "cut at {cut}");
+            assert!(y.contains("  - mill_pocket.mcap\n"), "{y}");
+        } else {
+            assert!(cut <= data_end, "cut at {cut}");
+            assert!(y.contains(&format!("  - rec_{cut}.mcap\n")), "{y}");
+            assert!(
+                y.contains(&format!("\nmessage_count: {}\n", want.len())),
+                "{y}"
+            );
+            assert!(y.ends_with("custom_data: ~\nros_distro: kilted"), "{y}");
+        }
+    }
+    // recovering the complete file gives it back byte for byte: the same
+    // writer, the same chunking
+    let out = dir.join("again.mcap");
+    let r = recover(&full_path, &out).unwrap();
+    assert!(r.complete && r.rosbag2_kept, "{r}");
+    assert!(std::fs::read(&out).unwrap() == full);
+}
+
+#[test]
+fn a_recorder_that_never_closes_loses_only_the_open_chunk() {
+    // what a kill leaves: the file as the OS has it while the recorder
+    // still runs (nothing closed, the file buffer not flushed). Live
+    // recordings close a chunk every second of log time.
+    let dir = tmp("open");
+    let path = dir.join("live.mcap");
+    let mut rec = Recorder::create(
+        &path,
+        RecordingInfo {
+            program_name: "p.nc".into(),
+            program_text: "G0 X1\n".into(),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    rec.set_max_chunk_span(Some(LIVE_CHUNK_SPAN_NS));
+    let ch = rec.channel::<Float64>("/a").unwrap();
+    // 3.5 s at 1 kHz: chunks 0..999, 1000..1999, 2000..2999 are closed by
+    // the messages at 1000, 2000 and 3000 ms; 3000..3499 is open
+    for k in 0..3500u64 {
+        rec.write(ch, EPOCH_NS + k * 1_000_000, &Float64 { data: k as f64 })
+            .unwrap();
+    }
+    let killed = std::fs::read(&path).unwrap();
+    let cut = dir.join("killed.mcap");
+    std::fs::write(&cut, &killed).unwrap();
+    let out = dir.join("recovered.mcap");
+    let r = recover(&cut, &out).unwrap();
+    assert_eq!(r.chunks, 4, "{r}"); // schemas and channels, then 3 of messages
+    assert_eq!(r.messages, 3002, "{r}"); // + /cnc/program, /cnc/machine_file
+    assert_eq!(r.end_ns, Some(EPOCH_NS + 2_999_000_000));
+    assert!(
+        r.to_string().contains(
+            "recovered 3002 messages on 3 channels from 4 complete chunks, up to t = 2.999 s (last log time 1700000002.999000000 s); dropped "
+        ),
+        "{r}"
+    );
+    assert!(r
+        .dropped
+        .as_deref()
+        .unwrap()
+        .starts_with("an unfinished chunk"));
+    let got = std::fs::read(&out).unwrap();
+    let mut k = 0u64;
+    for (topic, _, t, data) in messages(&got) {
+        match topic.as_str() {
+            "/a" => {
+                assert_eq!(from_cdr::<Float64>(&data).unwrap().data, k as f64);
+                assert_eq!(t, EPOCH_NS + k * 1_000_000);
+                k += 1;
+            }
+            topics::PROGRAM => {
+                assert_eq!(from_cdr::<StringMsg>(&data).unwrap().data, "G0 X1\n")
+            }
+            _ => {}
+        }
+    }
+    assert_eq!(k, 3000);
+    // a quiet recorder closes its chunk when asked after the span
+    rec.close_stale_chunk(EPOCH_NS + 3_000_000_000 + LIVE_CHUNK_SPAN_NS - 1)
+        .unwrap();
+    assert_eq!(std::fs::read(&path).unwrap().len(), killed.len());
+    rec.close_stale_chunk(EPOCH_NS + 3_000_000_000 + LIVE_CHUNK_SPAN_NS)
+        .unwrap();
+    std::fs::write(&cut, std::fs::read(&path).unwrap()).unwrap();
+    let r = recover(&cut, &out).unwrap();
+    assert_eq!((r.messages, r.dropped_bytes), (3502, 0), "{r}");
+    let s = rec.finish().unwrap();
+    assert_eq!(s.messages, 3502);
+
+    // offline recordings are chunked by size alone, so a run at 1 kHz of
+    // small messages holds about CHUNK_SIZE per chunk
+    let mut rec = Recorder::new(
+        std::io::Cursor::new(Vec::new()),
+        "x.mcap",
+        RecordingInfo::default(),
+    )
+    .unwrap();
+    let ch = rec.channel::<Float64>("/a").unwrap();
+    for k in 0..100_000u64 {
+        rec.write(ch, EPOCH_NS + k * 1_000_000, &Float64 { data: 0.0 })
+            .unwrap();
+    }
+    let (s, _) = rec.finish_into_inner().unwrap();
+    // 43 bytes a message record: 1 MiB holds 24386 of them
+    assert_eq!(
+        s.chunks,
+        1 + 100_000u32.div_ceil((CHUNK_SIZE / 43 + 1) as u32)
+    );
+}
+
+#[test]
+fn a_node_job_recording_loses_at_most_its_last_second() {
+    // the node's recorder (JobRecorder) as the node drives it: setpoints
+    // at 1 kHz for 2.5 s, the file read while the job still runs
+    let dir = tmp("job");
+    let path = dir.join("job_1_p.nc.mcap");
+    let m = Machine::builtin_mill();
+    let info = RecordingInfo {
+        program_name: "p.nc".into(),
+        program_text: "G01 X10 F600\n".into(),
+        ..Default::default()
+    };
+    let mut job = cnc_node::record::JobRecorder::create(&path, info, &m).unwrap();
+    for k in 0..2500u64 {
+        let ns = EPOCH_NS + k * 1_000_000;
+        job.setpoints(&JointState {
+            header: cnc_msgs::Header {
+                stamp: cnc_node::record::time_from_ns(ns),
+                frame_id: String::new(),
+            },
+            name: vec!["x".into(), "y".into(), "z".into()],
+            position: vec![k as f64 * 1e-6, 0.0, 0.0],
+            ..Default::default()
+        })
+        .unwrap();
+    }
+    let killed = dir.join("killed.mcap");
+    std::fs::write(&killed, std::fs::read(&path).unwrap()).unwrap();
+    let out = dir.join("recovered.mcap");
+    let r = recover(&killed, &out).unwrap();
+    // chunks closed at 1 s and 2 s: setpoints 0..1999 are on disk
+    let got = messages(&std::fs::read(&out).unwrap());
+    assert_eq!(check_setpoints(&got), 2000, "{r}");
+    assert_eq!(r.end_ns, Some(EPOCH_NS + 1_999_000_000), "{r}");
+    job.finish().unwrap();
+}
+
+/// A program of 48 h of motion: a pocket outline repeated 10000 times.
+const LONG: &str = "N10 G17 G90 G94 M03 S3000 T1
+N20 G00 X20 Y10 Z5
+N30 G01 Z-2 F300
+N40 G01 X80 F900
+N50 G03 X90 Y20 I0 J10
+N60 G01 Y60
+N70 G03 X80 Y70 I-10 J0
+N80 G01 X20
+N90 G03 X10 Y60 I0 J-10
+N100 G01 Y20
+N110 G03 X20 Y10 I10 J0 G73 L40 Q9999
+N120 G00 Z5
+N130 M30
+";
+
+#[test]
+fn a_killed_recording_is_recovered() {
+    let dir = tmp("killed");
+    let prog = dir.join("long.nc");
+    std::fs::write(&prog, LONG).unwrap();
+    let killed = dir.join("long.mcap");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_cnc"))
+        .args(["simulate", prog.to_str().unwrap(), "--mcap"])
+        .arg(&killed)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // SIGKILL once more than 3 chunks are on disk
+    let start = Instant::now();
+    loop {
+        let len = std::fs::metadata(&killed).map_or(0, |m| m.len());
+        if len > 3 * CHUNK_SIZE / 2 {
+            break;
+        }
+        if let Some(st) = child.try_wait().unwrap() {
+            panic!("cnc simulate ended ({st}) before it was killed");
+        }
+        if start.elapsed() > Duration::from_secs(120) {
+            let _ = child.kill();
+            panic!("cnc simulate wrote {len} bytes in 120 s");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    let bytes = std::fs::read(&killed).unwrap();
+    assert!(mcap::Summary::read(&bytes).is_err() || mcap::Summary::read(&bytes).unwrap().is_none());
+    let out = dir.join("recovered.mcap");
+    let o = cnc_recover(&killed, &out);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    // the killed file itself is refused by the other commands, with the way out
+    let e = cnc_node::bag::Bag::read(&killed).unwrap_err();
+    assert!(e.contains("`cnc bag recover "), "{e}");
+    assert!(
+        o.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let got = messages(&std::fs::read(&out).unwrap());
+    let line = format!(
+        "long.mcap: recovered {} messages on 8 channels (9 defined)",
+        got.len()
+    );
+    assert!(stdout.contains(&line), "{stdout}");
+    assert!(stdout.contains("bytes of an unfinished chunk"), "{stdout}");
+
+    // a shorter run of the same start, complete, in process: its chunks
+    // that ended on disk before the kill are all recovered, and nothing
+    // else. 4 loops (70 s of motion) hold more chunks than the killed file.
+    let m = Machine::builtin_mill();
+    let reference = dir.join("reference.mcap");
+    let short = LONG.replace("Q9999", "Q3");
+    record_simulation(&m, "long.nc", &short, m.dialect, &reference).unwrap();
+    let full = std::fs::read(&reference).unwrap();
+    let chunks = chunks(&full);
+    let len = bytes.len() as u64;
+    assert!(chunks.last().unwrap().1 > len);
+    let on_disk = chunks.iter().filter(|c| c.1 <= len).count();
+    // a kill between writing a chunk's data and patching its header leaves
+    // the file ending exactly at that chunk's end
+    let complete = if chunks[on_disk - 1].1 == len
+        && got.len() < chunks[..on_disk].iter().map(|c| c.2.len()).sum()
+    {
+        on_disk - 1
+    } else {
+        on_disk
+    };
+    eprintln!(
+        "killed at {len} bytes: {complete} of {} reference chunks complete, {} messages recovered",
+        chunks.len(),
+        got.len()
+    );
+    assert!(complete >= 3, "{complete} chunks");
+    let want: Vec<Msg> = chunks[..complete]
+        .iter()
+        .flat_map(|c| c.2.clone())
+        .collect();
+    assert_eq!(got.len(), want.len());
+    // the programs differ in Q, so the program text and the status's
+    // progress (sample / samples of the run) differ; every other message
+    // is the same
+    for (g, w) in got.iter().zip(&want) {
+        assert_eq!((&g.0, g.1, g.2), (&w.0, w.1, w.2));
+        match g.0.as_str() {
+            topics::PROGRAM => {
+                assert_eq!(from_cdr::<StringMsg>(&g.3).unwrap().data, LONG)
+            }
+            topics::STATUS => {
+                let mut a: ControllerStatus = from_cdr(&g.3).unwrap();
+                let b: ControllerStatus = from_cdr(&w.3).unwrap();
+                assert!(a.progress < 0.01, "{}", a.progress);
+                a.progress = b.progress;
+                assert_eq!(a, b);
+            }
+            _ => assert!(g == w, "{} #{} differs", g.0, g.1),
+        }
+    }
+    let n = check_setpoints(&got);
+    assert!(n > 3000, "{n} setpoints");
+}
+
+#[test]
+fn not_mcap_is_refused_with_a_clear_error() {
+    let dir = tmp("garbage");
+    let out = dir.join("out.mcap");
+    let cnc = |input: &Path| cnc_recover(input, &out);
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        (
+            "prog.nc",
+            b"N10 G00 X10\n".to_vec(),
+            "not an MCAP file: it starts with 4E 31 30 20 47 30 30 20 (an MCAP file starts with the 8 bytes 89 4D 43 41 50 30 0D 0A",
+        ),
+        ("empty.mcap", Vec::new(), "not an MCAP file: the file is empty"),
+        (
+            "short.mcap",
+            vec![0x89, b'M', b'C'],
+            "not an MCAP file: it starts with 89 4D 43 and ends there",
+        ),
+        (
+            "noheader.mcap",
+            [mcap::MAGIC, &[0x0c, 3, 0, 0, 0, 0, 0, 0, 0, 1, 2, 3]].concat(),
+            "not an MCAP file: the magic is not followed by a header record (opcode 0x0c)",
+        ),
+    ];
+    for (name, bytes, want) in cases {
+        let p = dir.join(name);
+        std::fs::write(&p, &bytes).unwrap();
+        let o = cnc(&p);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{name}: {err}");
+        assert!(
+            err.starts_with(&format!("error: {}: ", p.display())),
+            "{err}"
+        );
+        assert!(err.contains(want), "{name}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(o.stdout.is_empty());
+        assert!(!out.exists(), "{name}: an output was left");
+    }
+    // a missing input, and the input as its own output
+    let o = cnc(&dir.join("missing.mcap"));
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("missing.mcap: No such file"));
+    let good = mill_pocket(&dir);
+    let o = cnc_recover(&good, &good);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&o.stderr)
+            .contains("the output must be another file than the input"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // random bytes behind a valid start are cut off, never a panic
+    let full = std::fs::read(&good).unwrap();
+    let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+    for k in 0..20 {
+        let mut b = full[..4000 + 50_000 * k].to_vec();
+        let at = b.len() - 3000;
+        for v in &mut b[at..] {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            *v = x as u8;
+        }
+        let p = dir.join("noise.mcap");
+        std::fs::write(&p, &b).unwrap();
+        let _ = std::fs::remove_file(&out);
+        let r: Recovery = recover(&p, &out).unwrap();
+        assert!(r.dropped_bytes > 0 || !r.damaged.is_empty(), "{r}");
+        messages(&std::fs::read(&out).unwrap());
+    }
+}
