@@ -9,18 +9,7 @@ use cnc_core::source::StrSource;
 use cnc_core::{check, Dialect, Machine, V3};
 
 mod common;
-use common::{dist, to_contour, El};
-
-/// `m` without its jerk limits: these tests measure the compensated path
-/// itself to 1e-6 mm, which the jerk filter moves by up to
-/// `Machine::smoothing_error_mm` (bounded for every path in props.rs).
-fn exact(m: &Machine) -> Machine {
-    let mut m = m.clone();
-    for a in &mut m.axes {
-        a.max_jerk_mm_s3 = None;
-    }
-    m
-}
+use common::{dist, exact, to_contour, El};
 
 fn run(text: &str, m: &Machine) -> Vec<Sample> {
     let m = &exact(m);

@@ -28,7 +28,7 @@ fn q6(v: f64) -> f64 {
 
 /// The mill with ±1 km of travel on every axis (for huge radii).
 fn big_mill() -> Machine {
-    let mut m = Machine::builtin_mill();
+    let mut m = common::exact(&Machine::builtin_mill());
     for a in &mut m.axes {
         a.min_mm = -1e6;
         a.max_mm = 1e6;
@@ -370,8 +370,10 @@ proptest! {
     }
 }
 
-/// Samples of a program that passes the check; the last one on `end`.
+/// Samples of a program that passes the check; the last one on `end`
+/// (without the jerk filter: these tests measure the arcs themselves).
 fn run(text: &str, m: &Machine) -> Vec<Sample> {
+    let m = &common::exact(m);
     let r = check(StrSource::new(text), Dialect::Cnc836, m);
     assert!(r.ok(), "{}\n{text}", r.message());
     let s: Vec<Sample> = Executor::new(StrSource::new(text), Dialect::Cnc836, m).collect();
@@ -412,7 +414,7 @@ proptest! {
 
 /// The mill with tool 1 of radius `r` and rounded outside corners.
 fn mill_with_tool(r: f64) -> Machine {
-    let mut m = Machine::builtin_mill();
+    let mut m = common::exact(&Machine::builtin_mill());
     m.tools[0].radius_mm = r;
     m.compensation.round_outside_corners = true;
     m

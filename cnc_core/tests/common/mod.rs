@@ -3,6 +3,20 @@
 //! offset code.
 #![allow(dead_code)]
 
+use cnc_core::Machine;
+
+/// `m` without its jerk limits: tests that measure the interpolated or
+/// compensated path itself to 1e-6 mm or better run without the jerk
+/// filter, which moves it by up to `Machine::smoothing_error_mm` (bounded
+/// for every path in props.rs).
+pub fn exact(m: &Machine) -> Machine {
+    let mut m = m.clone();
+    for a in &mut m.axes {
+        a.max_jerk_mm_s3 = None;
+    }
+    m
+}
+
 /// A contour element in the plane's (p, q) coordinates.
 #[derive(Clone, Copy, Debug)]
 pub enum El {
