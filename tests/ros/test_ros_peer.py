@@ -227,6 +227,48 @@ def test_busy_refusal_feed_hold_resume_and_abort(peer):
     assert r2.estimated_duration > (d * 1000 - 10) / 50.0 * 0.9
 
 
+def _x_speed(peer, t0, t1):
+    """Mean X setpoint speed (mm/s) over stamps t0..t1 (s)."""
+    with peer.lock:
+        pts = [(t, p[0]) for t, p, _ in peer.setpoints if t0 <= t <= t1]
+    assert len(pts) > 100, len(pts)
+    return (pts[-1][1] - pts[0][1]) * 1000.0 / (pts[-1][0] - pts[0][0])
+
+
+def test_feed_override_topic_scales_the_running_job(peer):
+    from std_msgs.msg import Float64
+    pub = peer.node.create_publisher(Float64, NS + "/feed_override", 10)
+    # 200 mm at F3000 = 50 mm/s (X allows 250)
+    r = peer.run_program("G00 X10 Y10 Z0\nG01 X210 F3000\n")
+    assert r.accepted, r.message
+    peer.wait_state(r.job_id, ControllerStatus.STATE_RUNNING)
+    time.sleep(1.0)
+    with peer.lock:
+        t = peer.setpoints[-1][0]
+    v100 = _x_speed(peer, t - 0.4, t)
+    for pct in (50.0, 150.0):
+        pub.publish(Float64(data=pct))
+        time.sleep(0.8)
+        with peer.lock:
+            t = peer.setpoints[-1][0]
+            over = [s.feed_override for s in peer.status if s.job_id == r.job_id][-1]
+        v = _x_speed(peer, t - 0.4, t)
+        assert abs(v - 50.0 * pct / 100.0) < 0.5, (pct, v, v100)
+        assert abs(over - pct / 100.0) < 1e-9, over
+    # out of range: refused, nothing changes
+    pub.publish(Float64(data=500.0))
+    time.sleep(0.5)
+    with peer.lock:
+        t = peer.setpoints[-1][0]
+    assert abs(_x_speed(peer, t - 0.3, t) - 75.0) < 0.5
+    pub.publish(Float64(data=100.0))
+    assert abs(v100 - 50.0) < 0.5, v100
+    t = peer.call(peer.abort, Trigger.Request())
+    assert t.success, t.message
+    peer.wait_state(r.job_id, ControllerStatus.STATE_IDLE)
+    peer.node.destroy_publisher(pub)
+
+
 def test_short_lived_clients_get_their_reply_every_time(nodes):
     env = dict(os.environ, ROS_DOMAIN_ID=DOMAIN)
     ok = 0
