@@ -5,8 +5,10 @@
 //! half of either line. The planner then passes line, arc and line at
 //! speed (the junctions are tangent), within the arc's centripetal limit,
 //! instead of stopping or crawling through the corner. Tolerance 0 (G61,
-//! the default) leaves the path exact. Rapids, arcs, corners out of a
-//! principal plane and reversals are not blended.
+//! the default) leaves the path exact. Corners between lines that climb
+//! out of a principal plane at the same slope (polyline helices, sloped
+//! zigzags) are blended with a helix over the in-plane arc. Rapids, arcs,
+//! other corners out of a principal plane and reversals are not blended.
 //!
 //! The stage holds the last line back until the next event says whether
 //! its end is a corner to blend.
@@ -124,8 +126,39 @@ fn line_event(h: &Held) -> Event {
     }
 }
 
+/// The principal plane in which both directions climb (nearly) equally
+/// along the plane's normal per unit of in-plane travel (a polyline helix,
+/// a sloped zigzag, also with coordinates rounded in the program), and
+/// the difference of the two slopes; `None` if there is none.
+fn helix_plane_of(u1: &V3, u2: &V3) -> Option<(Plane, f64)> {
+    [Plane::XY, Plane::ZX, Plane::YZ]
+        .into_iter()
+        .find_map(|pl| {
+            let (p, q, n) = pl.axes();
+            let (w1, w2) = (u1[p].hypot(u1[q]), u2[p].hypot(u2[q]));
+            if w1 < 1e-6 || w2 < 1e-6 {
+                return None;
+            }
+            let ds = (u1[n] / w1 - u2[n] / w2).abs();
+            (ds <= MAX_SLOPE_DIFF).then_some((pl, ds))
+        })
+}
+
+/// Largest difference of the two slopes a helical blend joins (the
+/// junctions then turn by about this, in radians, at most).
+const MAX_SLOPE_DIFF: f64 = 1e-2;
+
+/// Share of the tolerance a helical blend uses in its plane: the rest
+/// covers its small climb mismatch against the lines.
+const HELIX_TOL: f64 = 0.9;
+
 /// The blend of the corner at `a.end` (= `b.start`): (where the first
-/// line now ends, the arc, where the second now starts).
+/// line now ends, the arc, where the second now starts). In a principal
+/// plane the arc is tangent to both lines. Where both lines climb out of
+/// such a plane at the same slope, the blend is the in-plane arc lifted
+/// into a helix over the same climb; its slope is 2·tan(φ/2)/φ times the
+/// lines' (φ the turn), a junction so nearly tangent that the planner
+/// passes it like the others (or stops, if it is not).
 fn corner(a: &Held, b: &Held, tol: f64) -> Option<(V3, Arc, V3)> {
     let c = a.end;
     if b.start != c {
@@ -138,27 +171,42 @@ fn corner(a: &Held, b: &Held, tol: f64) -> Option<(V3, Arc, V3)> {
         return None;
     }
     let (u1, u2) = (d1 / l1, d2 / l2);
-    let cos = u1.dot(&u2).clamp(-1.0, 1.0);
+    let full_tol = tol;
+    let (plane, tol, ds) = match plane_of(&u1, &u2) {
+        Some(pl) => (pl, tol, 0.0),
+        None => {
+            let (pl, ds) = helix_plane_of(&u1, &u2)?;
+            (pl, tol * HELIX_TOL, ds)
+        }
+    };
+    let (p, q, _) = plane.axes();
+    // the corner in the plane: in-plane lengths and unit directions
+    let (w1, w2) = (d1[p].hypot(d1[q]), d2[p].hypot(d2[q]));
+    let (e1, e2) = ((d1[p] / w1, d1[q] / w1), (d2[p] / w2, d2[q] / w2));
+    let cos = (e1.0 * e2.0 + e1.1 * e2.1).clamp(-1.0, 1.0);
     let phi = cos.acos();
     // tangent already, or turning back (no arc fits)
     if phi < 1e-7 || phi > 179f64.to_radians() {
         return None;
     }
-    let plane = plane_of(&u1, &u2)?;
     let half = 0.5 * phi;
     let r_tol = tol / (1.0 / half.cos() - 1.0);
-    let r_len = 0.5 * l1.min(l2) / half.tan();
+    let r_len = 0.5 * w1.min(w2) / half.tan();
     let r = r_tol.min(r_len);
     let l = r * half.tan();
-    if !(l > 1e-9 && r.is_finite()) {
+    // the helix climbs at the mean slope: at most ds·l/2 off each line
+    if !(l > 1e-9 && r.is_finite()) || 0.5 * ds * l > (1.0 - HELIX_TOL) * full_tol {
         return None;
     }
-    let t1 = c - u1 * l;
-    let t2 = c + u2 * l;
-    let n = (u2 - u1 * cos).normalize();
-    let centre = t1 + n * r;
-    let (p, q, _) = plane.axes();
-    let ccw = u1[p] * u2[q] - u1[q] * u2[p] > 0.0;
+    // back and on along the lines by in-plane distance l
+    let t1 = c - d1 * (l / w1);
+    let t2 = c + d2 * (l / w2);
+    let nl = ((e2.0 - e1.0 * cos), (e2.1 - e1.1 * cos));
+    let nn = nl.0.hypot(nl.1);
+    let mut centre = t1;
+    centre[p] += nl.0 / nn * r;
+    centre[q] += nl.1 / nn * r;
+    let ccw = e1.0 * e2.1 - e1.1 * e2.0 > 0.0;
     let arc = Arc::new(t1, t2, centre, plane, ccw, 0);
     Some((t1, arc, t2))
 }

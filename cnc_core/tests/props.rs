@@ -112,11 +112,12 @@ fn seg_dist(p: V3, a: V3, b: V3) -> f64 {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 128, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
 
     /// G64 P: corners blended within the tolerance, limits kept, the end
     /// exact, the estimate exact; polylines of short and long lines, some
-    /// leaving the XY plane (not blended), at any feed.
+    /// leaving the XY plane (not blended), some climbing at a constant
+    /// slope (blended with helices), at any feed.
     #[test]
     fn blended_polylines_stay_within_the_tolerance(
         steps in prop::collection::vec(
@@ -125,6 +126,8 @@ proptest! {
         ),
         tol in 0.001..0.5f64,
         feed in 300.0..12000.0f64,
+        slope in prop_oneof![Just(0.0), -0.1..0.1f64],
+        round_z in any::<bool>(),
     ) {
         let m = Machine::builtin_mill();
         let mut p = V3::new(250.0, 250.0, 0.0);
@@ -137,6 +140,11 @@ proptest! {
                 r4(p.y + len * ang.sin()),
                 if lift { r4(p.z + 1.0) } else { p.z },
             );
+            // a constant climb per in-plane length (a polyline helix): the
+            // corners are blended with helices; z printed exactly, or
+            // rounded as CAM output (slopes then differ a little)
+            let z = e.z + slope * (e.x - p.x).hypot(e.y - p.y);
+            let e = V3::new(e.x, e.y, if round_z { r4(z) } else { z });
             if e == p {
                 continue;
             }
