@@ -628,7 +628,8 @@ fn handle_run(
         .map(|h| f64::from_bits(h.load(Ordering::Relaxed)))
         .collect();
     let m = machine.starting_at(&now[..machine.axes.len()]);
-    let report = check(StrSource::from_bytes(&text), dialect, &m);
+    let src = StrSource::from_bytes(&text).with_max_line(machine.limits.max_line_bytes);
+    let report = check(src, dialect, &m);
     if !report.ok() {
         return refuse(report.message());
     }
