@@ -246,3 +246,45 @@ fn loop_rule_errors() {
         "line 1, column 12: block N10: unsupported G code G73 in the heidenhain dialect"
     );
 }
+
+#[test]
+fn loops_that_would_run_too_many_blocks_are_refused_before_they_run() {
+    use cnc_core::interp::MAX_RUN_BLOCKS;
+    // three loops of Q9999 nested: 10^12 runs of N30, refused at once (a
+    // check that ran them would take years), at the outermost G73
+    let prog = "N1 G00 X100 Y100\nN2 F60000 G91\nN10 G01 X0.5\nN20 X0.5\nN30 X0.5\n\
+                N31 X-0.5 G73 L30 Q9999\nN32 X-0.5 G73 L20 Q9999\nN33 X-0.5 G73 L10 Q9999\n";
+    let t = std::time::Instant::now();
+    let e = errors(prog);
+    assert!(t.elapsed().as_secs_f64() < 5.0, "{:?}", t.elapsed());
+    assert_eq!(e.len(), 1, "{e:?}");
+    assert!(
+        e[0].starts_with("line 8, column 11: block N33: with its loops the program would run ")
+            && e[0].contains(&format!(
+                "blocks or more, over the {MAX_RUN_BLOCKS} a program may run"
+            )),
+        "{}",
+        e[0]
+    );
+    // 40 loops of Q1 nested: 2^40 runs of the innermost block
+    let mut deep = String::from("N1 G00 X100 Y100\nN2 F60000 G91\n");
+    for i in 0..40 {
+        deep += &format!("N{} G01 X0.5\n", 10 + i);
+    }
+    for i in (0..40).rev() {
+        deep += &format!("N{} X-0.5 G73 L{} Q1\n", 100 + i, 10 + i);
+    }
+    let e = errors(&deep);
+    assert_eq!(e.len(), 1, "{e:?}");
+    assert!(
+        e[0].starts_with("line 82, column 12: block N100: with its loops"),
+        "{}",
+        e[0]
+    );
+    // loops in sequence add up, they do not multiply: accepted and run
+    let prog = "N1 G00 X100 Y100\nN2 F60000 G91\nN10 G01 X0.5\nN11 X-0.5 G73 L10 Q999\n\
+                N20 X0.5\nN21 X-0.5 G73 L20 Q999\n";
+    let r = check(StrSource::new(prog), Dialect::Cnc836, &mill());
+    assert!(r.ok(), "{}", r.message());
+    assert_eq!(r.moves, 1 + 4000);
+}
