@@ -447,6 +447,57 @@ fn topic<T: crate::RosType>(node: &Node, ns: &str, base: &str) -> Result<rustdds
     .map_err(|e| format!("topic {ns}/{base}: {e:?}"))
 }
 
+/// A publisher like [`publisher`] whose reliable send window holds
+/// `window` unacknowledged samples (rustdds's default is 8192).
+///
+/// rustdds keeps every sample a matched reliable reader has not yet
+/// acknowledged, whatever the history depth, and refuses writes once the
+/// window is full: for every reader. A subscriber that dies without leaving
+/// (SIGKILL, a crash) stays matched until its participant's lease ends
+/// (50 s for a rustdds peer, 20 s for Fast DDS), so a topic at 1 kHz
+/// stopped for everyone about 8 s after such a death, for the rest of the
+/// lease (tests/ros/test_faults.py, the simulator killed). A window of a
+/// lease's worth of samples ([`lease_window`]) keeps it going; the samples
+/// are held only while a dead reader lingers.
+pub fn publisher_with_window<T: crate::RosType + serde::Serialize>(
+    ctx: &Context,
+    node: &mut Node,
+    ns: &str,
+    base: &str,
+    window: usize,
+) -> Result<ros2_client::Publisher<T>, String> {
+    use rustdds::{policy, QosPolicies, QosPolicyBuilder};
+    let (pkg, ty) = split_type::<T>();
+    let window = i32::try_from(window).unwrap_or(i32::MAX);
+    let limits = QosPolicyBuilder::new()
+        .resource_limits(policy::ResourceLimits {
+            max_samples: window,
+            max_instances: 1,
+            max_samples_per_instance: window,
+        })
+        .build();
+    let qos = QosPolicies::from(&qos_default()).modify_by(&limits);
+    let node_name = ros2_client::NodeName::new("/", "n").map_err(|e| format!("{e:?}"))?;
+    let t = ctx
+        .domain_participant()
+        .create_topic(
+            name(ns, base)?.to_dds_name("rt", &node_name, ""),
+            ros2_client::MessageTypeName::new(pkg, ty).dds_msg_type(),
+            &qos,
+            rustdds::TopicKind::NoKey,
+        )
+        .map_err(|e| format!("topic {ns}/{base}: {e:?}"))?;
+    node.create_publisher::<T>(&t, None)
+        .map_err(|e| format!("publisher {ns}/{base}: {e:?}"))
+}
+
+/// The send window of a topic published at `rate_hz` that outlasts a dead
+/// subscriber's lease: 60 s of samples (at least rustdds's 8192, at most
+/// 2^21).
+pub fn lease_window(rate_hz: f64) -> usize {
+    ((rate_hz * 60.0).ceil() as usize).clamp(8192, 1 << 21)
+}
+
 /// A publisher of `ns/base` with rclpy's default QoS; the type name comes
 /// from `T`.
 pub fn publisher<T: crate::RosType + serde::Serialize>(

@@ -138,9 +138,12 @@ fn run(args: Args) -> Result<(), String> {
             eprintln!("cnc_node: DDS threads stay at normal priority (SCHED_FIFO {dds_rt}: {e})");
         }
     }
-    let (_ctx, mut node) = ros::join(domain, &args.namespace, "cnc_node")?;
+    let (ctx, mut node) = ros::join(domain, &args.namespace, "cnc_node")?;
     let ns = args.namespace.as_str();
-    let pub_set = ros::publisher::<JointState>(&mut node, ns, "joint_setpoints")?;
+    // a subscriber that dies must not stop the setpoints for the others
+    let window = ros::lease_window(machine.interpolation.rate_hz);
+    let pub_set =
+        ros::publisher_with_window::<JointState>(&ctx, &mut node, ns, "joint_setpoints", window)?;
     let pub_spin = ros::publisher::<Float64>(&mut node, ns, "spindle_command")?;
     let pub_status = ros::publisher::<ControllerStatus>(&mut node, ns, "status")?;
     let sub_js = ros::subscription::<JointState>(&mut node, &args.sim_namespace, "joint_states")?;
