@@ -589,9 +589,9 @@ fn check_worker(
 /// reply with inline QoS (every service reply: the request's identity)
 /// with one stray byte (`DataFrag` writes the `Option` of its parameter
 /// list), which a debug build's DDS thread dies on (a `debug_assert`: the
-/// node then neither publishes nor answers) and which a stock ROS 2 client
-/// cannot parse, so the reply never arrives. Datagrams to a Fast DDS peer
-/// hold about 1,300 bytes of reply; 1,000 leaves room for the rest.
+/// node then neither publishes nor answers); a release build sends that
+/// byte too. Datagrams to a Fast DDS peer hold about 1,300 bytes of reply;
+/// 1,000 leaves room for the rest.
 const MAX_REPLY_TEXT: usize = 1000;
 
 /// `text` cut to at most `max` bytes: whole lines while they fit, then
