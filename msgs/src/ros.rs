@@ -68,13 +68,24 @@ pub fn qos_default() -> QosProfile {
         .history(History::KeepLast { depth: 10 })
 }
 
-/// For services: reliable, keep last 10, volatile, as rclpy's services.
+/// For services: reliable, volatile, as rclpy's services, but keep last
+/// [`SERVICE_DEPTH`] rather than 10 (history is no part of QoS matching).
 pub fn qos_services() -> QosProfile {
     QosProfile::publisher_default()
         .reliability_reliable(WhenFull::DEFAULT)
         .durability(Durability::Volatile)
-        .history(History::KeepLast { depth: 10 })
+        .history(History::KeepLast {
+            depth: SERVICE_DEPTH,
+        })
 }
+
+/// Requests and replies a service keeps. The request and reply topics
+/// have no keys, so each is one instance: a server's request history and
+/// its reply history are shared by all its clients, and with 10, a few
+/// clients with calls in flight at once can lose some (a reply also
+/// reaches every client; tests/ros/test_faults.py, the burst of 1000
+/// calls).
+pub const SERVICE_DEPTH: usize = 256;
 
 /// The cycles of a fixed-rate loop on the grid `origin + n·dt` of the
 /// monotonic clock. Cycle n is *meant for* its grid instant: a loop that
