@@ -244,6 +244,7 @@ fn run(args: Args) -> Result<(), String> {
         ns.trim_end_matches('/')
     );
     let mut last_spindle = f64::NAN;
+    let mut spindle_sent = Instant::now();
     let mut recording: Option<(u32, Rec)> = None;
     loop {
         // services
@@ -314,8 +315,13 @@ fn run(args: Args) -> Result<(), String> {
                 }
             }
             let _ = pub_set.publish(js);
-            if let Some(f) = spindle {
-                let _ = pub_spin.publish(f);
+            // on change, and again every SPINDLE_REPEAT (a simulator or
+            // drive started later gets it; recordings hold the changes)
+            if spindle.is_some() || spindle_sent.elapsed() >= SPINDLE_REPEAT {
+                spindle_sent = Instant::now();
+                let _ = pub_spin.publish(Float64 {
+                    data: t.spindle_rpm * std::f64::consts::TAU / 60.0,
+                });
             }
             if let Some(s) = status {
                 let _ = pub_status.publish(s);
@@ -327,6 +333,11 @@ fn run(args: Args) -> Result<(), String> {
         }
     }
 }
+
+/// The spindle command is published on change and at least this often:
+/// the topic is volatile, and a simulator (or drive bridge) that starts
+/// while the spindle turns would otherwise never hear the command.
+const SPINDLE_REPEAT: Duration = Duration::from_millis(100);
 
 /// Sends a command to the control loop and waits (briefly) for its answer.
 fn ask(
