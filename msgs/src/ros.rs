@@ -334,16 +334,23 @@ impl Lateness {
         self.n
     }
 
-    /// `n=…, p50 … µs, p99 …, p99.9 …, max …`
+    /// How many were later than `us` (whole µs, up to 20,000).
+    pub fn over(&self, us: usize) -> u64 {
+        self.bins[us.min(Self::BINS - 1)..].iter().sum()
+    }
+
+    /// `n=…, p50 … µs, p99 …, p99.9 …, max …, over 1 ms: …` (the counts
+    /// are cumulative: two summaries give the wake-ups over 1 ms between)
     pub fn summary(&self) -> String {
         format!(
-            "n={} p50<={:.0} us p99<={:.0} us p99.9<={:.0} us max={:.1} us (cycle {})",
+            "n={} p50<={:.0} us p99<={:.0} us p99.9<={:.0} us max={:.1} us (cycle {}) over_1ms={}",
             self.n,
             self.percentile(50.0),
             self.percentile(99.0),
             self.percentile(99.9),
             self.max_us,
-            self.max_at
+            self.max_at,
+            self.over(1000)
         )
     }
 }
@@ -362,6 +369,10 @@ mod tests {
         assert_eq!(l.percentile(50.0), 500.0);
         assert_eq!(l.percentile(99.0), 990.0);
         assert!((l.max_us - 999.5).abs() < 1e-6);
+        assert_eq!(l.over(990), 10);
+        l.record(Duration::from_millis(30));
+        assert_eq!(l.over(1000), 1);
+        assert!(l.summary().ends_with("over_1ms=1"), "{}", l.summary());
     }
 
     #[test]
