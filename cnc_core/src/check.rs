@@ -157,7 +157,7 @@ impl Plan {
 /// so the report is the one a single thread makes, bit for bit.
 pub fn check<S: ProgramSource>(source: S, dialect: Dialect, machine: &Machine) -> CheckReport {
     let lim = PlanLimits::from_machine(machine);
-    let mut interp = Interpreter::new(source, dialect, machine);
+    let mut interp = Interpreter::new(source, dialect, machine).with_loop_scan();
     let mut plan = Plan::new(lim);
     let mut first = VecDeque::with_capacity(FIRST_EVENTS);
     if interp.fill(&mut first, FIRST_EVENTS) {
@@ -414,7 +414,7 @@ fn check_concurrently<S: ProgramSource>(
                     return r;
                 }
                 one_thread(
-                    Interpreter::new(source, dialect, machine),
+                    Interpreter::new(source, dialect, machine).with_loop_scan(),
                     Plan::new(lim),
                     lim,
                 )

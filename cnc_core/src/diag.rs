@@ -34,11 +34,29 @@ impl Diagnostic {
     pub fn render(&self, origin: Option<&str>) -> String {
         use annotate_snippets::{Level, Renderer, Snippet};
         let title = self.to_string();
-        let start = (self.col as usize - 1).min(self.source.len());
-        let end = (start + self.len as usize)
-            .min(self.source.len())
-            .max(start);
-        let mut snippet = Snippet::source(&self.source)
+        // control characters (CR, VT, NUL, ...) shown as '?', byte for
+        // byte so the columns stay: annotate-snippets splits lines at a CR
+        // and then slices the text inside a character (a panic)
+        let shown: String = self
+            .source
+            .chars()
+            .flat_map(|c| {
+                let bad = c.is_control() && c != '\t';
+                std::iter::repeat_n(
+                    if bad { '?' } else { c },
+                    if bad { c.len_utf8() } else { 1 },
+                )
+            })
+            .collect();
+        let mut start = (self.col as usize - 1).min(shown.len());
+        while !shown.is_char_boundary(start) {
+            start -= 1;
+        }
+        let mut end = (start + self.len as usize).min(shown.len()).max(start);
+        while !shown.is_char_boundary(end) {
+            end += 1;
+        }
+        let mut snippet = Snippet::source(&shown)
             .line_start(self.line as usize)
             .fold(false);
         if let Some(o) = origin {
@@ -92,7 +110,29 @@ mod tests {
         assert!(r.contains("N30 Q12 X1"), "{r}");
         assert!(r.contains("^^^"), "{r}");
         assert_eq!(num(1.25), "1.25");
+        // control characters are shown as '?', the column stays
+        let mut d = Diagnostic::new(1, 3, 1, "unexpected character");
+        d.source = "X\r1\u{85}Y".into();
+        let r = d.render(None);
+        assert!(r.contains("X?1??Y"), "{r}");
+        // a byte that is no UTF-8 (read as U+FFFD, 3 bytes) under the caret
+        let mut d = Diagnostic::new(1, 1, 1, "unexpected character");
+        d.source = String::from_utf8_lossy(b"\xef").into_owned();
+        assert!(d.render(None).contains("^ here"));
         assert_eq!(num(100.0), "100");
         assert_eq!(num(-0.00001), "0");
+    }
+
+    proptest::proptest! {
+        /// Any line (bytes as a program may hold them, read lossily as
+        /// UTF-8) and any column and length render without a panic.
+        #[test]
+        fn any_source_renders(bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..300),
+                              col in 1u32..400, len in 1u32..50) {
+            let mut d = Diagnostic::new(7, col, len, "bad");
+            d.source = String::from_utf8_lossy(&bytes).into_owned();
+            let r = d.render(Some("p.nc"));
+            proptest::prop_assert!(r.contains("line 7"));
+        }
     }
 }

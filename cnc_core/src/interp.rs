@@ -363,6 +363,8 @@ pub struct Interpreter<S> {
     targets: std::collections::HashMap<u32, SourcePos>,
     /// jumps taken so far
     jumps: u64,
+    /// the loops' total is added up at the first jump (the check's runs)
+    loop_scan: LoopScan,
     /// (line, column) of the errors reported, so a loop reports each once
     reported: std::collections::HashSet<(u32, u32)>,
     /// a jump was needed but the source cannot seek (the check's pipeline)
@@ -402,6 +404,14 @@ pub struct Interpreter<S> {
     /// compensation's output
     blend: Blender,
     scratch: VecDeque<Event>,
+}
+
+/// Whether the loops' total is added up before the first jump.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum LoopScan {
+    Off,
+    Wanted,
+    Done,
 }
 
 /// What G33 needs of the machine.
@@ -475,6 +485,7 @@ impl<S: ProgramSource> Interpreter<S> {
             max_executed: machine.limits.max_executed_blocks,
             targets: std::collections::HashMap::new(),
             jumps: 0,
+            loop_scan: LoopScan::Off,
             reported: std::collections::HashSet::new(),
             needs_seek: false,
             pole: None,
@@ -502,6 +513,15 @@ impl<S: ProgramSource> Interpreter<S> {
             blend: Blender::new(machine.smoothing_error_mm()),
             scratch: VecDeque::new(),
         }
+    }
+
+    /// Adds up, at the first jump, how many blocks the program's loops
+    /// would run, and refuses it then when that is over
+    /// the machine's `limits.max_executed_blocks` (the check; an executor
+    /// runs checked programs).
+    pub(crate) fn with_loop_scan(mut self) -> Self {
+        self.loop_scan = LoopScan::Wanted;
+        self
     }
 
     /// A jump was needed that this source could not make (see
@@ -713,6 +733,7 @@ impl<S: ProgramSource> Interpreter<S> {
             max_executed,
             targets,
             jumps,
+            loop_scan,
             reported,
             needs_seek,
             pole,
@@ -762,6 +783,7 @@ impl<S: ProgramSource> Interpreter<S> {
             max_executed,
             targets,
             jumps,
+            loop_scan,
             reported,
             needs_seek,
             pole,
@@ -1256,6 +1278,24 @@ impl<S: ProgramSource> Interpreter<S> {
                     self.finished = true;
                     return;
                 }
+                if self.loop_scan == LoopScan::Wanted {
+                    self.loop_scan = LoopScan::Done;
+                    match self.scan_loops() {
+                        Ok(None) => {}
+                        Ok(Some(d)) => {
+                            self.error_count += 1;
+                            if self.errors.len() < self.max_errors {
+                                self.errors.push(d);
+                            }
+                            self.finish();
+                            return;
+                        }
+                        Err(e) => {
+                            self.read_failed(&e);
+                            return;
+                        }
+                    }
+                }
                 match self.find_block(n as u64, line) {
                     Ok(Some(t)) => {
                         self.targets.insert(line, t);
@@ -1324,6 +1364,152 @@ impl<S: ProgramSource> Interpreter<S> {
         if let Err(e) = self.src.seek(target) {
             self.read_failed(&e);
         }
+    }
+
+    /// How many blocks the program would run with its G73 loops, counted
+    /// from the loops' structure (two reads of the program, memory for its
+    /// G73 blocks only): a block runs the product of (Q + 1) over the loops
+    /// around it (exact for nested loops; overlapping ones are caught as
+    /// they run, by the count in `exec_parsed`). Over `limits.max_executed_blocks`:
+    /// the error, at the G73 of the outermost loop around the blocks that
+    /// made it so. Returns to where the interpreter was.
+    fn scan_loops(&mut self) -> Result<Option<Diagnostic>, SourceError> {
+        struct Jump {
+            pos: SourcePos,
+            word: Word,
+            block_no: Option<u64>,
+            target: u64,
+            times: f64,
+            /// blocks through this one, and before its target
+            end: u64,
+            start: Option<u64>,
+        }
+        let here = self.cur_pos;
+        let mut jumps: Vec<Jump> = Vec::new();
+        let mut buf = Vec::new();
+        let mut block = Block::default();
+        let is_g73 = |w: &Word| w.letter == b'G' && w.value == 73.0;
+        // first read: the G73 blocks (those the interpreter would run)
+        self.src.seek(SourcePos { offset: 0, line: 1 })?;
+        let mut blocks = 0u64;
+        while let Some(pos) = self.src.read_line(&mut buf)? {
+            if parse_line(self.dialect, pos.line, &buf, &mut block).is_err()
+                || block.words.is_empty()
+            {
+                continue;
+            }
+            blocks += 1;
+            let Some(g73) = block.words.iter().find(|w| is_g73(w)) else {
+                continue;
+            };
+            let word = |c: u8| block.words.iter().find(|w| w.letter == c);
+            let target = word(b'L').and_then(|l| l.as_int().filter(|&n| l.integer && n >= 0));
+            let times = match word(b'Q') {
+                None => Some(1),
+                Some(q) => q
+                    .as_int()
+                    .filter(|&c| q.integer && (0..=9999).contains(&c))
+                    .map(|c| c + 1),
+            };
+            if let (Some(target), Some(times)) = (target, times) {
+                jumps.push(Jump {
+                    pos,
+                    word: *g73,
+                    block_no: block_no(&block.words),
+                    target: target as u64,
+                    times: times as f64,
+                    end: blocks,
+                    start: None,
+                });
+            }
+        }
+        // second read: each loop's first block (the last N<target> at or
+        // before its G73), counted in blocks
+        let wanted: std::collections::HashSet<u64> = jumps.iter().map(|j| j.target).collect();
+        let mut last_at: std::collections::HashMap<u64, u64> = std::collections::HashMap::new();
+        self.src.seek(SourcePos { offset: 0, line: 1 })?;
+        let (mut blocks, mut next) = (0u64, 0usize);
+        while let Some(pos) = self.src.read_line(&mut buf)? {
+            if next >= jumps.len() {
+                break;
+            }
+            if parse_line(self.dialect, pos.line, &buf, &mut block).is_err()
+                || block.words.is_empty()
+            {
+                continue;
+            }
+            if let Some(n) = block_no(&block.words).filter(|n| wanted.contains(n)) {
+                last_at.insert(n, blocks);
+            }
+            blocks += 1;
+            while next < jumps.len() && jumps[next].pos.line == pos.line {
+                jumps[next].start = last_at.get(&jumps[next].target).copied();
+                next += 1;
+            }
+        }
+        self.src.seek(here)?;
+        self.src.read_line(&mut buf)?;
+        // blocks run: over the stretches between the loops' ends, the
+        // stretch's blocks times the product of the loops around it
+        let mut edges: Vec<(u64, usize)> = Vec::new();
+        for (i, j) in jumps.iter().enumerate() {
+            if let Some(s) = j.start {
+                edges.push((s, i));
+                edges.push((j.end, i));
+            }
+        }
+        edges.sort_unstable();
+        let mut open: Vec<usize> = Vec::new();
+        let (mut total, mut at) = (0.0f64, 0u64);
+        for (x, i) in edges {
+            // (exact while below 2^53; past f64's range it is infinite,
+            // which is over any limit too)
+            let times: f64 = open.iter().map(|&k| jumps[k].times).product();
+            total += (x - at) as f64 * times;
+            at = x;
+            if total > self.max_executed as f64 {
+                // the outermost loop around this stretch
+                let Some(&k) = open
+                    .iter()
+                    .min_by_key(|&&k| (jumps[k].start, u64::MAX - jumps[k].end))
+                else {
+                    break;
+                };
+                let j = &jumps[k];
+                let runs = total + (blocks.saturating_sub(at)) as f64;
+                let runs = if runs < 1e15 {
+                    format!("{runs:.0}")
+                } else {
+                    format!("about {runs:.1e}")
+                };
+                let mut d = Diagnostic::new(
+                    j.pos.line,
+                    j.word.col,
+                    j.word.len,
+                    format!(
+                        "with its loops the program would run {runs} blocks or more, over the \
+                         machine's limit of {} (limits.max_executed_blocks; loops are executed, \
+                         not expanded: fewer repetitions, or fewer nested loops)",
+                        self.max_executed
+                    ),
+                );
+                d.block_no = j.block_no;
+                self.src.seek(j.pos)?;
+                if self.src.read_line(&mut buf)?.is_some() {
+                    d.source = String::from_utf8_lossy(&buf).into_owned();
+                }
+                self.src.seek(here)?;
+                self.src.read_line(&mut buf)?;
+                return Ok(Some(d));
+            }
+            match open.iter().position(|&k| k == i) {
+                Some(p) => {
+                    open.swap_remove(p);
+                }
+                None => open.push(i),
+            }
+        }
+        Ok(None)
     }
 
     /// The last line at or before `upto` whose block number is `n`; reads

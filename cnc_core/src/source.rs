@@ -34,6 +34,8 @@ pub struct TextSource<T> {
     text: T,
     offset: usize,
     line: u32,
+    /// longest accepted line, bytes (as [`ReaderSource`]'s)
+    max_line: usize,
 }
 
 /// A program borrowed from a string.
@@ -50,6 +52,7 @@ impl<'a> TextSource<&'a [u8]> {
             text,
             offset: 0,
             line: 0,
+            max_line: usize::MAX - 2,
         }
     }
 }
@@ -60,7 +63,18 @@ impl TextSource<Vec<u8>> {
             text,
             offset: 0,
             line: 0,
+            max_line: usize::MAX - 2,
         }
+    }
+}
+
+impl<T> TextSource<T> {
+    /// Refuses lines longer than `max_line` bytes (the machine's
+    /// `limits.max_line_bytes`) with the error [`ReaderSource`] gives, at
+    /// the same lengths. Unbounded by default.
+    pub fn with_max_line(mut self, max_line: usize) -> Self {
+        self.max_line = max_line.min(usize::MAX - 2);
+        self
     }
 }
 
@@ -84,9 +98,18 @@ impl<T: AsRef<[u8]>> ProgramSource for TextSource<T> {
             Some(e) => (&rest[..e], self.offset + e + 1),
             None => (rest, text.len()),
         };
+        self.line += 1;
+        // ReaderSource reads at most max_line + 2 bytes looking for the
+        // line end: a line (without it) of max_line + 1 bytes passes
+        if line.len() > self.max_line + 1 {
+            self.offset = next;
+            return Err(SourceError(format!(
+                "line {} is longer than {} bytes",
+                self.line, self.max_line
+            )));
+        }
         buf.extend_from_slice(line);
         trim_line_end(buf);
-        self.line += 1;
         let pos = SourcePos {
             offset: self.offset as u64,
             line: self.line,
@@ -220,5 +243,30 @@ mod tests {
         let mut r = ReaderSource::new(std::io::Cursor::new(b"X123456789\n".as_slice()), 4);
         let err = r.read_line(&mut a).unwrap_err();
         assert_eq!(err.0, "line 1 is longer than 4 bytes");
+    }
+
+    #[test]
+    fn text_source_bounds_lines_as_reader_source() {
+        // the same lines accepted and refused, with or without line ends
+        for n in 0..12 {
+            for end in ["", "\n", "\r\n"] {
+                let text = format!("N1\n{}{end}N3\n", "X".repeat(n));
+                let mut r = ReaderSource::new(std::io::Cursor::new(text.as_bytes()), 6);
+                let mut s = StrSource::new(&text).with_max_line(6);
+                let (mut a, mut b) = (Vec::new(), Vec::new());
+                for _ in 0..2 {
+                    let (pa, pb) = (r.read_line(&mut a), s.read_line(&mut b));
+                    assert_eq!(pa, pb, "{text:?}");
+                    if pa.is_err() {
+                        break;
+                    }
+                    assert_eq!(a, b);
+                }
+            }
+        }
+        let mut s = OwnedSource::owned(b"X12345\n".to_vec()).with_max_line(4);
+        let err = s.read_line(&mut Vec::new()).unwrap_err();
+        assert_eq!(err.0, "line 1 is longer than 4 bytes");
+        assert!(s.read_line(&mut Vec::new()).unwrap().is_none());
     }
 }

@@ -283,40 +283,39 @@ fn executed_blocks_are_bounded_by_the_machine_file() {
     let r = check_with(2011);
     assert!(r.ok(), "{}", r.message());
     assert_eq!(r.moves, 2001);
-    // one block less: refused at the outer G73 when its second pass ends
-    // (1 + 2 × 201 blocks run, 8 passes of 201 left), before any motion
+    // one block less: the check adds the loops up before their first jump
+    // (N10 + 10 × (N20 + 100 × 2)) and refuses at the outermost G73,
+    // before any motion
     let r = check_with(2010);
     assert_eq!(r.error_count, 1, "{}", r.message());
     assert_eq!(
         r.errors[0].to_string(),
-        "line 4, column 5: block N40: this loop would make the program execute 2011 blocks, more than the machine's limit of 2010 (limits.max_executed_blocks): 8 more passes of 201 blocks back to N20"
+        "line 4, column 5: block N40: with its loops the program would run 2011 blocks or more, over the machine's limit of 2010 (limits.max_executed_blocks; loops are executed, not expanded: fewer repetitions, or fewer nested loops)"
     );
-    // the inner loop: at its second pass (1 + 2 + 2 blocks run, 98
-    // passes of 2 left) it would reach 201 blocks
+    // the inner loop alone is over 200: still named at the outermost loop
+    // around it (what it adds up to when it passes the limit)
     let r = check_with(200);
     assert_eq!(r.error_count, 1, "{}", r.message());
     assert_eq!(
         r.errors[0].to_string(),
-        "line 3, column 11: block N30: this loop would make the program execute 201 blocks, more than the machine's limit of 200 (limits.max_executed_blocks): 98 more passes of 2 blocks back to N20"
+        "line 4, column 5: block N40: with its loops the program would run 2002 blocks or more, over the machine's limit of 200 (limits.max_executed_blocks; loops are executed, not expanded: fewer repetitions, or fewer nested loops)"
     );
-    // the executor stops there too: nothing runs past the limit
+    // an executor (which does not add up first) stops at the inner loop's
+    // second pass, when it knows a pass: nothing runs past the limit
     let m = mill_with_max_blocks(200);
     let s: Vec<Sample> = Executor::new(StrSource::new(NESTED), Dialect::Cnc836, &m).collect();
     assert!(s.len() < 1000, "{} samples", s.len());
-    // no pass repeated yet, and already over: the first jump is refused
     let r = check_with(2);
     assert_eq!(
         r.errors[0].to_string(),
-        "line 3, column 11: block N30: this loop would make the program execute more than the machine's limit of 2 blocks (limits.max_executed_blocks): 3 have run, and 99 more passes back to N20 are due"
+        "line 4, column 5: block N40: with its loops the program would run 2002 blocks or more, over the machine's limit of 2 (limits.max_executed_blocks; loops are executed, not expanded: fewer repetitions, or fewer nested loops)"
     );
 }
 
 #[test]
 fn loops_that_would_never_end_in_practice_are_refused_in_bounded_time() {
-    // 10^4 × 10^4 × 10^4 × 2 blocks (2e12): with the default limit (1e9)
-    // the check stops at the outer loop's second pass (4e8 blocks run),
-    // with a limit of 1e6 at the middle loop's (1 + 2 × 20001 run, 9998
-    // passes of 20001 left: 2.0001e8)
+    // 10^4 × 10^4 × 10^4 × 2 blocks (2e12): the check adds the loops up
+    // before the first jump and refuses at the outermost G73
     let text = "N10 G00 X1 Y1 Z0
 N20 G91 G01 X0.001 F1000
 N30 X-0.001 G73 L20 Q9999
@@ -332,7 +331,7 @@ N60 G90 M30
     assert_eq!(r.error_count, 1, "{}", r.message());
     assert!(
         r.errors[0].to_string().starts_with(
-            "line 4, column 5: block N40: this loop would make the program execute 200010001 blocks, more than the machine's limit of 1000000 (limits.max_executed_blocks): 9998 more passes of 20001 blocks back to N20"
+            "line 5, column 5: block N50: with its loops the program would run 2000000000003 blocks or more, over the machine's limit of 1000000 (limits.max_executed_blocks"
         ),
         "{}",
         r.errors[0]
@@ -348,4 +347,46 @@ N60 G90 M30
             .contains("key `limits.max_executed_blocks`: must be at least 1"),
         "{e}"
     );
+}
+
+#[test]
+fn loops_that_would_run_too_many_blocks_are_refused_before_they_run() {
+    let max = mill().limits.max_executed_blocks;
+    // three loops of Q9999 nested: 10^12 runs of N30, refused at once (a
+    // check that ran them would take years), at the outermost G73
+    let prog = "N1 G00 X100 Y100\nN2 F60000 G91\nN10 G01 X0.5\nN20 X0.5\nN30 X0.5\n\
+                N31 X-0.5 G73 L30 Q9999\nN32 X-0.5 G73 L20 Q9999\nN33 X-0.5 G73 L10 Q9999\n";
+    let t = std::time::Instant::now();
+    let e = errors(prog);
+    assert!(t.elapsed().as_secs_f64() < 5.0, "{:?}", t.elapsed());
+    assert_eq!(e.len(), 1, "{e:?}");
+    assert!(
+        e[0].starts_with("line 8, column 11: block N33: with its loops the program would run ")
+            && e[0].contains(&format!(
+                "blocks or more, over the machine's limit of {max} (limits.max_executed_blocks"
+            )),
+        "{}",
+        e[0]
+    );
+    // 40 loops of Q1 nested: 2^40 runs of the innermost block
+    let mut deep = String::from("N1 G00 X100 Y100\nN2 F60000 G91\n");
+    for i in 0..40 {
+        deep += &format!("N{} G01 X0.5\n", 10 + i);
+    }
+    for i in (0..40).rev() {
+        deep += &format!("N{} X-0.5 G73 L{} Q1\n", 100 + i, 10 + i);
+    }
+    let e = errors(&deep);
+    assert_eq!(e.len(), 1, "{e:?}");
+    assert!(
+        e[0].starts_with("line 82, column 12: block N100: with its loops"),
+        "{}",
+        e[0]
+    );
+    // loops in sequence add up, they do not multiply: accepted and run
+    let prog = "N1 G00 X100 Y100\nN2 F60000 G91\nN10 G01 X0.5\nN11 X-0.5 G73 L10 Q999\n\
+                N20 X0.5\nN21 X-0.5 G73 L20 Q999\n";
+    let r = check(StrSource::new(prog), Dialect::Cnc836, &mill());
+    assert!(r.ok(), "{}", r.message());
+    assert_eq!(r.moves, 1 + 4000);
 }

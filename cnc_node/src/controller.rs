@@ -170,7 +170,8 @@ impl Controller {
         let m = self
             .machine
             .starting_at(&self.positions[..self.joints.len()]);
-        let mut exec = Executor::new(OwnedSource::owned(job.text), job.dialect, &m);
+        let src = OwnedSource::owned(job.text).with_max_line(m.limits.max_line_bytes);
+        let mut exec = Executor::new(src, job.dialect, &m);
         // G33 and G95 follow the measured spindle (readings from
         // `encoder`); a machine without a spindle has nothing to follow
         if self.machine.spindle.is_some() {

@@ -68,13 +68,24 @@ pub fn qos_default() -> QosProfile {
         .history(History::KeepLast { depth: 10 })
 }
 
-/// For services: reliable, keep last 10, volatile, as rclpy's services.
+/// For services: reliable, volatile, as rclpy's services, but keep last
+/// [`SERVICE_DEPTH`] rather than 10 (history is no part of QoS matching).
 pub fn qos_services() -> QosProfile {
     QosProfile::publisher_default()
         .reliability_reliable(WhenFull::DEFAULT)
         .durability(Durability::Volatile)
-        .history(History::KeepLast { depth: 10 })
+        .history(History::KeepLast {
+            depth: SERVICE_DEPTH,
+        })
 }
+
+/// Requests and replies a service keeps. The request and reply topics
+/// have no keys, so each is one instance: a server's request history and
+/// its reply history are shared by all its clients, and with 10, a few
+/// clients with calls in flight at once can lose some (a reply also
+/// reaches every client; tests/ros/test_faults.py, the burst of 1000
+/// calls).
+pub const SERVICE_DEPTH: usize = 256;
 
 /// The cycles of a fixed-rate loop on the grid `origin + n·dt` of the
 /// monotonic clock. Cycle n is *meant for* its grid instant: a loop that
@@ -323,16 +334,23 @@ impl Lateness {
         self.n
     }
 
-    /// `n=…, p50 … µs, p99 …, p99.9 …, max …`
+    /// How many were later than `us` (whole µs, up to 20,000).
+    pub fn over(&self, us: usize) -> u64 {
+        self.bins[us.min(Self::BINS - 1)..].iter().sum()
+    }
+
+    /// `n=…, p50 … µs, p99 …, p99.9 …, max …, over 1 ms: …` (the counts
+    /// are cumulative: two summaries give the wake-ups over 1 ms between)
     pub fn summary(&self) -> String {
         format!(
-            "n={} p50<={:.0} us p99<={:.0} us p99.9<={:.0} us max={:.1} us (cycle {})",
+            "n={} p50<={:.0} us p99<={:.0} us p99.9<={:.0} us max={:.1} us (cycle {}) over_1ms={}",
             self.n,
             self.percentile(50.0),
             self.percentile(99.0),
             self.percentile(99.9),
             self.max_us,
-            self.max_at
+            self.max_at,
+            self.over(1000)
         )
     }
 }
@@ -351,6 +369,10 @@ mod tests {
         assert_eq!(l.percentile(50.0), 500.0);
         assert_eq!(l.percentile(99.0), 990.0);
         assert!((l.max_us - 999.5).abs() < 1e-6);
+        assert_eq!(l.over(990), 10);
+        l.record(Duration::from_millis(30));
+        assert_eq!(l.over(1000), 1);
+        assert!(l.summary().ends_with("over_1ms=1"), "{}", l.summary());
     }
 
     #[test]
@@ -445,6 +467,57 @@ fn topic<T: crate::RosType>(node: &Node, ns: &str, base: &str) -> Result<rustdds
         &qos_default(),
     )
     .map_err(|e| format!("topic {ns}/{base}: {e:?}"))
+}
+
+/// A publisher like [`publisher`] whose reliable send window holds
+/// `window` unacknowledged samples (rustdds's default is 8192).
+///
+/// rustdds keeps every sample a matched reliable reader has not yet
+/// acknowledged, whatever the history depth, and refuses writes once the
+/// window is full: for every reader. A subscriber that dies without leaving
+/// (SIGKILL, a crash) stays matched until its participant's lease ends
+/// (50 s for a rustdds peer, 20 s for Fast DDS), so a topic at 1 kHz
+/// stopped for everyone about 8 s after such a death, for the rest of the
+/// lease (tests/ros/test_faults.py, the simulator killed). A window of a
+/// lease's worth of samples ([`lease_window`]) keeps it going; the samples
+/// are held only while a dead reader lingers.
+pub fn publisher_with_window<T: crate::RosType + serde::Serialize>(
+    ctx: &Context,
+    node: &mut Node,
+    ns: &str,
+    base: &str,
+    window: usize,
+) -> Result<ros2_client::Publisher<T>, String> {
+    use rustdds::{policy, QosPolicies, QosPolicyBuilder};
+    let (pkg, ty) = split_type::<T>();
+    let window = i32::try_from(window).unwrap_or(i32::MAX);
+    let limits = QosPolicyBuilder::new()
+        .resource_limits(policy::ResourceLimits {
+            max_samples: window,
+            max_instances: 1,
+            max_samples_per_instance: window,
+        })
+        .build();
+    let qos = QosPolicies::from(&qos_default()).modify_by(&limits);
+    let node_name = ros2_client::NodeName::new("/", "n").map_err(|e| format!("{e:?}"))?;
+    let t = ctx
+        .domain_participant()
+        .create_topic(
+            name(ns, base)?.to_dds_name("rt", &node_name, ""),
+            ros2_client::MessageTypeName::new(pkg, ty).dds_msg_type(),
+            &qos,
+            rustdds::TopicKind::NoKey,
+        )
+        .map_err(|e| format!("topic {ns}/{base}: {e:?}"))?;
+    node.create_publisher::<T>(&t, None)
+        .map_err(|e| format!("publisher {ns}/{base}: {e:?}"))
+}
+
+/// The send window of a topic published at `rate_hz` that outlasts a dead
+/// subscriber's lease: 60 s of samples (at least rustdds's 8192, at most
+/// 2^21).
+pub fn lease_window(rate_hz: f64) -> usize {
+    ((rate_hz * 60.0).ceil() as usize).clamp(8192, 1 << 21)
 }
 
 /// A publisher of `ns/base` with rclpy's default QoS; the type name comes

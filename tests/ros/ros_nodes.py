@@ -13,12 +13,19 @@ def build():
         subprocess.run(["cargo", "build", "-q", "-p", "cnc_node", "-p", "sim_axes", "--bins"], cwd=ROOT, check=True)
 
 
-def start(env, sim_args, node_args, sim_stderr=None):
+def start(env, sim_args, node_args, sim_stderr=None, node_stderr=None):
     """The simulator and the controller with these arguments, in `env`."""
-    return [
-        subprocess.Popen([os.path.join(TARGET, "sim_axes")] + sim_args, cwd=ROOT, env=env, stderr=sim_stderr),
-        subprocess.Popen([os.path.join(TARGET, "cnc_node")] + node_args, cwd=ROOT, env=env),
-    ]
+    return [start_sim(env, sim_args, sim_stderr), start_node(env, node_args, node_stderr)]
+
+
+def start_sim(env, args, stderr=None):
+    """The simulator alone (e.g. again after it was killed)."""
+    return subprocess.Popen([os.path.join(TARGET, "sim_axes")] + args, cwd=ROOT, env=env, stderr=stderr)
+
+
+def start_node(env, args, stderr=None):
+    """The controller alone."""
+    return subprocess.Popen([os.path.join(TARGET, "cnc_node")] + args, cwd=ROOT, env=env, stderr=stderr)
 
 
 def stop(procs, timeout=5):

@@ -140,9 +140,12 @@ fn run(args: Args) -> Result<(), String> {
             eprintln!("cnc_node: DDS threads stay at normal priority (SCHED_FIFO {dds_rt}: {e})");
         }
     }
-    let (_ctx, mut node) = ros::join(domain, &args.namespace, "cnc_node")?;
+    let (ctx, mut node) = ros::join(domain, &args.namespace, "cnc_node")?;
     let ns = args.namespace.as_str();
-    let pub_set = ros::publisher::<JointState>(&mut node, ns, "joint_setpoints")?;
+    // a subscriber that dies must not stop the setpoints for the others
+    let window = ros::lease_window(machine.interpolation.rate_hz);
+    let pub_set =
+        ros::publisher_with_window::<JointState>(&ctx, &mut node, ns, "joint_setpoints", window)?;
     let pub_spin = ros::publisher::<Float64>(&mut node, ns, "spindle_command")?;
     let pub_status = ros::publisher::<ControllerStatus>(&mut node, ns, "status")?;
     let sub_js = ros::subscription::<JointState>(&mut node, &args.sim_namespace, "joint_states")?;
@@ -244,6 +247,7 @@ fn run(args: Args) -> Result<(), String> {
         ns.trim_end_matches('/')
     );
     let mut last_spindle = f64::NAN;
+    let mut spindle_sent = Instant::now();
     let mut recording: Option<(u32, Rec)> = None;
     loop {
         // services
@@ -317,8 +321,13 @@ fn run(args: Args) -> Result<(), String> {
                 }
             }
             let _ = pub_set.publish(js);
-            if let Some(f) = spindle {
-                let _ = pub_spin.publish(f);
+            // on change, and again every SPINDLE_REPEAT (a simulator or
+            // drive started later gets it; recordings hold the changes)
+            if spindle.is_some() || spindle_sent.elapsed() >= SPINDLE_REPEAT {
+                spindle_sent = Instant::now();
+                let _ = pub_spin.publish(Float64 {
+                    data: t.spindle_rpm * std::f64::consts::TAU / 60.0,
+                });
             }
             if let Some(s) = status {
                 let _ = pub_status.publish(s);
@@ -330,6 +339,11 @@ fn run(args: Args) -> Result<(), String> {
         }
     }
 }
+
+/// The spindle command is published on change and at least this often:
+/// the topic is volatile, and a simulator (or drive bridge) that starts
+/// while the spindle turns would otherwise never hear the command.
+const SPINDLE_REPEAT: Duration = Duration::from_millis(100);
 
 /// Sends a command to the control loop and waits (briefly) for its answer.
 fn ask(
@@ -582,9 +596,65 @@ fn check_worker(
 ) {
     let mut next_id = 1u32;
     while let Ok((id, req)) = reqs.recv() {
-        let resp = handle_run(&machine, &dir, &rec, &req, &mut next_id, &cmds, &here);
+        let mut resp = handle_run(&machine, &dir, &rec, &req, &mut next_id, &cmds, &here);
+        resp.message = fit_reply(
+            &resp.message,
+            MAX_REPLY_TEXT - resp.recording.len().min(500),
+        );
         let _ = resps.send((id, resp));
     }
+}
+
+/// The most bytes of text (message and recording path) a reply carries.
+///
+/// A reply is kept in one DDS datagram: rustdds 0.15 writes a fragmented
+/// reply with inline QoS (every service reply: the request's identity)
+/// with one stray byte (`DataFrag` writes the `Option` of its parameter
+/// list), which a debug build's DDS thread dies on (a `debug_assert`: the
+/// node then neither publishes nor answers); a release build sends that
+/// byte too. Datagrams to a Fast DDS peer hold about 1,300 bytes of reply;
+/// 1,000 leaves room for the rest.
+const MAX_REPLY_TEXT: usize = 1000;
+
+/// `text` cut to at most `max` bytes: whole lines while they fit, then
+/// `... and N more errors` for the error lines left out (counting those a
+/// trailing `... and N more errors` already stood for); a single line
+/// that does not fit is cut at a character boundary and ends in `...`.
+fn fit_reply(text: &str, max: usize) -> String {
+    if text.len() <= max {
+        return text.to_string();
+    }
+    let more_of = |l: &str| {
+        l.strip_prefix("... and ")
+            .and_then(|r| r.strip_suffix(" more errors"))
+            .and_then(|n| n.parse::<u64>().ok())
+    };
+    let mut out = String::new();
+    let mut left_out = 0u64;
+    // room for the summary line
+    let room = max.saturating_sub(40);
+    for l in text.split('\n') {
+        let sep = usize::from(!out.is_empty());
+        if left_out == 0 && out.len() + sep + l.len() <= room {
+            if sep == 1 {
+                out.push('\n');
+            }
+            out.push_str(l);
+            continue;
+        }
+        left_out += more_of(l).unwrap_or(1);
+    }
+    if out.is_empty() {
+        // one line longer than the room: cut it
+        let mut end = room.min(text.len());
+        while !text.is_char_boundary(end) {
+            end -= 1;
+        }
+        let first = text.split('\n').next().unwrap_or_default();
+        return format!("{}...", &first[..end.min(first.len())]);
+    }
+    out.push_str(&format!("\n... and {left_out} more errors"));
+    out
 }
 
 fn refuse(message: String) -> RunProgramResponse {
@@ -639,7 +709,8 @@ fn handle_run(
         .map(|h| f64::from_bits(h.load(Ordering::Relaxed)))
         .collect();
     let m = machine.starting_at(&now[..machine.axes.len()]);
-    let report = check(StrSource::from_bytes(&text), dialect, &m);
+    let src = StrSource::from_bytes(&text).with_max_line(machine.limits.max_line_bytes);
+    let report = check(src, dialect, &m);
     if !report.ok() {
         return refuse(report.message());
     }
@@ -716,5 +787,37 @@ fn handle_run(
         }
         Ok(Err(m)) => refuse(m),
         Err(_) => refuse("the control loop did not answer".into()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::fit_reply;
+
+    #[test]
+    fn replies_fit_in_one_datagram() {
+        let errors: Vec<String> = (1..=30)
+            .map(|l| format!("line {l}, column 1: unexpected character '`': expected an address letter and a number"))
+            .collect();
+        let text = errors.join("\n");
+        assert_eq!(fit_reply(&text, 10_000), text);
+        let short = fit_reply(&text, 1000);
+        assert!(short.len() <= 1000, "{}", short.len());
+        let lines: Vec<&str> = short.lines().collect();
+        let kept = lines.len() - 1;
+        assert_eq!(lines[..kept], errors[..kept]);
+        assert_eq!(lines[kept], format!("... and {} more errors", 30 - kept));
+        // a summary of errors not kept by the check counts too
+        let text = format!("{}\n... and 500 more errors", errors.join("\n"));
+        let short = fit_reply(&text, 1000);
+        assert!(
+            short.ends_with(&format!("... and {} more errors", 530 - kept)),
+            "{short}"
+        );
+        // one long line (a long program_path): cut at a character boundary
+        let long = format!("program_path '{}' may not contain '..'", "é".repeat(2000));
+        let cut = fit_reply(&long, 1000);
+        assert!(cut.len() <= 1000 && cut.ends_with("..."), "{}", cut.len());
+        assert!(cut.starts_with("program_path 'éé"));
     }
 }

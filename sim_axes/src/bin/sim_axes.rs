@@ -102,12 +102,26 @@ fn run(a: Args) -> Result<(), String> {
             eprintln!("sim_axes: DDS threads stay at normal priority (SCHED_FIFO {dds_rt}: {e})");
         }
     }
-    let (_ctx, mut node) = ros::join(domain, &a.namespace, "sim_axes")?;
+    let (ctx, mut node) = ros::join(domain, &a.namespace, "sim_axes")?;
     let cns = a.controller_namespace.as_str();
     let sub_set = ros::subscription::<JointState>(&mut node, cns, "joint_setpoints")?;
     let sub_spin = ros::subscription::<Float64>(&mut node, cns, "spindle_command")?;
-    let pub_js = ros::publisher::<JointState>(&mut node, &a.namespace, "joint_states")?;
-    let pub_enc = ros::publisher::<SpindleEncoder>(&mut node, &a.namespace, "spindle_encoder")?;
+    // a subscriber that dies (the controller) must not stop them for the others
+    let window = ros::lease_window(rate);
+    let pub_js = ros::publisher_with_window::<JointState>(
+        &ctx,
+        &mut node,
+        &a.namespace,
+        "joint_states",
+        window,
+    )?;
+    let pub_enc = ros::publisher_with_window::<SpindleEncoder>(
+        &ctx,
+        &mut node,
+        &a.namespace,
+        "spindle_encoder",
+        window,
+    )?;
     let srv_enc =
         ros::server::<SetBoolRequest, SetBoolResponse>(&mut node, &a.namespace, "encoder_enabled")?;
     let srv_stall =
