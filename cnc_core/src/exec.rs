@@ -133,8 +133,6 @@ pub struct Executor<S> {
     /// feed scale σ now, and where it is heading (0 = hold)
     scale: f64,
     target: f64,
-    /// path length per second between the last two samples of a move
-    w_prev: f64,
     cur: Option<Cur>,
     pos: V3,
     src: Src,
@@ -220,7 +218,6 @@ impl<S: ProgramSource> Executor<S> {
             lim,
             scale: 1.0,
             target: 1.0,
-            w_prev: 0.0,
             cur: None,
             pos: machine.home(),
             src: Src::default(),
@@ -334,54 +331,69 @@ impl<S: ProgramSource> Executor<S> {
     /// acceleration × dt per sample, whatever the profile itself does at
     /// the same time. With σ at its target nothing changes.
     fn update_scale(&mut self, m: &PlannedMove, tau: f64) {
+        let goal = if self.target > 1.0 {
+            self.target.min(self.boost_limit(m, tau))
+        } else {
+            self.target
+        };
+        if self.scale == goal {
+            return;
+        }
         let dt = self.dt;
         let p = &m.profile;
         let s0 = p.s_at(tau);
-        // path length at local time t, continued past the end at the exit speed
+        // path length at local time t, continued before the start at the
+        // entry speed and past the end at the exit speed
         let s_ext = |t: f64| {
-            if t > p.duration {
+            if t < 0.0 {
+                t * p.v0
+            } else if t > p.duration {
                 p.length + (t - p.duration) * p.v1
             } else {
                 p.s_at(t)
             }
         };
         let w = |sigma: f64| (s_ext(tau + sigma * dt) - s0) / dt;
-        let goal = if self.target > 1.0 {
-            self.target.min(self.boost_limit(m, tau))
-        } else {
-            self.target
-        };
-        if self.scale != goal {
-            let step = p.a * dt;
-            let down = goal < self.scale;
-            let (from, to) = (self.scale, goal);
-            // the limit the secant must not pass, and whether σ = `to` keeps it
-            let ok = |x: f64| {
-                if down {
-                    x >= self.w_prev - step
-                } else {
-                    x <= self.w_prev + step
-                }
-            };
-            self.scale = if ok(w(to)) {
-                to
-            } else if !ok(w(from)) {
-                from
+        // the secant of the step that led here, taken at the σ in force
+        let w_prev = (s0 - s_ext(tau - self.scale * dt)) / dt;
+        let step = p.a * dt;
+        let down = goal < self.scale;
+        let (from, to) = (self.scale, goal);
+        // the limit the secant must not pass, and whether σ = `to` keeps it
+        let ok = |x: f64| {
+            if down {
+                x >= w_prev - step
             } else {
-                // bisection between σ that keeps the limit and σ that does not
-                let (mut good, mut bad) = (from, to);
-                for _ in 0..48 {
-                    let mid = 0.5 * (good + bad);
-                    if ok(w(mid)) {
-                        good = mid;
-                    } else {
-                        bad = mid;
-                    }
+                x <= w_prev + step
+            }
+        };
+        self.scale = if ok(w(to)) {
+            to
+        } else if !ok(w(from)) {
+            from
+        } else {
+            // bisection between σ that keeps the limit and σ that does not
+            let (mut good, mut bad) = (from, to);
+            for _ in 0..48 {
+                let mid = 0.5 * (good + bad);
+                if ok(w(mid)) {
+                    good = mid;
+                } else {
+                    bad = mid;
                 }
-                good
-            };
-        }
-        self.w_prev = w(self.scale);
+            }
+            good
+        };
+    }
+
+    /// A sample standing still at the current position (a dwell, the hold
+    /// after a stop). Its time runs at the feed scale but never faster than
+    /// 1: a feed hold pauses it, an override over 100 % does not shorten it.
+    fn still_sample(&mut self) -> Sample {
+        let s = self.sample(self.pos, 0.0, false);
+        self.scale = self.target.min(1.0);
+        self.advance(self.scale);
+        s
     }
 
     /// Errors the interpreter met (none for a checked program).
@@ -619,11 +631,7 @@ impl<S: ProgramSource> Executor<S> {
         loop {
             if self.cur.is_none() && self.vk < self.timeline.group_k0 as f64 {
                 // the hold after a stop: the jerk filter settles
-                let s = self.sample(self.pos, 0.0, false);
-                self.scale = self.target.min(1.0);
-                self.w_prev = 0.0;
-                self.advance(self.scale);
-                return Some(s);
+                return Some(self.still_sample());
             }
             if self.cur.is_none() {
                 let item = self.next_item();
@@ -640,7 +648,6 @@ impl<S: ProgramSource> Executor<S> {
                     }
                     Some(Item::Dwell { seconds, src }) => {
                         self.scale = self.target.min(1.0);
-                        self.w_prev = 0.0;
                         self.src = src;
                         let end = self.timeline.group_k0 + self.timeline.ticks(seconds);
                         self.timeline.finish_dwell(seconds);
@@ -695,12 +702,8 @@ impl<S: ProgramSource> Executor<S> {
                     self.timeline.finish_move(&m);
                 }
                 Some(Cur::Dwell(end)) if self.vk < end as f64 => {
-                    let s = self.sample(self.pos, 0.0, false);
-                    self.scale = self.target.min(1.0);
-                    self.w_prev = 0.0;
                     self.cur = Some(Cur::Dwell(end));
-                    self.advance(self.scale);
-                    return Some(s);
+                    return Some(self.still_sample());
                 }
                 Some(Cur::Dwell(_)) => {}
                 Some(Cur::Thread(run)) => {

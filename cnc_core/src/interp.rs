@@ -406,6 +406,16 @@ pub struct Interpreter<S> {
     scratch: VecDeque<Event>,
 }
 
+/// G73's L: the block number to jump back to, if it is one.
+fn jump_target(l: &Word) -> Option<i64> {
+    l.as_int().filter(|&n| l.integer && n >= 0)
+}
+
+/// G73's Q: the repeat count, a whole number 0..=9999, if it is one.
+fn jump_count(q: &Word) -> Option<i64> {
+    q.as_int().filter(|&c| q.integer && (0..=9999).contains(&c))
+}
+
 /// Whether the loops' total is added up before the first jump.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum LoopScan {
@@ -1249,7 +1259,7 @@ impl<S: ProgramSource> Interpreter<S> {
             );
             return;
         };
-        let Some(n) = l.as_int().filter(|&n| l.integer && n >= 0) else {
+        let Some(n) = jump_target(&l) else {
             self.error(
                 Some(&l),
                 format!("L must be a block number, found L{}", num(l.value)),
@@ -1258,7 +1268,7 @@ impl<S: ProgramSource> Interpreter<S> {
         };
         let count = match q {
             None => 0,
-            Some(q) => match q.as_int().filter(|&c| q.integer && (0..=9999).contains(&c)) {
+            Some(q) => match jump_count(&q) {
                 Some(c) => c as u32,
                 None => {
                     self.error(
@@ -1403,13 +1413,10 @@ impl<S: ProgramSource> Interpreter<S> {
                 continue;
             };
             let word = |c: u8| block.words.iter().find(|w| w.letter == c);
-            let target = word(b'L').and_then(|l| l.as_int().filter(|&n| l.integer && n >= 0));
+            let target = word(b'L').and_then(jump_target);
             let times = match word(b'Q') {
                 None => Some(1),
-                Some(q) => q
-                    .as_int()
-                    .filter(|&c| q.integer && (0..=9999).contains(&c))
-                    .map(|c| c + 1),
+                Some(q) => jump_count(q).map(|c| c + 1),
             };
             if let (Some(target), Some(times)) = (target, times) {
                 jumps.push(Jump {

@@ -618,13 +618,17 @@ impl Machine {
             .fold(1.0, f64::max)
     }
 
-    /// The lowest jerk limit the filter allows (for the error message).
-    fn min_jerk(&self) -> f64 {
-        let a = self
-            .axes
+    /// The largest acceleration limit of any axis, mm/s².
+    fn max_acceleration(&self) -> f64 {
+        self.axes
             .iter()
             .map(|a| a.max_acceleration_mm_s2)
-            .fold(0.0, f64::max);
+            .fold(0.0, f64::max)
+    }
+
+    /// The lowest jerk limit the filter allows (for the error message).
+    fn min_jerk(&self) -> f64 {
+        let a = self.max_acceleration();
         2.0 * a / (MAX_SMOOTHING_SAMPLES as f64 * self.dt())
     }
 
@@ -644,11 +648,7 @@ impl Machine {
             return 0.0;
         }
         let dt = self.dt();
-        let a = self
-            .axes
-            .iter()
-            .map(|a| a.max_acceleration_mm_s2)
-            .fold(0.0, f64::max);
+        let a = self.max_acceleration();
         let w = (m - 1.0) * dt;
         let arc = w * w * crate::plan::ARC_SHARE * a / 8.0;
         let kink = w * crate::plan::KINK_SHARE * a * dt / 4.0;
