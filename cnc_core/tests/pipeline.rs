@@ -4,6 +4,8 @@ use cnc_core::exec::{Executor, Sample};
 use cnc_core::source::StrSource;
 use cnc_core::{check, Dialect, Machine, V3};
 
+mod common;
+
 fn mill() -> Machine {
     Machine::builtin_mill()
 }
@@ -72,16 +74,12 @@ fn assert_on_circle(
     let pts = on_line(samples, line);
     assert!(pts.len() > 50, "line {line}: {} samples", pts.len());
     let mm = m.smoothing_samples();
-    let k2 = ((mm * mm - 1) as f64) * m.dt() * m.dt() / (24.0 * r);
     for (i, s) in pts.iter().enumerate().skip(mm - 1) {
         let d = ((s.pos[p] - c.0).powi(2) + (s.pos[q] - c.1).powi(2)).sqrt();
-        let v = pts[i + 1 - mm..(i + mm).min(pts.len())]
-            .iter()
-            .map(|x| x.path_speed)
-            .fold(0.0, f64::max);
+        let inside = common::filter_shrink(m, &pts, i, r);
         assert!(
-            d <= r + 1e-9 && r - d <= v * v * k2 * 1.01 + 1e-9,
-            "line {line} t={} off the circle by {:e} mm at {v} mm/s",
+            d <= r + 1e-9 && r - d <= inside,
+            "line {line} t={} off the circle by {:e} mm (filter: {inside:e})",
             s.t,
             d - r
         );

@@ -3,7 +3,9 @@
 //! offset code.
 #![allow(dead_code)]
 
+use cnc_core::exec::Sample;
 use cnc_core::Machine;
+use std::borrow::Borrow;
 
 /// `m` without its jerk limits: tests that measure the interpolated or
 /// compensated path itself to 1e-6 mm or better run without the jerk
@@ -15,6 +17,18 @@ pub fn exact(m: &Machine) -> Machine {
         a.max_jerk_mm_s3 = None;
     }
     m
+}
+
+/// How far the jerk filter (M samples) may pull sample `i` of `s` inside a
+/// circle of radius `r`: v²(M²−1)dt²/(24 r), with v the fastest path speed
+/// among the samples it averages (1 % and 1 nm in hand).
+pub fn filter_shrink<T: Borrow<Sample>>(m: &Machine, s: &[T], i: usize, r: f64) -> f64 {
+    let mm = m.smoothing_samples();
+    let v = s[i + 1 - mm..(i + mm).min(s.len())]
+        .iter()
+        .map(|x| x.borrow().path_speed)
+        .fold(0.0, f64::max);
+    v * v * ((mm * mm - 1) as f64) * m.dt() * m.dt() / (24.0 * r) * 1.01 + 1e-9
 }
 
 /// A contour element in the plane's (p, q) coordinates.
