@@ -2,6 +2,8 @@
 (`sim_axes`) nodes for the ROS tests."""
 import os
 import subprocess
+import threading
+import time
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 TARGET = os.environ.get("CNC_TARGET_DIR", os.path.join(ROOT, "target", "debug"))
@@ -37,3 +39,40 @@ def stop(procs, timeout=5):
             p.wait(timeout=timeout)
         except subprocess.TimeoutExpired:
             p.kill()
+
+
+class SpinningPeer:
+    """An rclpy node spun in a thread of its own, where its subscriptions'
+    callbacks run. Subclasses make their subscriptions and clients after
+    this `__init__`, then call `spin()`."""
+
+    def __init__(self, name):
+        import rclpy
+        self.node = rclpy.create_node(name)
+        self.lock = threading.Lock()
+
+    def spin(self):
+        from rclpy.executors import SingleThreadedExecutor
+        self.ex = SingleThreadedExecutor()
+        self.ex.add_node(self.node)
+        self.stop = False
+        self.thread = threading.Thread(target=self._spin_thread, daemon=True)
+        self.thread.start()
+
+    def _spin_thread(self):
+        while not self.stop:
+            self.ex.spin_once(timeout_sec=0.05)
+
+    def call(self, client, req, timeout=20.0):
+        """The reply of `client` to `req` (an assertion if none comes)."""
+        fut = client.call_async(req)
+        t0 = time.time()
+        while not fut.done() and time.time() - t0 < timeout:
+            time.sleep(0.002)
+        assert fut.done(), "no reply from %s within %.0f s" % (client.srv_name, timeout)
+        return fut.result()
+
+    def close(self):
+        self.stop = True
+        self.thread.join()
+        self.node.destroy_node()

@@ -18,12 +18,10 @@ import re
 import signal
 import subprocess
 import sys
-import threading
 import time
 
 import pytest
 import rclpy
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
@@ -31,7 +29,7 @@ from std_srvs.srv import Trigger
 
 from cnc_msgs.msg import ControllerStatus, SpindleEncoder
 from cnc_msgs.srv import RunProgram
-from ros_nodes import ROOT, TARGET, build, start, start_node, start_sim, stop
+from ros_nodes import ROOT, TARGET, build, start, start_node, start_sim, SpinningPeer, stop
 
 DOMAIN = str(30 + os.getpid() % 60)
 NS, SIM = "/cnc", "/sim"
@@ -91,13 +89,12 @@ class Rig:
         stop([self.sim, self.node])
 
 
-class Peer:
+class Peer(SpinningPeer):
     """Setpoints (stamp ns, arrival s, positions m), status, the simulator's
     joint states and encoder, spindle commands; calls the service."""
 
     def __init__(self, name):
-        self.node = rclpy.create_node(name)
-        self.lock = threading.Lock()
+        super().__init__(name)
         self.setpoints = []
         self.status = []  # (arrival s, message)
         self.joint_states = []  # (stamp ns, positions m)
@@ -111,20 +108,12 @@ class Peer:
         self.node.create_subscription(Float64, NS + "/spindle_command", self._spin, 10)
         self.run = self.node.create_client(RunProgram, NS + "/run_program")
         self.abort = self.node.create_client(Trigger, NS + "/abort")
-        self.ex = SingleThreadedExecutor()
-        self.ex.add_node(self.node)
-        self.stop = False
-        self.thread = threading.Thread(target=self._spin_thread, daemon=True)
-        self.thread.start()
+        self.spin()
         assert self.run.wait_for_service(timeout_sec=30.0), "no /cnc/run_program"
         t0 = time.time()
         while time.time() - t0 < 10 and not (self.setpoints and self.joint_states):
             time.sleep(0.05)
         assert self.setpoints and self.joint_states, "no setpoints or joint states"
-
-    def _spin_thread(self):
-        while not self.stop:
-            self.ex.spin_once(timeout_sec=0.05)
 
     def _sp(self, m):
         t = time.time()
@@ -148,14 +137,6 @@ class Peer:
         with self.lock:
             self.spindle.append(m.data)
 
-    def call(self, req, timeout=60.0, client=None):
-        fut = (client or self.run).call_async(req)
-        t0 = time.time()
-        while not fut.done() and time.time() - t0 < timeout:
-            time.sleep(0.002)
-        assert fut.done(), "no reply from the service within %.0f s" % timeout
-        return fut.result()
-
     def run_program(self, text="", path="", dry_run=False, record=False, dialect=""):
         req = RunProgram.Request()
         req.program = text
@@ -163,7 +144,7 @@ class Peer:
         req.dry_run = dry_run
         req.record = record
         req.dialect = dialect
-        return self.call(req)
+        return self.call(self.run, req, timeout=60.0)
 
     def wait_for(self, what, cond, timeout=30.0):
         t0 = time.time()
@@ -196,10 +177,6 @@ class Peer:
         with self.lock:
             return self.setpoints[-1][2]
 
-    def close(self):
-        self.stop = True
-        self.thread.join()
-        self.node.destroy_node()
 
 
 @pytest.fixture(scope="module")
@@ -521,7 +498,7 @@ def test_a_burst_of_1000_calls_while_a_job_runs(rig):
     res = json.loads(p.stdout.strip().splitlines()[-1])
     late, cycles = late_during(rig, late0)
     print("burst: %d calls answered in %.2f s, %s" % (res["answered"], res["t1"] - res["t0"], res["messages"]))
-    a = peer.call(Trigger.Request(), client=peer.abort)
+    a = peer.call(peer.abort, Trigger.Request(), timeout=60.0)
     assert a.success, a.message
     st = peer.final_status(job, timeout=30)
     assert "aborted" in st.last_error, st.last_error

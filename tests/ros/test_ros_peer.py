@@ -8,18 +8,16 @@ import math
 import os
 import subprocess
 import sys
-import threading
 import time
 
 import pytest
 import rclpy
-from rclpy.executors import SingleThreadedExecutor
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram
-from ros_nodes import ROOT, TARGET, build, start, stop
+from ros_nodes import ROOT, TARGET, build, start, SpinningPeer, stop
 
 DOMAIN = str(100 + os.getpid() % 100)
 NS = "/cnc"
@@ -39,12 +37,11 @@ def nodes():
     stop(procs)
 
 
-class Peer:
+class Peer(SpinningPeer):
     """An rclpy node that records setpoints and status in a spinning thread."""
 
     def __init__(self, name):
-        self.node = rclpy.create_node(name)
-        self.lock = threading.Lock()
+        super().__init__(name)
         self.setpoints = []  # (stamp s, positions m)
         self.status = []
         self.node.create_subscription(JointState, NS + "/joint_setpoints", self._sp, 10)
@@ -52,16 +49,8 @@ class Peer:
         self.run = self.node.create_client(RunProgram, NS + "/run_program")
         self.abort = self.node.create_client(Trigger, NS + "/abort")
         self.hold = self.node.create_client(SetBool, NS + "/feed_hold")
-        self.ex = SingleThreadedExecutor()
-        self.ex.add_node(self.node)
-        self.stop = False
-        self.thread = threading.Thread(target=self._spin, daemon=True)
-        self.thread.start()
+        self.spin()
         assert self.run.wait_for_service(timeout_sec=30.0), "no /cnc/run_program service"
-
-    def _spin(self):
-        while not self.stop:
-            self.ex.spin_once(timeout_sec=0.05)
 
     def _sp(self, m):
         with self.lock:
@@ -70,14 +59,6 @@ class Peer:
     def _st(self, m):
         with self.lock:
             self.status.append(m)
-
-    def call(self, client, req, timeout=20.0):
-        fut = client.call_async(req)
-        t0 = time.time()
-        while not fut.done() and time.time() - t0 < timeout:
-            time.sleep(0.005)
-        assert fut.done(), "no reply from the service"
-        return fut.result()
 
     def run_program(self, text, dry_run=False, path=""):
         req = RunProgram.Request()
@@ -95,10 +76,6 @@ class Peer:
             time.sleep(0.01)
         raise AssertionError("job %d never reached state %d" % (job_id, state))
 
-    def close(self):
-        self.stop = True
-        self.thread.join()
-        self.node.destroy_node()
 
 
 @pytest.fixture

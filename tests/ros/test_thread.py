@@ -12,12 +12,10 @@ The measured numbers are printed (-s shows them).
 import bisect
 import math
 import os
-import threading
 import time
 
 import pytest
 import rclpy
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
@@ -25,7 +23,7 @@ from std_srvs.srv import SetBool
 
 from cnc_msgs.msg import ControllerStatus, SpindleEncoder
 from cnc_msgs.srv import RunProgram
-from ros_nodes import ROOT, build, start, stop
+from ros_nodes import ROOT, build, start, SpinningPeer, stop
 
 DOMAIN = str(100 + os.getpid() % 100)
 NS, SIM = "/cnc", "/sim"
@@ -64,13 +62,12 @@ def machine(request):
         stop(procs)
 
 
-class Peer:
+class Peer(SpinningPeer):
     """Records setpoints, encoder readings, spindle commands and status (by
     their stamps) in a spinning thread; calls the services."""
 
     def __init__(self, name):
-        self.node = rclpy.create_node(name)
-        self.lock = threading.Lock()
+        super().__init__(name)
         self.setpoints = []  # (stamp s, positions m)
         self.encoder = []  # (stamp s, count, counts_per_rev, count_at_index)
         self.spindle = []  # (stamp s of the setpoint before, rad/s)
@@ -84,11 +81,7 @@ class Peer:
         self.run = self.node.create_client(RunProgram, NS + "/run_program")
         self.encoder_enabled = self.node.create_client(SetBool, SIM + "/encoder_enabled")
         self.spindle_stalled = self.node.create_client(SetBool, SIM + "/spindle_stalled")
-        self.ex = SingleThreadedExecutor()
-        self.ex.add_node(self.node)
-        self.stop = False
-        self.thread = threading.Thread(target=self._spin_thread, daemon=True)
-        self.thread.start()
+        self.spin()
         for c in (self.run, self.encoder_enabled, self.spindle_stalled):
             assert c.wait_for_service(timeout_sec=30.0), "no service %s" % c.srv_name
         # the encoder is flowing (the subscription is matched)
@@ -96,10 +89,6 @@ class Peer:
         while time.time() - t0 < 10 and not self.encoder:
             time.sleep(0.05)
         assert self.encoder, "no encoder messages"
-
-    def _spin_thread(self):
-        while not self.stop:
-            self.ex.spin_once(timeout_sec=0.05)
 
     def _sp(self, m):
         with self.lock:
@@ -125,14 +114,6 @@ class Peer:
             self.setpoints.clear()
             self.encoder.clear()
             self.spindle.clear()
-
-    def call(self, client, req, timeout=20.0):
-        fut = client.call_async(req)
-        t0 = time.time()
-        while not fut.done() and time.time() - t0 < timeout:
-            time.sleep(0.002)
-        assert fut.done(), "no reply from %s" % client.srv_name
-        return fut.result()
 
     def run_program(self, text, dry_run=False):
         req = RunProgram.Request()
@@ -196,10 +177,6 @@ class Peer:
             print("%s: attempt %d ended with %r after the simulator %s; again"
                   % (what, i + 1, st.last_error, stalls[-1]))
 
-    def close(self):
-        self.stop = True
-        self.thread.join()
-        self.node.destroy_node()
 
 
 def pairs_at(setpoints, encoder, axis, start, lo, hi, max_gap=0.004):
