@@ -260,4 +260,60 @@ mod tests {
         assert!((g0.end_tangent() - ga.start_tangent()).norm() < 1e-12);
         assert!((ga.end_tangent() - g2.start_tangent()).norm() < 1e-12);
     }
+
+    /// The arc of a blended corner between `a→c` and `c→e` at `tol`.
+    fn blend_of(a: V3, c: V3, e: V3, tol: f64) -> Option<Arc> {
+        let mut b = Blender::default();
+        let mut out = VecDeque::new();
+        b.push(mv(a, c), tol, &mut out);
+        b.push(mv(c, e), tol, &mut out);
+        b.flush(&mut out);
+        out.iter().find_map(|ev| match ev {
+            Event::Move {
+                geom: Geom::Arc(arc),
+                ..
+            } => Some(*arc),
+            _ => None,
+        })
+    }
+
+    #[test]
+    fn a_corner_climbing_at_one_slope_is_blended_with_a_helix() {
+        // a 90° turn in XY, both lines falling 1 mm per 10 mm in the plane
+        let (a, c, e) = (
+            V3::new(0.0, 0.0, 0.0),
+            V3::new(10.0, 0.0, -1.0),
+            V3::new(10.0, 10.0, -2.0),
+        );
+        let arc = blend_of(a, c, e, 0.1).expect("a helical blend");
+        assert_eq!(arc.plane, Plane::XY);
+        // 90 % of the tolerance in the plane: r (√2 − 1) = 0.09
+        let r = 0.09 / (2f64.sqrt() - 1.0);
+        assert!((arc.radius - r).abs() < 1e-12, "{}", arc.radius);
+        // it climbs from line to line: the trims are r in the plane, so
+        // 0.1·r of Z on each side
+        assert!(
+            (arc.start.z - (-1.0 + 0.1 * r)).abs() < 1e-12,
+            "{}",
+            arc.start.z
+        );
+        assert!(
+            (arc.end.z - (-1.0 - 0.1 * r)).abs() < 1e-12,
+            "{}",
+            arc.end.z
+        );
+        assert!((arc.axial + 0.2 * r).abs() < 1e-12);
+        // the junctions turn by about slope·(2·tan(φ/2)/φ − 1): 1.6° here
+        let ga = Geom::Arc(arc);
+        let g0 = Geom::Line { start: a, end: c };
+        let turn = g0
+            .end_tangent()
+            .dot(&ga.start_tangent())
+            .acos()
+            .to_degrees();
+        assert!(turn > 1.5 && turn < 1.7, "{turn}");
+        // CAM-rounded: slopes 0.1 and 0.1001 still blend; 0.1 and 0.2 do not
+        assert!(blend_of(a, c, V3::new(10.0, 10.0, -2.001), 0.1).is_some());
+        assert!(blend_of(a, c, V3::new(10.0, 10.0, -3.0), 0.1).is_none());
+    }
 }
