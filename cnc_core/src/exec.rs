@@ -128,8 +128,6 @@ pub struct Executor<S> {
     k: u64,
     /// virtual tick: advances by `scale` per sample
     vk: f64,
-    /// planner limits (for the override's speed caps)
-    lim: PlanLimits,
     /// feed scale σ now, and where it is heading (0 = hold)
     scale: f64,
     target: f64,
@@ -158,6 +156,14 @@ pub struct Executor<S> {
     /// the raw sample just made is a thread's controlled stop: it bypasses
     /// the filter as the thread did
     bypass: bool,
+    /// path length of the moves finished since the last stop, and the
+    /// path position (on that count) of the last move sample, mm
+    s_base: f64,
+    s_last: f64,
+    /// the measured spindle's scale of the last move step (G95)
+    sp_last: f64,
+    /// the largest path acceleration any move may have (|a_max|), mm/s²
+    a_top: f64,
 }
 
 /// A moving average of the last M setpoints (and path speeds).
@@ -208,6 +214,13 @@ impl Smoother {
 impl<S: ProgramSource> Executor<S> {
     pub fn new(source: S, dialect: Dialect, machine: &Machine) -> Self {
         let lim = PlanLimits::from_machine(machine);
+        let a_top = lim
+            .amax
+            .iter()
+            .filter(|a| a.is_finite())
+            .map(|a| a * a)
+            .sum::<f64>()
+            .sqrt();
         Executor {
             interp: Interpreter::new(source, dialect, machine),
             planner: Planner::new(lim),
@@ -215,7 +228,6 @@ impl<S: ProgramSource> Executor<S> {
             dt: lim.dt,
             k: 0,
             vk: 0.0,
-            lim,
             scale: 1.0,
             target: 1.0,
             cur: None,
@@ -240,6 +252,10 @@ impl<S: ProgramSource> Executor<S> {
             smooth: (lim.smooth > 1).then(|| Smoother::new(lim.smooth, machine.home())),
             drain: None,
             bypass: false,
+            s_base: 0.0,
+            s_last: 0.0,
+            sp_last: 1.0,
+            a_top,
         }
     }
 
@@ -310,10 +326,14 @@ impl<S: ProgramSource> Executor<S> {
     /// override over 1 (see [`Executor::set_feed_target`]).
     fn boost_limit(&self, m: &PlannedMove, tau: f64) -> f64 {
         let p = &m.profile;
-        if p.vp <= 0.0 || tau < p.t_acc || tau >= p.t_acc + p.t_cruise {
+        // (not while the last steps still reach back into the acceleration
+        // or the move before: a sampled acceleration there adds to the
+        // change of speed, or to the turn of the junction)
+        let settled = p.t_acc + 2.0 * MAX_OVERRIDE * self.dt;
+        if p.vp <= 0.0 || tau < settled || tau >= p.t_acc + p.t_cruise {
             return 1.0;
         }
-        let cap = self.lim.move_limits(&m.geom, p.length, &Feed::Rapid).0;
+        let cap = p.vlim;
         // from σ·vp back to vp before the cruise ends, at the path
         // acceleration, with a step in hand
         let left = p.d_acc + p.d_cruise - p.s_at(tau) - 2.0 * cap * self.dt;
@@ -329,8 +349,9 @@ impl<S: ProgramSource> Executor<S> {
     /// Moves σ towards its target so that the path speed *between samples*
     /// (the secant, what the axes see) changes by at most the move's path
     /// acceleration × dt per sample, whatever the profile itself does at
-    /// the same time. With σ at its target nothing changes.
-    fn update_scale(&mut self, m: &PlannedMove, tau: f64) {
+    /// the same time. With σ at its target nothing changes. `w_prev`: the
+    /// secant speed of the step that led here (mm/s, in virtual time).
+    fn update_scale(&mut self, m: &PlannedMove, tau: f64, w_prev: f64) {
         let goal = if self.target > 1.0 {
             self.target.min(self.boost_limit(m, tau))
         } else {
@@ -342,22 +363,26 @@ impl<S: ProgramSource> Executor<S> {
         let dt = self.dt;
         let p = &m.profile;
         let s0 = p.s_at(tau);
-        // path length at local time t, continued before the start at the
-        // entry speed and past the end at the exit speed
+        let down = goal < self.scale;
+        // path length at local time t. After a stop nothing moves until
+        // the next group starts; past a moving end the moves after this one
+        // are not known here: they may speed up or slow down at up to
+        // `a_top`, and the bound on the safe side is taken
+        let bend = if down { -0.5 } else { 0.5 } * self.a_top;
         let s_ext = |t: f64| {
-            if t < 0.0 {
-                t * p.v0
-            } else if t > p.duration {
-                p.length + (t - p.duration) * p.v1
+            if t > p.duration && p.v1 > 0.0 {
+                let u = t - p.duration;
+                p.length + (u * p.v1 + bend * u * u).max(0.0)
             } else {
                 p.s_at(t)
             }
         };
         let w = |sigma: f64| (s_ext(tau + sigma * dt) - s0) / dt;
-        // the secant of the step that led here, taken at the σ in force
-        let w_prev = (s0 - s_ext(tau - self.scale * dt)) / dt;
-        let step = p.a * dt;
-        let down = goal < self.scale;
+        // a step that reaches into a neighbouring move (or came from one)
+        // also turns with it: its change of speed keeps to the smaller
+        // acceleration, leaving the neighbour its centripetal part
+        let across = tau - self.scale * dt < 0.0 || tau + self.scale.max(goal) * dt > p.duration;
+        let step = if across { p.a_join } else { p.a } * dt;
         let (from, to) = (self.scale, goal);
         // the limit the secant must not pass, and whether σ = `to` keeps it
         let ok = |x: f64| {
@@ -630,6 +655,11 @@ impl<S: ProgramSource> Executor<S> {
         self.bypass = false;
         loop {
             if self.cur.is_none() && self.vk < self.timeline.group_k0 as f64 {
+                if self.fault.is_some() {
+                    // stopped for good: the run ends here (the filter
+                    // settles on the end point as the run drains)
+                    return self.end_at(self.pos);
+                }
                 // the hold after a stop: the jerk filter settles
                 return Some(self.still_sample());
             }
@@ -693,12 +723,25 @@ impl<S: ProgramSource> Executor<S> {
                         self.src = m.src;
                         let pos = m.geom.eval(m.profile.s_at(tau));
                         let s = self.sample(pos, m.profile.v_at(tau) * self.scale * spindle, false);
-                        self.update_scale(&m, tau);
+                        // the secant of the step that led here, in virtual
+                        // time (the spindle's measured scale taken out)
+                        let s_now = self.s_base + m.profile.s_at(tau);
+                        let w_prev = (s_now - self.s_last) / (self.dt * self.sp_last.max(1e-9));
+                        self.s_last = s_now;
+                        self.update_scale(&m, tau, w_prev);
                         self.cur = Some(Cur::Move(m, stop));
+                        self.sp_last = spindle;
                         self.advance(self.scale * spindle);
                         return Some(s);
                     }
                     self.pos = m.geom.end();
+                    if m.profile.v1 > 0.0 {
+                        self.s_base += m.profile.length;
+                    } else {
+                        // a stop: the count starts again
+                        self.s_base = 0.0;
+                        self.s_last = 0.0;
+                    }
                     self.timeline.finish_move(&m);
                 }
                 Some(Cur::Dwell(end)) if self.vk < end as f64 => {

@@ -5,10 +5,16 @@
 //! passed at speed; sharper corners stop exactly.
 //!
 //! Limits are honoured at every *sample*, not only in continuous time: a
-//! junction with a small direction change makes each axis's velocity jump,
-//! and the sampled acceleration of that jump is Δv/dt. The planner therefore
-//! reserves [`KINK_SHARE`] of every axis's acceleration for such jumps and
-//! plans path acceleration with the rest.
+//! junction with a small direction change (a kink) makes each axis's
+//! velocity jump, and the sampled acceleration of that jump is Δv/dt. The
+//! planner therefore reserves [`KINK_SHARE`] of every axis's acceleration
+//! for such jumps in the two moves that meet at a kink, and plans their
+//! path acceleration with the rest ([`LINE_SHARE`]). A move whose
+//! junctions are both tangent or stops has no jump to make room for and
+//! uses the whole acceleration. A queue's tail does not know its next
+//! junction yet; it is planned with the smaller share and raised when the
+//! next move shows the junction to be smooth (raising an acceleration
+//! only ever raises the entry speeds already handed out).
 
 use crate::geom::{ceil, Geom};
 use crate::interp::{Event, Feed, Src};
@@ -20,11 +26,16 @@ use std::collections::VecDeque;
 /// Share of each axis's acceleration reserved for velocity jumps at
 /// nearly tangent junctions (within one sample).
 pub const KINK_SHARE: f64 = 0.15;
-/// Share of the acceleration used along lines.
+/// Share of the acceleration used by a move next to a kink.
 pub const LINE_SHARE: f64 = 1.0 - KINK_SHARE;
-/// Share used on arcs for each of the tangential and the centripetal
-/// acceleration (their vector sum stays under `LINE_SHARE`).
-pub const ARC_SHARE: f64 = 0.6;
+/// A junction counts as smooth if its velocity jump at the moves' speed
+/// cap is at most this share of each axis's acceleration (a rounding-level
+/// direction change, as between an arc and its tangent line).
+pub const SMOOTH_SHARE: f64 = 1e-9;
+/// Largest share of an arc's acceleration spent on the centripetal part
+/// (cos 30°, as LinuxCNC); the tangential part gets what is left of the
+/// move's share, √(S² − n²) for share S, at least half of it.
+pub const ARC_NORMAL_MAX: f64 = 0.866_025_403_784_438_6;
 
 /// A trapezoidal (or triangular) speed profile over one move.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -41,6 +52,13 @@ pub struct Profile {
     pub d_cruise: f64,
     /// total time, s
     pub duration: f64,
+    /// fastest speed the move's geometry allows at any feed, with its
+    /// acceleration `a` (what a feed override over 100 % may reach)
+    pub vlim: f64,
+    /// the smallest path acceleration of this move and the moves it joins
+    /// without a stop: what a change of the feed scale may use in a
+    /// sample step that reaches across a junction
+    pub a_join: f64,
 }
 
 impl Profile {
@@ -68,6 +86,8 @@ impl Profile {
             d_acc,
             d_cruise,
             duration: t_acc + t_cruise + t_dec,
+            vlim: vcap,
+            a_join: a,
         }
     }
 
@@ -140,6 +160,18 @@ pub enum Item {
     },
 }
 
+/// Speed cap, path acceleration and geometric speed limit of a move
+/// planned with one acceleration share.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct MoveLimits {
+    /// speed cap at the programmed feed
+    pub vcap: f64,
+    /// path acceleration
+    pub a: f64,
+    /// speed cap at any feed, with acceleration `a` ([`Profile::vlim`])
+    pub vlim: f64,
+}
+
 #[derive(Clone, Copy, Debug)]
 struct QSeg<K> {
     /// what the sink keeps of the move
@@ -147,10 +179,16 @@ struct QSeg<K> {
     /// unit tangent at the end (for the junction with the next move)
     t_end: V3,
     length: f64,
-    vcap: f64,
-    a: f64,
+    /// the limits in force ([`LINE_SHARE`] until both junctions are known
+    /// to be smooth)
+    lim: MoveLimits,
+    /// the limits with the whole acceleration, while they may still be
+    /// taken (the entry junction is smooth, the exit one not yet known)
+    full: Option<MoveLimits>,
     /// largest entry speed the junction allows
     j: f64,
+    /// what `j` becomes if the move takes its `full` limits
+    j_max: f64,
     /// largest entry speed from which the rest of the queue can stop
     entry_b: f64,
 }
@@ -166,36 +204,55 @@ pub struct PlanLimits {
     /// jerk filter length, samples (1: none); see
     /// [`Machine::smoothing_samples`]
     pub smooth: usize,
+    /// per axis, the largest change of the unit tangent at a junction
+    /// that counts as smooth ([`SMOOTH_SHARE`] at the fastest speed)
+    pub smooth_turn: V3,
 }
 
 impl PlanLimits {
     pub fn from_machine(m: &Machine) -> Self {
+        let (vmax, amax, dt) = (m.vmax(), m.amax(), m.dt());
+        // the fastest path speed: every axis at its limit
+        let top = vmax
+            .iter()
+            .filter(|v| v.is_finite())
+            .map(|v| v * v)
+            .sum::<f64>()
+            .sqrt();
         PlanLimits {
-            vmax: m.vmax(),
-            amax: m.amax(),
-            dt: m.dt(),
+            vmax,
+            amax,
+            dt,
             exact_stop_cos: m.planner.exact_stop_angle_deg.to_radians().cos(),
             lookahead: m.planner.lookahead_blocks,
             smooth: m.smoothing_samples(),
+            smooth_turn: amax.map(|a| SMOOTH_SHARE * a * dt / top),
         }
     }
 
-    /// (speed cap, path acceleration) of a move of length `len`.
+    /// The limits of a move of length `len` that may use `share` of every
+    /// axis's acceleration. On an arc the centripetal part takes what the
+    /// feed needs, up to [`ARC_NORMAL_MAX`]·share, and the tangential part
+    /// the rest, so their vector sum stays under the share on every axis.
     #[inline]
-    pub(crate) fn move_limits(&self, geom: &Geom, len: f64, feed: &Feed) -> (f64, f64) {
+    pub(crate) fn move_limits(&self, geom: &Geom, len: f64, feed: &Feed, share: f64) -> MoveLimits {
         let f = feed.speed_mm_s();
         match geom {
             Geom::Line { start, end } => {
-                let mut v = f;
+                let mut vlim = f64::INFINITY;
                 let mut a = f64::INFINITY;
                 for i in 0..3 {
                     let u = (end[i] - start[i]).abs() / len;
                     if u > 0.0 {
-                        v = v.min(self.vmax[i] / u);
-                        a = a.min(LINE_SHARE * self.amax[i] / u);
+                        vlim = vlim.min(self.vmax[i] / u);
+                        a = a.min(share * self.amax[i] / u);
                     }
                 }
-                (v, a)
+                MoveLimits {
+                    vcap: f.min(vlim),
+                    a,
+                    vlim,
+                }
             }
             Geom::Arc(arc) => {
                 let (p, q, n) = arc.plane.axes();
@@ -206,36 +263,54 @@ impl PlanLimits {
                     0.0
                 };
                 let apq = self.amax[p].min(self.amax[q]);
-                let vpq = self.vmax[p].min(self.vmax[q]);
-                let mut v = f
-                    .min(vpq / c)
-                    .min((ARC_SHARE * apq * arc.radius).sqrt() / c);
-                let mut a = ARC_SHARE * apq / c;
+                let mut vgeo = self.vmax[p].min(self.vmax[q]) / c;
                 if h > 0.0 {
-                    v = v.min(self.vmax[n] / h);
-                    a = a.min(LINE_SHARE * self.amax[n] / h);
+                    vgeo = vgeo.min(self.vmax[n] / h);
                 }
-                (v, a)
+                // centripetal share the feed needs, and what is left
+                let normal_max = ARC_NORMAL_MAX * share;
+                let vc = f.min(vgeo) * c;
+                let normal = (vc * vc / (apq * arc.radius)).min(normal_max);
+                let centripetal = |k: f64| (k * apq * arc.radius).sqrt() / c;
+                let mut a = (share * share - normal * normal).max(0.0).sqrt() * apq / c;
+                if h > 0.0 {
+                    a = a.min(share * self.amax[n] / h);
+                }
+                // with the tangential acceleration taken, the centripetal
+                // share left for speeds over the feed
+                let tangential = a * c / apq;
+                let normal_left = (share * share - tangential * tangential)
+                    .max(0.0)
+                    .sqrt()
+                    .min(normal_max)
+                    .max(normal);
+                MoveLimits {
+                    vcap: f.min(vgeo).min(centripetal(normal)),
+                    a,
+                    vlim: vgeo.min(centripetal(normal_left)),
+                }
             }
         }
     }
 
-    /// Largest speed at which the path may pass from `prev` into a move
-    /// with start tangent `t2`.
+    /// The junction from unit tangent `t1` into `t2`: its own speed limit
+    /// (0: an exact stop; ∞: smooth) and whether it is a kink, a velocity
+    /// jump that needs [`KINK_SHARE`] in both moves.
     #[inline]
-    fn junction<K>(&self, prev: &QSeg<K>, t2: &V3, next_vcap: f64) -> f64 {
-        let t1 = prev.t_end;
+    fn junction(&self, t1: &V3, t2: &V3) -> (f64, bool) {
         if t1.dot(t2) < self.exact_stop_cos {
-            return 0.0;
+            return (0.0, false);
         }
-        let mut v = prev.vcap.min(next_vcap);
+        let mut v = f64::INFINITY;
+        let mut kink = false;
         for i in 0..3 {
             let d = (t2[i] - t1[i]).abs();
-            if d > 1e-12 {
+            if d > self.smooth_turn[i] {
+                kink = true;
                 v = v.min(KINK_SHARE * self.amax[i] * self.dt / d);
             }
         }
-        v
+        (v, kink)
     }
 }
 
@@ -281,6 +356,9 @@ pub(crate) struct Lookahead<K> {
     queue: VecDeque<QSeg<K>>,
     /// fixed entry speed of the queue's head
     v_head: f64,
+    /// path acceleration of the move before the head, if it joins the
+    /// head without a stop (else ∞)
+    a_before: f64,
 }
 
 impl<K: Copy> Lookahead<K> {
@@ -289,6 +367,7 @@ impl<K: Copy> Lookahead<K> {
             lim,
             queue: VecDeque::with_capacity(lim.lookahead + 2),
             v_head: 0.0,
+            a_before: f64::INFINITY,
         }
     }
 
@@ -353,41 +432,78 @@ impl<K: Copy> Lookahead<K> {
         if length <= 0.0 {
             return;
         }
-        let (vcap, a) = self.lim.move_limits(geom, length, &feed);
-        let j = match self.queue.back() {
+        let red = self.lim.move_limits(geom, length, &feed, LINE_SHARE);
+        let t2 = line_dir
+            .or(tangents.map(|t| t.0))
+            .unwrap_or_else(|| geom.start_tangent());
+        // the entry junction; a smooth one lets the move before take its
+        // whole acceleration (its exit is now known) and this one keep the
+        // chance of it
+        let (j_kink, kink) = match self.queue.back() {
+            Some(prev) => self.lim.junction(&prev.t_end, &t2),
+            None => (self.v_head, false),
+        };
+        if !kink {
+            self.upgrade_tail();
+        } else if let Some(prev) = self.queue.back_mut() {
+            // a kink: the move before keeps its share for good
+            prev.full = None;
+            prev.j_max = prev.j;
+        }
+        let full = (!kink).then(|| self.lim.move_limits(geom, length, &feed, 1.0));
+        let (j, j_max) = match self.queue.back() {
             Some(prev) => {
-                let t2 = line_dir
-                    .or(tangents.map(|t| t.0))
-                    .unwrap_or_else(|| geom.start_tangent());
-                self.lim.junction(prev, &t2, vcap)
+                let j = j_kink.min(prev.lim.vcap);
+                (j.min(red.vcap), j.min(full.map_or(red.vcap, |f| f.vcap)))
             }
-            None => self.v_head,
+            None => (self.v_head, self.v_head),
         };
         let t_end = line_dir
             .or(tangents.map(|t| t.1))
             .unwrap_or_else(|| geom.end_tangent());
-        let entry_b = j.min((2.0 * a * length).sqrt());
         self.queue.push_back(QSeg {
             kept: O::keep(geom, feed, src),
             t_end,
             length,
-            vcap,
-            a,
+            lim: red,
+            full,
             j,
-            entry_b,
+            j_max,
+            entry_b: j.min((2.0 * red.a * length).sqrt()),
         });
-        // backward pass: raise the entry limits that the new tail relaxes
+        self.backward_pass(self.queue.len() - 1);
+        self.commit(false, out);
+    }
+
+    /// The queue's tail takes its whole acceleration (its exit junction is
+    /// smooth or a stop), if its entry allows; its entry limits rise.
+    fn upgrade_tail(&mut self) {
         let n = self.queue.len();
-        for k in (0..n.saturating_sub(1)).rev() {
+        let Some(t) = self.queue.back_mut() else {
+            return;
+        };
+        let Some(full) = t.full.take() else {
+            return;
+        };
+        t.lim = full;
+        t.j = t.j_max;
+        t.entry_b = t.j.min((2.0 * full.a * t.length).sqrt());
+        // (the tail's own entry_b; the pass takes it from here)
+        self.backward_pass(n - 1);
+    }
+
+    /// Raises the entry limits before segment `from` that it relaxes, from
+    /// its own `entry_b` backwards. The tail stops at its end.
+    fn backward_pass(&mut self, from: usize) {
+        for k in (0..from).rev() {
             let next_b = self.queue[k + 1].entry_b;
             let s = &mut self.queue[k];
-            let nb = s.j.min((next_b * next_b + 2.0 * s.a * s.length).sqrt());
+            let nb = s.j.min((next_b * next_b + 2.0 * s.lim.a * s.length).sqrt());
             if nb <= s.entry_b {
                 break;
             }
             s.entry_b = nb;
         }
-        self.commit(false, out);
     }
 
     /// Commits every head whose exit speed can no longer change.
@@ -396,8 +512,10 @@ impl<K: Copy> Lookahead<K> {
             let v1 = match self.queue.get(1) {
                 Some(nx) => {
                     // (only here: a lone head waits without it)
-                    let reach = (self.v_head * self.v_head + 2.0 * h.a * h.length).sqrt();
-                    let final_exit = nx.entry_b >= nx.j || reach <= nx.entry_b;
+                    let reach = (self.v_head * self.v_head + 2.0 * h.lim.a * h.length).sqrt();
+                    // (final unless the next move may still take its whole
+                    // acceleration and with it a faster entry)
+                    let final_exit = nx.entry_b >= nx.j_max || reach <= nx.entry_b;
                     if !(all || final_exit || self.queue.len() > self.lim.lookahead) {
                         return;
                     }
@@ -406,8 +524,21 @@ impl<K: Copy> Lookahead<K> {
                 None if all => 0.0,
                 None => return,
             };
-            let profile = Profile::new(self.v_head, v1, h.vcap, h.a, h.length);
+            let lim = h.lim;
+            let mut profile = Profile::new(self.v_head, v1, lim.vcap, lim.a, h.length);
+            profile.vlim = lim.vlim;
+            // (the next move's acceleration may still rise, never fall)
+            let a_after = match self.queue.get(1) {
+                Some(nx) if v1 > 0.0 => nx.lim.a,
+                _ => f64::INFINITY,
+            };
+            profile.a_join = lim.a.min(a_after).min(if self.v_head > 0.0 {
+                self.a_before
+            } else {
+                f64::INFINITY
+            });
             out.planned(h.kept, profile);
+            self.a_before = lim.a;
             self.v_head = v1;
             self.queue.pop_front();
         }
@@ -418,6 +549,8 @@ impl<K: Copy> Lookahead<K> {
 
     /// Plans everything queued to a stop.
     pub(crate) fn flush(&mut self, out: &mut impl ItemSink<Kept = K>) {
+        // the tail's exit is a stop: smooth
+        self.upgrade_tail();
         self.commit(true, out);
     }
 }

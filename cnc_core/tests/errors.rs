@@ -160,9 +160,11 @@ fn good_program_summary() {
     let (lo, hi) = r.bbox.unwrap();
     assert_eq!((lo[0], lo[1]), (0.0, 0.0));
     assert!((hi[0] - 140.0).abs() < 1e-12 && (hi[1] - 120.0).abs() < 1e-12);
-    // rapid 141.42 mm: both axes at 250 mm/s, path 353.55 mm/s, path
-    // acceleration 0.85*2000*sqrt(2): 0.4 + 0.1471 s; circle 125.66 mm at
-    // 20 mm/s with 0.6*2000 mm/s²: 6.2832 + 0.0167 s; each rounded up to
-    // ticks and followed by the jerk filter's 3-tick hold
-    assert!((r.duration_s - 6.854).abs() < 0.0015, "{}", r.duration_s);
+    // rapid 141.42 mm between stops: both axes at 250 mm/s, path
+    // 353.55 mm/s, path acceleration 2000*sqrt(2) (the whole of it: no
+    // kink): 0.4 + 0.125 s; circle 125.66 mm at 20 mm/s, whose centripetal
+    // 20 mm/s² leaves √(1 − 0.01²)·2000 mm/s² along the path: 6.2832 +
+    // 0.0100 s; each rounded up to ticks and followed by the jerk
+    // filter's 3-tick hold
+    assert!((r.duration_s - 6.825).abs() < 0.0005, "{}", r.duration_s);
 }

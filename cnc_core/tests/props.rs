@@ -22,6 +22,15 @@ enum Mv {
         sweep: f64,
         ccw: bool,
     },
+    /// a line along the current heading (±X or ±Y) and a tangent arc of
+    /// whole quarter turns: exactly tangent junctions, where the planner
+    /// gives both moves the whole acceleration
+    Bend {
+        len: f64,
+        r: f64,
+        quarters: u8,
+        ccw: bool,
+    },
 }
 
 fn mv() -> impl Strategy<Value = Mv> {
@@ -40,7 +49,24 @@ fn mv() -> impl Strategy<Value = Mv> {
             any::<bool>()
         )
             .prop_map(|(r, a0, sweep, ccw)| Mv::Arc { r, a0, sweep, ccw }),
+        (0.0..30.0f64, 0.5..25.0f64, 1u8..5, any::<bool>()).prop_map(|(len, r, quarters, ccw)| {
+            Mv::Bend {
+                len,
+                r,
+                quarters,
+                ccw,
+            }
+        }),
     ]
+}
+
+/// Cases to run: `default`, or `PROPTEST_CASES` from the environment (for
+/// long runs: `PROPTEST_CASES=3000 cargo test --release --test props`).
+fn cases(default: u32) -> u32 {
+    std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
 }
 
 fn r4(v: f64) -> f64 {
@@ -54,7 +80,7 @@ fn program(moves: &[Mv], feed: f64) -> (String, V3) {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: cases(256), ..ProptestConfig::default() })]
 
     #[test]
     fn random_programs_respect_limits_and_end_exactly(
@@ -112,7 +138,7 @@ fn seg_dist(p: V3, a: V3, b: V3) -> f64 {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: cases(96), ..ProptestConfig::default() })]
 
     /// G64 P: corners blended within the tolerance, limits kept, the end
     /// exact, the estimate exact; polylines of short and long lines, some
@@ -210,8 +236,51 @@ fn program_path(moves: &[Mv], feed: f64, tol: f64) -> (String, V3, Vec<El>) {
         p.z,
         r4(feed)
     );
+    // heading of the bends: a quarter-turn index (+X, +Y, -X, -Y)
+    let mut heading = 0u8;
     for m in moves {
         match *m {
+            Mv::Bend {
+                len,
+                r,
+                quarters,
+                ccw,
+            } => {
+                let r = r4(r).max(0.0001);
+                let unit = |h: u8| match h % 4 {
+                    0 => (1.0, 0.0),
+                    1 => (0.0, 1.0),
+                    2 => (-1.0, 0.0),
+                    _ => (0.0, -1.0),
+                };
+                let (hx, hy) = unit(heading);
+                let e = V3::new(r4(p.x + len * hx), r4(p.y + len * hy), p.z);
+                s += &format!("G01 X{} Y{}\n", e.x, e.y);
+                els.push(El::Seg(p, e));
+                p = e;
+                // centre a quarter turn to the left (G03) or right (G02)
+                let (nx, ny) = unit(if ccw { heading + 1 } else { heading + 3 });
+                let c = V3::new(r4(p.x + r * nx), r4(p.y + r * ny), p.z);
+                heading = if ccw {
+                    heading + quarters
+                } else {
+                    heading + 4 * quarters - quarters
+                } % 4;
+                // the end: from the centre, opposite the new heading's normal
+                let (mx, my) = unit(if ccw { heading + 3 } else { heading + 1 });
+                let e = V3::new(r4(c.x + r * mx), r4(c.y + r * my), p.z);
+                s += &format!(
+                    "{} X{} Y{} I{} J{}\n",
+                    if ccw { "G03" } else { "G02" },
+                    e.x,
+                    e.y,
+                    r4(c.x - p.x),
+                    r4(c.y - p.y)
+                );
+                let g = Arc::new(p, e, c, Plane::XY, ccw, 0);
+                els.push(El::Arc(g.center, g.radius, g.theta0, g.sweep));
+                p = e;
+            }
             Mv::Line { dx, dy, dz, rapid } => {
                 let e = V3::new(
                     r4(p.x + dx),
@@ -255,7 +324,7 @@ fn program_path(moves: &[Mv], feed: f64, tol: f64) -> (String, V3, Vec<El>) {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 128, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: cases(128), ..ProptestConfig::default() })]
 
     /// Jerk-limited motion: for any jerk limit (a 2- to 80-sample filter),
     /// path tolerance and feed, with a feed hold or an override of 5-200 %
@@ -295,6 +364,8 @@ proptest! {
                 }
             }
             s.push(x);
+            // (a run that never ends fails here instead of filling memory)
+            prop_assert!(s.len() as u64 <= 2 * r.ticks + 10_000, "no end after {} samples\n{}", s.len(), text);
         }
         let last = s.last().unwrap();
         prop_assert_eq!(last.pos, end);
