@@ -214,13 +214,6 @@ impl Smoother {
 impl<S: ProgramSource> Executor<S> {
     pub fn new(source: S, dialect: Dialect, machine: &Machine) -> Self {
         let lim = PlanLimits::from_machine(machine);
-        let a_top = lim
-            .amax
-            .iter()
-            .filter(|a| a.is_finite())
-            .map(|a| a * a)
-            .sum::<f64>()
-            .sqrt();
         Executor {
             interp: Interpreter::new(source, dialect, machine),
             planner: Planner::new(lim),
@@ -255,7 +248,7 @@ impl<S: ProgramSource> Executor<S> {
             s_base: 0.0,
             s_last: 0.0,
             sp_last: 1.0,
-            a_top,
+            a_top: lim.max_path_acceleration(),
         }
     }
 

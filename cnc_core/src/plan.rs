@@ -193,6 +193,23 @@ struct QSeg<K> {
     entry_b: f64,
 }
 
+impl<K> QSeg<K> {
+    /// Largest entry speed from which the move can stop at its end.
+    fn entry_to_stop(&self) -> f64 {
+        self.j.min((2.0 * self.lim.a * self.length).sqrt())
+    }
+}
+
+/// Length of the vector of the finite components of `v` (the axes a
+/// machine has).
+fn finite_norm(v: &V3) -> f64 {
+    v.iter()
+        .filter(|x| x.is_finite())
+        .map(|x| x * x)
+        .sum::<f64>()
+        .sqrt()
+}
+
 /// Planner settings derived from the machine file.
 #[derive(Clone, Copy, Debug)]
 pub struct PlanLimits {
@@ -213,12 +230,7 @@ impl PlanLimits {
     pub fn from_machine(m: &Machine) -> Self {
         let (vmax, amax, dt) = (m.vmax(), m.amax(), m.dt());
         // the fastest path speed: every axis at its limit
-        let top = vmax
-            .iter()
-            .filter(|v| v.is_finite())
-            .map(|v| v * v)
-            .sum::<f64>()
-            .sqrt();
+        let top = finite_norm(&vmax);
         PlanLimits {
             vmax,
             amax,
@@ -228,6 +240,12 @@ impl PlanLimits {
             smooth: m.smoothing_samples(),
             smooth_turn: amax.map(|a| SMOOTH_SHARE * a * dt / top),
         }
+    }
+
+    /// The largest path acceleration any move may have: every axis at its
+    /// limit, mm/s².
+    pub fn max_path_acceleration(&self) -> f64 {
+        finite_norm(&self.amax)
     }
 
     /// The limits of a move of length `len` that may use `share` of every
@@ -461,7 +479,7 @@ impl<K: Copy> Lookahead<K> {
         let t_end = line_dir
             .or(tangents.map(|t| t.1))
             .unwrap_or_else(|| geom.end_tangent());
-        self.queue.push_back(QSeg {
+        let mut seg = QSeg {
             kept: O::keep(geom, feed, src),
             t_end,
             length,
@@ -469,8 +487,10 @@ impl<K: Copy> Lookahead<K> {
             full,
             j,
             j_max,
-            entry_b: j.min((2.0 * red.a * length).sqrt()),
-        });
+            entry_b: 0.0,
+        };
+        seg.entry_b = seg.entry_to_stop();
+        self.queue.push_back(seg);
         self.backward_pass(self.queue.len() - 1);
         self.commit(false, out);
     }
@@ -487,7 +507,7 @@ impl<K: Copy> Lookahead<K> {
         };
         t.lim = full;
         t.j = t.j_max;
-        t.entry_b = t.j.min((2.0 * full.a * t.length).sqrt());
+        t.entry_b = t.entry_to_stop();
         // (the tail's own entry_b; the pass takes it from here)
         self.backward_pass(n - 1);
     }
