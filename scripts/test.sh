@@ -24,4 +24,6 @@ bash scripts/ros_peer/setup.sh
 . .venv-ros/env.sh
 cargo build --locked -p cnc_node -p sim_axes --bins
 cargo build --locked -p cnc_node --example record_example
-CNC_SKIP_BUILD=1 python3 -m pytest tests/ros tests/mcap -q -p no:cacheprovider
+# (one line a failure, with what the test printed: all of them fit in a
+# CI log that is cut)
+CNC_SKIP_BUILD=1 python3 -m pytest tests/ros tests/mcap -q -p no:cacheprovider --tb=line -rfE

@@ -1,8 +1,13 @@
 """G33 thread cutting over DDS: the controller node follows the simulator's
-spindle encoder (/sim/spindle_encoder), a stock rclpy peer measures the
-lead error and the groove's phase from the setpoints and the encoder
-messages by their stamps, and the simulator's fault injection services
-(/sim/encoder_enabled, /sim/spindle_stalled) make the faults.
+spindle encoder (/sim/spindle_encoder); a stock rclpy peer runs the jobs
+(/cnc/run_program, recorded), follows their status and makes the faults
+with the simulator's fault injection services (/sim/encoder_enabled,
+/sim/spindle_stalled). The lead error and the groove's phase are measured
+from the job's recording, decoded by mcap + mcap-ros2-support: every
+setpoint the node published and every encoder reading it received over
+DDS, by their stamps. (The peer once subscribed to both topics itself:
+2,000 messages a second are more than a Python subscriber keeps up with
+on a busy machine, and it lost messages and fell seconds behind.)
 
     bash scripts/ros_peer/setup.sh && . .venv-ros/env.sh
     python -m pytest tests/ros -k thread -x -q
@@ -12,16 +17,17 @@ The measured numbers are printed (-s shows them).
 import bisect
 import math
 import os
+import re
 import time
 
 import pytest
 import rclpy
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import QoSProfile, ReliabilityPolicy, HistoryPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool
 
-from cnc_msgs.msg import ControllerStatus, SpindleEncoder
+from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram
 from ros_nodes import ROOT, build, start, SpinningPeer, stop
 
@@ -29,31 +35,47 @@ DOMAIN = str(100 + os.getpid() % 100)
 NS, SIM = "/cnc", "/sim"
 ERROR = ControllerStatus.STATE_ERROR
 IDLE = ControllerStatus.STATE_IDLE
+# readings missing this long are a lost encoder in these tests, ms
+ENCODER_TIMEOUT_MS = 50.0
 
 
 @pytest.fixture(scope="module")
-def machine(request):
+def machine(request, tmp_path_factory):
     """Both nodes on a machine (`lathe` or `mill`, by indirect
-    parametrization: one pair at a time, on the default namespaces)."""
+    parametrization: one pair at a time, on the default namespaces); the
+    node records into a directory of the test's."""
     name = request.param
     env = dict(os.environ, ROS_DOMAIN_ID=DOMAIN, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     build()
-    # the simulator's stderr (its stall reports) for Peer.attempts
-    logs = os.path.join(ROOT, "target", "test-logs")
-    os.makedirs(logs, exist_ok=True)
-    sim_log = os.path.join(logs, "thread_sim_axes_%s.log" % name)
+    tmp = str(tmp_path_factory.mktemp("thread_%s" % name))
+    # the nodes' stderr: the simulator's stall reports (Peer.attempts) and
+    # the node's loop reports and "job N recorded" lines
+    sim_log = os.path.join(tmp, "sim_axes.log")
+    node_log = os.path.join(tmp, "cnc_node.log")
     # CNC_LOOP_STATS=S: the node logs its loop's lateness and the encoder
     # readings' age every S seconds
     stats = ["--loop-stats", os.environ["CNC_LOOP_STATS"]] if os.environ.get("CNC_LOOP_STATS") else []
-    with open(sim_log, "wb") as f:
-        procs = start(env, ["--machine", name], ["--machine", name] + stats, sim_stderr=f)
+    # the machine file with readings missing 50 ms (not 10) taken for a
+    # lost encoder: this VM's kernel holds up even the simulator's
+    # real-time loop for 10-20 ms now and then while other processes work,
+    # and a thread job then ends in error, rightly (the default's own
+    # tests: cnc_node/tests/thread.rs offline, test_faults.py over DDS)
+    with open(os.path.join(ROOT, "config", name + ".toml")) as f:
+        toml = f.read()
+    assert "\n[spindle]\n" in toml and "encoder_timeout_ms" not in toml
+    machine_file = os.path.join(tmp, name + ".toml")
+    with open(machine_file, "w") as f:
+        f.write(toml.replace("\n[spindle]\n", "\n[spindle]\nencoder_timeout_ms = %.1f\n" % ENCODER_TIMEOUT_MS))
+    with open(sim_log, "wb") as f, open(node_log, "wb") as g:
+        procs = start(env, ["--machine", machine_file],
+                      ["--machine", machine_file, "--record-dir", os.path.join(tmp, "recordings")] + stats,
+                      sim_stderr=f, node_stderr=g)
     os.environ["ROS_DOMAIN_ID"] = DOMAIN
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     rclpy.init()
     peer = None
     try:
-        peer = Peer("thread_peer_%d" % (time.time_ns() % 100000))
-        peer.sim_log = sim_log
+        peer = Peer("thread_peer_%d" % (time.time_ns() % 100000), sim_log, node_log)
         yield peer
     finally:
         if peer is not None:
@@ -62,20 +84,41 @@ def machine(request):
         stop(procs)
 
 
-class Peer(SpinningPeer):
-    """Records setpoints, encoder readings, spindle commands and status (by
-    their stamps) in a spinning thread; calls the services."""
+def read_recording(path):
+    """(setpoints [(stamp s, positions m)], encoder readings [(stamp s,
+    count, counts_per_rev, count_at_index)], spindle commands [(stamp s,
+    rad/s)]) of a job's recording, in the order the node wrote them."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    sps, enc, spin = [], [], []
+    with open(path, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for _, ch, m, d in reader.iter_decoded_messages(log_time_order=False):
+            t = m.log_time * 1e-9
+            if ch.topic == NS + "/joint_setpoints":
+                sps.append((t, list(d.position)))
+            elif ch.topic == SIM + "/spindle_encoder":
+                enc.append((t, d.count, d.counts_per_rev, d.count_at_index))
+            elif ch.topic == NS + "/spindle_command":
+                spin.append((t, d.data))
+    enc.sort(key=lambda e: e[0])
+    return sps, enc, spin
 
-    def __init__(self, name):
+
+class Peer(SpinningPeer):
+    """Runs recorded jobs, follows the status and the spindle command,
+    calls the fault injection services; `where()` is the newest setpoint
+    (a subscription that keeps only the newest: it never falls behind)."""
+
+    def __init__(self, name, sim_log, node_log):
         super().__init__(name)
-        self.setpoints = []  # (stamp s, positions m)
-        self.encoder = []  # (stamp s, count, counts_per_rev, count_at_index)
-        self.spindle = []  # (stamp s of the setpoint before, rad/s)
+        self.sim_log, self.node_log = sim_log, node_log
         self.status = []
+        self.spindle = []  # rad/s, in arrival order
+        self.newest = None  # (stamp s, positions m)
         self.last_end = None
-        deep = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-        self.node.create_subscription(JointState, NS + "/joint_setpoints", self._sp, deep)
-        self.node.create_subscription(SpindleEncoder, SIM + "/spindle_encoder", self._enc, deep)
+        newest = QoSProfile(depth=1, history=HistoryPolicy.KEEP_LAST, reliability=ReliabilityPolicy.BEST_EFFORT)
+        self.node.create_subscription(JointState, NS + "/joint_setpoints", self._sp, newest)
         self.node.create_subscription(Float64, NS + "/spindle_command", self._spin, 10)
         self.node.create_subscription(ControllerStatus, NS + "/status", self._st, 100)
         self.run = self.node.create_client(RunProgram, NS + "/run_program")
@@ -84,42 +127,33 @@ class Peer(SpinningPeer):
         self.spin()
         for c in (self.run, self.encoder_enabled, self.spindle_stalled):
             assert c.wait_for_service(timeout_sec=30.0), "no service %s" % c.srv_name
-        # the encoder is flowing (the subscription is matched)
         t0 = time.time()
-        while time.time() - t0 < 10 and not self.encoder:
+        while time.time() - t0 < 10 and self.newest is None:
             time.sleep(0.05)
-        assert self.encoder, "no encoder messages"
+        assert self.newest is not None, "no setpoints"
 
     def _sp(self, m):
         with self.lock:
-            self.setpoints.append((m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, list(m.position)))
-
-    def _enc(self, m):
-        with self.lock:
-            self.encoder.append((m.stamp.sec + m.stamp.nanosec * 1e-9, m.count, m.counts_per_rev,
-                                 m.count_at_index))
+            self.newest = (m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, list(m.position))
 
     def _spin(self, m):
         with self.lock:
-            t = self.setpoints[-1][0] if self.setpoints else 0.0
-            self.spindle.append((t, m.data))
+            self.spindle.append(m.data)
 
     def _st(self, m):
         with self.lock:
             self.status.append(m)
 
-    def clear(self):
-        self.last_end = None
+    def where(self):
         with self.lock:
-            self.setpoints.clear()
-            self.encoder.clear()
-            self.spindle.clear()
+            return self.newest
 
-    def run_program(self, text, dry_run=False):
+    def run_program(self, text, dry_run=False, record=True):
         req = RunProgram.Request()
         req.program = text
         req.dialect = "cnc836"
         req.dry_run = dry_run
+        req.record = record and not dry_run
         return self.call(self.run, req)
 
     def set(self, client, on):
@@ -138,16 +172,26 @@ class Peer(SpinningPeer):
                 self.last_end = mine[-1]
                 return mine[-1]
             time.sleep(0.02)
-        raise AssertionError("job %d did not end" % job_id)
+        raise AssertionError("job %d did not end within %.0f s" % (job_id, timeout))
+
+    def recording(self, reply, timeout=30.0):
+        """The job's recording, once the node has closed it (its log says
+        so): (setpoints, encoder readings, spindle commands)."""
+        t0 = time.time()
+        done = "job %d recorded" % reply.job_id
+        while time.time() - t0 < timeout:
+            with open(self.node_log, "rb") as f:
+                if done in f.read().decode(errors="replace"):
+                    return read_recording(reply.recording)
+            time.sleep(0.05)
+        raise AssertionError("the recording of job %d was not closed" % reply.job_id)
 
     def run_to_end(self, text):
         r = self.run_program(text)
         assert r.accepted, r.message
         st = self.final_status(r.job_id, timeout=r.estimated_duration + 30.0)
-        self.last_end = st
-        time.sleep(0.3)  # the last setpoints and readings arrive
-        with self.lock:
-            return st, list(self.setpoints), list(self.encoder)
+        sps, enc, _ = self.recording(r)
+        return st, sps, enc
 
     def log_size(self):
         return os.path.getsize(self.sim_log)
@@ -167,6 +211,7 @@ class Peer(SpinningPeer):
         loss of the encoder fails the test."""
         for i in range(n):
             since = self.log_size()
+            self.last_end = None
             yield i
             st = self.last_end
             if st is None or st.state != ERROR or "encoder signal lost" not in st.last_error:
@@ -176,7 +221,6 @@ class Peer(SpinningPeer):
                 return
             print("%s: attempt %d ended with %r after the simulator %s; again"
                   % (what, i + 1, st.last_error, stalls[-1]))
-
 
 
 def pairs_at(setpoints, encoder, axis, start, lo, hi, max_gap=0.004):
@@ -243,18 +287,20 @@ def test_thread_example_1_lead_and_phase_at_s200_and_s800(machine):
     res = {}
     for rpm in (200, 800):
         for _ in peer.attempts("S%d" % rpm):
-            peer.clear()
             st, sps, enc = peer.run_to_end(example1(rpm))
         assert st.state == IDLE and st.last_error == "", (st.state, st.last_error)
         # lathe joints: x (radius), z; the end: X30 (radius 15), Z5
         end = sps[-1][1]
         assert abs(end[0] - 0.015) < 1e-9 and abs(end[1] - 0.005) < 1e-9, end
+        # the recording holds every cycle's setpoint, 1 ms apart
+        steps = {round((b[0] - a[0]) * 1000.0) for a, b in zip(sps, sps[1:])}
+        assert steps == {1}, sorted(steps)[:5]
         cpr = enc[-1][2]
         pairs = pairs_at(sps, enc, 1, 5.0, -35.0, -2.0)
-        # one setpoint a millisecond over the synchronized part (a slow
-        # subscriber may miss a few)
+        # a setpoint a millisecond over the synchronized part, each with
+        # readings around it (but where the simulator stalled)
         span = 33.0 / (rpm / 60.0)
-        assert len(pairs) > 0.8 * span * 1000, (len(pairs), span)
+        assert len(pairs) > 0.9 * span * 1000, (len(pairs), span)
         spread, phase, err = lead_stats(pairs, 5.0, 1.0, 1.0, cpr)
         worst = max(abs(e) for e in err)
         print("S%d: %d setpoints, lead error spread %.2f counts (max |e| %.2f), groove phase %.3f deg"
@@ -276,15 +322,15 @@ def test_thread_example_1_lead_and_phase_at_s200_and_s800(machine):
 
 
 def wait_lead_past(peer, job_id, axis, limit, timeout=30.0):
-    """Waits until the setpoint of `axis` is below `limit` (m); returns it,
-    or None when the job ended first."""
+    """Waits until the newest setpoint of `axis` is below `limit` (m);
+    returns it, or None when the job ended first."""
     t0 = time.time()
     while time.time() - t0 < timeout:
+        w = peer.where()
         with peer.lock:
-            p = peer.setpoints[-1][1][axis] if peer.setpoints else None
             ended = any(s.job_id == job_id and s.state in (IDLE, ERROR) for s in peer.status)
-        if p is not None and p < limit:
-            return p
+        if w is not None and w[1][axis] < limit:
+            return w[1][axis]
         if ended:
             return None
         time.sleep(0.001)
@@ -295,16 +341,19 @@ def wait_lead_past(peer, job_id, axis, limit, timeout=30.0):
 def test_thread_lost_encoder_stops_the_axes_under_control(machine):
     peer = machine
     prog = example1(800, z_end=-20)
-    for _ in peer.attempts("lost encoder"):
-        peer.clear()
+    for attempt in range(3):
+        since = peer.log_size()
         r = peer.run_program(prog)
         assert r.accepted, r.message
         # stop the encoder once Z passes -10
         z = wait_lead_past(peer, r.job_id, 1, -0.010)
         if z is None:
-            peer.final_status(r.job_id)
+            st = peer.final_status(r.job_id)
+            stalls = peer.sim_stalls(since)
+            assert stalls and "encoder signal lost" in st.last_error, \
+                "Z never passed -10: %r" % st.last_error
+            print("attempt %d ended with %r after the simulator %s; again" % (attempt + 1, st.last_error, stalls[-1]))
             continue
-        peer.last_end = None  # (this run is the test's)
         t_off = time.time()
         try:
             peer.set(peer.encoder_enabled, False)
@@ -312,35 +361,46 @@ def test_thread_lost_encoder_stops_the_axes_under_control(machine):
             st = peer.final_status(r.job_id, timeout=10)
         finally:
             peer.set(peer.encoder_enabled, True)
-        peer.last_end = None
-    assert z is not None, "Z never passed -10: %s" % peer.last_end.last_error
+        if st.state == IDLE:
+            # a busy machine held this peer up until the thread was over
+            # (the rest needs no encoder): the job ended well, and runs again
+            print("attempt %d: the encoder stopped only after the thread; again" % (attempt + 1))
+            continue
+        break
+    else:
+        raise AssertionError("three attempts, none stopped the encoder during the thread")
+    sps, _, rec_spin = peer.recording(r)
     time.sleep(0.3)
+    standing = peer.where()
     with peer.lock:
-        sps = list(peer.setpoints)
         spin = list(peer.spindle)
     assert st.state == ERROR, (st.state, st.last_error)
-    assert "line 3" in st.last_error and "encoder" in st.last_error, st.last_error
     print("status: %s" % st.last_error)
+    m = re.match(r"^line 3: spindle encoder signal lost: no reading for (\d+) ms", st.last_error)
+    assert m and ENCODER_TIMEOUT_MS <= int(m.group(1)) < ENCODER_TIMEOUT_MS + 20, st.last_error
     assert st.spindle_speed_command == 0.0, st.spindle_speed_command
-    assert spin and spin[-1][1] == 0.0, spin[-3:]
-    # the setpoints of the job: consecutive ones (1 ms apart) never step
-    # more than the lead speed allows, and Z comes to rest short of the end
+    assert spin and spin[-1] == 0.0, spin[-3:]
+    assert rec_spin and rec_spin[-1][1] == 0.0, rec_spin[-3:]
+    # the job's setpoints (every cycle's, 1 ms apart) never step more than
+    # the lead speed allows, and Z comes to rest short of the end
     dt = 0.001
     v = 800 / 60.0 * 1.0  # mm/s on the thread
     zs = [(t, p[1] * 1000.0) for t, p in sps]
     steps = [(b[1] - a[1], round((b[0] - a[0]) / dt)) for a, b in zip(zs, zs[1:])]
-    worst = max(abs(s) / n for s, n in steps if n >= 1)
+    assert {n for _, n in steps} == {1}, sorted({n for _, n in steps})
+    worst = max(abs(s) for s, _ in steps)
     print("largest Z step %.4f mm per cycle (lead speed x dt = %.4f)" % (worst, v * dt))
     assert worst <= v * 1.06 * dt + 2500.0 * dt * dt, worst
-    # Z at rest at the end, between where the encoder stopped and the end
+    # Z at rest at the job's end, between where the encoder stopped and
+    # the thread's end, and the setpoints stand there after it
     z_end = zs[-1][1]
     assert -20.0 < z_end < -10.0, z_end
-    assert all(abs(p - z_end) < 1e-9 for _, p in zs[-50:]), zs[-50:]
+    assert abs(standing[1][1] * 1000.0 - z_end) < 1e-9 and standing[0] > sps[-1][0], (standing, z_end)
     # deceleration: from the lead speed to rest, within the axis limit
-    moving = [i for i, (s, n) in enumerate(steps) if n == 1 and abs(s) > 1e-9]
+    moving = [i for i, (s, n) in enumerate(steps) if abs(s) > 1e-9]
     last = moving[-1]
     tail = steps[max(0, last - 40):last + 2]
-    acc = [abs(b[0] - a[0]) / dt / dt for a, b in zip(tail, tail[1:]) if a[1] == 1 and b[1] == 1]
+    acc = [abs(b[0] - a[0]) / dt / dt for a, b in zip(tail, tail[1:])]
     slowing = sum(1 for s, n in tail if 0 < abs(s) < v * dt * 0.99)
     print("stop: Z at rest at %.4f mm, %d cycles of deceleration, largest %.0f mm/s^2"
           % (z_end, slowing, max(acc)))
@@ -358,7 +418,6 @@ def test_thread_stalled_spindle_is_an_error_and_the_thread_does_not_move(machine
     st, _, _ = peer.run_to_end("N5 G00 X20 Z5\n")
     assert st.state == IDLE, st.last_error
     for _ in peer.attempts("stalled spindle"):
-        peer.clear()
         peer.set(peer.spindle_stalled, True)
         try:
             r = peer.run_program(example1(200, z_end=-15))
@@ -366,13 +425,12 @@ def test_thread_stalled_spindle_is_an_error_and_the_thread_does_not_move(machine
             st = peer.final_status(r.job_id, timeout=20)
         finally:
             peer.set(peer.spindle_stalled, False)
-    time.sleep(0.3)
-    with peer.lock:
-        sps = list(peer.setpoints)
+    sps, _, _ = peer.recording(r)
     print("stalled spindle: %s" % st.last_error)
     assert st.state == ERROR, (st.state, st.last_error)
     assert st.last_error.startswith("line 3: G33 needs the spindle at S200 but it turns at 0 rpm"), st.last_error
-    # Z never left the thread's start
+    # Z never left the thread's start (the job's every setpoint)
+    assert len(sps) > 1000, len(sps)
     assert all(p[1] >= 0.005 - 1e-12 for _, p in sps), min(p[1] for _, p in sps)
     r = peer.run_program("G00 X30 Z5\n", dry_run=True)
     assert r.accepted, r.message
@@ -383,12 +441,11 @@ def test_thread_example_2_in_y_starts_180_degrees_after_the_index(machine):
     peer = machine
     prog = "N5 G00 X50 Y10 Z10\nN10 M03 S600\nN20 G33 Y-30 F1.5 I180\nN30 G00 Z50\nN40 M30\n"
     for _ in peer.attempts("Example 2"):
-        peer.clear()
         st, sps, enc = peer.run_to_end(prog)
     assert st.state == IDLE and st.last_error == "", (st.state, st.last_error)
     cpr = enc[-1][2]
     pairs = pairs_at(sps, enc, 1, 10.0, -25.0, 8.0)
-    assert len(pairs) > 0.8 * 33.0 / 15.0 * 1000, len(pairs)
+    assert len(pairs) > 0.9 * 33.0 / 15.0 * 1000, len(pairs)
     spread, phase, _ = lead_stats(pairs, 10.0, 1.0, 1.5, cpr)
     print("Example 2: lead error spread %.2f counts, groove phase %.3f deg (want -180)" % (spread, phase))
     # measured: spreads 1.1-2.5 counts, phase 180.000 deg
@@ -405,7 +462,6 @@ def test_thread_examples_3_taper_and_4_runout(machine):
     # Example 3: a taper thread, X (diameter 10 -> 12, radius 5 -> 6) moves
     # in proportion while Z leads with the pitch, 2 mm/rev
     for _ in peer.attempts("Example 3"):
-        peer.clear()
         st, sps, enc = peer.run_to_end(
             "N5 G00 X10 Z5\nN10 M03 S800\nN20 G33 X12 Z-40 F2\nN30 G00 X30\nN40 Z5\nN50 M30\n")
     assert st.state == IDLE and st.last_error == "", (st.state, st.last_error)
@@ -423,7 +479,6 @@ def test_thread_examples_3_taper_and_4_runout(machine):
     # (radius 10) leaves the thread over the last 3 mm and ends 3 tan 30
     # further out, then the empty block, then a block with every axis
     for _ in peer.attempts("Example 4"):
-        peer.clear()
         st, sps, enc = peer.run_to_end(
             "N5 G00 X20 Z5\nN10 M03 S800\nN20 G33 Z-43 F1 J3\nN30\nN40 X30 Z5\nN50 M30\n")
     assert st.state == IDLE and st.last_error == "", (st.state, st.last_error)
