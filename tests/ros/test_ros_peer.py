@@ -206,42 +206,62 @@ def test_busy_refusal_feed_hold_resume_and_abort(peer):
     assert r2.estimated_duration > (d * 1000 - 10) / 50.0 * 0.9
 
 
-def _x_speed(peer, t0, t1):
-    """Mean X setpoint speed (mm/s) over stamps t0..t1 (s)."""
+def _x_speed(peer, t0, t1, timeout=30.0):
+    """Mean X setpoint speed (mm/s) over stamps t0..t1 (s), once setpoints
+    stamped t1 or later have arrived (a busy subscriber lags behind)."""
+    deadline = time.time() + timeout
+    while True:
+        with peer.lock:
+            newest = peer.setpoints[-1][0] if peer.setpoints else 0.0
+        if newest >= t1:
+            break
+        assert time.time() < deadline, "no setpoints up to %.3f (newest %.3f)" % (t1, newest)
+        time.sleep(0.01)
     with peer.lock:
         pts = [(t, p[0]) for t, p, _ in peer.setpoints if t0 <= t <= t1]
-    assert len(pts) > 100, len(pts)
+    # (from the first and the last: exact whatever a busy subscriber missed
+    # in between; a third of them with two CPU hogs running)
+    assert len(pts) > 20 and pts[-1][0] - pts[0][0] > 0.5 * (t1 - t0), (len(pts), t0, t1)
     return (pts[-1][1] - pts[0][1]) * 1000.0 / (pts[-1][0] - pts[0][0])
+
+
+def _status_when(peer, job_id, cond, timeout=30.0):
+    """The stamp (s) of the job's first status that meets `cond`."""
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        with peer.lock:
+            hit = [s for s in peer.status if s.job_id == job_id and cond(s)]
+        if hit:
+            return hit[0].header.stamp.sec + hit[0].header.stamp.nanosec * 1e-9
+        time.sleep(0.01)
+    raise AssertionError("no such status of job %d" % job_id)
 
 
 def test_feed_override_topic_scales_the_running_job(peer):
     from std_msgs.msg import Float64
     pub = peer.node.create_publisher(Float64, NS + "/feed_override", 10)
-    # 200 mm at F3000 = 50 mm/s (X allows 250)
-    r = peer.run_program("G00 X10 Y10 Z0\nG01 X210 F3000\n")
+    # 400 mm at F3000 = 50 mm/s (X allows 250); the speeds are measured by
+    # the setpoints' stamps from the status that shows the override in
+    # force (this peer's own timing is no measure on a busy machine)
+    r = peer.run_program("G00 X10 Y10 Z0\nG01 X410 F3000\n")
     assert r.accepted, r.message
-    peer.wait_state(r.job_id, ControllerStatus.STATE_RUNNING)
-    time.sleep(1.0)
-    with peer.lock:
-        t = peer.setpoints[-1][0]
-    v100 = _x_speed(peer, t - 0.4, t)
+    t = _status_when(peer, r.job_id, lambda s: s.source_line == 2)
+    v100 = _x_speed(peer, t + 0.3, t + 0.7)
+    assert abs(v100 - 50.0) < 0.5, v100
     for pct in (50.0, 150.0):
         pub.publish(Float64(data=pct))
-        time.sleep(0.8)
-        with peer.lock:
-            t = peer.setpoints[-1][0]
-            over = [s.feed_override for s in peer.status if s.job_id == r.job_id][-1]
-        v = _x_speed(peer, t - 0.4, t)
+        t = _status_when(peer, r.job_id, lambda s: abs(s.feed_override - pct / 100.0) < 1e-9)
+        v = _x_speed(peer, t + 0.1, t + 0.5)
         assert abs(v - 50.0 * pct / 100.0) < 0.5, (pct, v, v100)
-        assert abs(over - pct / 100.0) < 1e-9, over
     # out of range: refused, nothing changes
     pub.publish(Float64(data=500.0))
-    time.sleep(0.5)
+    t = time.time() + 0.2
+    v = _x_speed(peer, t, t + 0.3)
+    assert abs(v - 75.0) < 0.5, v
     with peer.lock:
-        t = peer.setpoints[-1][0]
-    assert abs(_x_speed(peer, t - 0.3, t) - 75.0) < 0.5
+        over = [s.feed_override for s in peer.status if s.job_id == r.job_id][-1]
+    assert over == 1.5, over
     pub.publish(Float64(data=100.0))
-    assert abs(v100 - 50.0) < 0.5, v100
     t = peer.call(peer.abort, Trigger.Request())
     assert t.success, t.message
     peer.wait_state(r.job_id, ControllerStatus.STATE_IDLE)
@@ -298,15 +318,20 @@ def test_two_machines_share_a_domain_and_a_5mb_program_goes_by_path(nodes, tmp_p
         assert r is not None and r.accepted, r
         assert r.estimated_duration > 3600, r.estimated_duration
         # both subscriptions matched (discovery takes seconds on a busy
-        # machine), then 1.5 s of both topics
-        t0 = time.time()
-        while time.time() - t0 < 30 and not (got["cnc"] and got["cnc2"]):
-            rclpy.spin_once(node, timeout_sec=0.05)
+        # machine), then 100 setpoints of each (in 0.1 s on an idle
+        # machine; a Python subscriber sharing two busy cores takes longer)
+        def collect(n, timeout):
+            t0 = time.time()
+            while time.time() - t0 < timeout and min(len(got["cnc"]), len(got["cnc2"])) < n:
+                rclpy.spin_once(node, timeout_sec=0.05)
+            return time.time() - t0
+        took = collect(1, 30.0)
+        assert got["cnc"] and got["cnc2"], "setpoints after %.0f s: %d from /cnc, %d from /cnc2" % (
+            took, len(got["cnc"]), len(got["cnc2"]))
         got["cnc"].clear()
         got["cnc2"].clear()
-        t0 = time.time()
-        while time.time() - t0 < 1.5:
-            rclpy.spin_once(node, timeout_sec=0.05)
+        took = collect(101, 30.0)
+        print("100 setpoints of each pair after %.2f s" % took)
         # /cnc2 moves, /cnc stands still
         assert len(got["cnc2"]) > 100 and len(got["cnc"]) > 100, (len(got["cnc2"]), len(got["cnc"]))
         assert got["cnc2"][0] != got["cnc2"][-1]
