@@ -63,6 +63,17 @@ class SpinningPeer:
         while not self.stop:
             self.ex.spin_once(timeout_sec=0.05)
 
+    def wait_for(self, what, cond, timeout=30.0):
+        """Waits until `cond()` (called under the lock) is true; an
+        assertion naming `what` if it is not within `timeout` s."""
+        t0 = time.time()
+        while time.time() - t0 < timeout:
+            with self.lock:
+                if cond():
+                    return
+            time.sleep(0.005)
+        raise AssertionError("timed out waiting for %s" % what)
+
     def call(self, client, req, timeout=20.0):
         """The reply of `client` to `req` (an assertion if none comes)."""
         fut = client.call_async(req)
@@ -76,3 +87,20 @@ class SpinningPeer:
         self.stop = True
         self.thread.join()
         self.node.destroy_node()
+
+
+def stamp_s(stamp):
+    """A ROS stamp in seconds."""
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
+def read_mcap(path):
+    """{topic: [(log time ns, decoded message)]} of a finished recording,
+    decoded by mcap + mcap-ros2-support, in log time order."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    out = {}
+    with open(path, "rb") as f:
+        for _, ch, m, dec in make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages():
+            out.setdefault(ch.topic, []).append((m.log_time, dec))
+    return out

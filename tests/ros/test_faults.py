@@ -29,7 +29,7 @@ from std_srvs.srv import Trigger
 
 from cnc_msgs.msg import ControllerStatus, SpindleEncoder
 from cnc_msgs.srv import RunProgram
-from ros_nodes import ROOT, TARGET, build, start, start_node, start_sim, SpinningPeer, stop
+from ros_nodes import ROOT, TARGET, build, read_mcap, start, start_node, start_sim, SpinningPeer, stop
 
 DOMAIN = str(30 + os.getpid() % 60)
 NS, SIM = "/cnc", "/sim"
@@ -146,14 +146,18 @@ class Peer(SpinningPeer):
         req.dialect = dialect
         return self.call(self.run, req, timeout=60.0)
 
-    def wait_for(self, what, cond, timeout=30.0):
-        t0 = time.time()
-        while time.time() - t0 < timeout:
-            with self.lock:
-                if cond():
-                    return
-            time.sleep(0.005)
-        raise AssertionError("timed out waiting for %s" % what)
+    def wait_sim_at(self, what, target, after_ns=0, timeout=30.0):
+        """Waits until the simulator's newest joint state, stamped after
+        `after_ns`, stands within 1 µm of `target` (m); returns its stamp."""
+        seen = []
+
+        def there():
+            if self.joint_states and self.joint_states[-1][0] > after_ns and max(
+                    abs(a - b) for a, b in zip(self.joint_states[-1][1], target)) < 1e-6:
+                seen.append(self.joint_states[-1][0])
+            return seen
+        self.wait_for(what, there, timeout)
+        return seen[0]
 
     def job_status(self, job_id):
         with self.lock:
@@ -554,17 +558,6 @@ def test_a_burst_of_1000_calls_while_a_job_runs(rig):
 # --- the simulator killed and started again during a job ----------------
 
 
-def read_mcap(path):
-    """{topic: [(log time ns, decoded message)]} of a finished recording."""
-    from mcap.reader import make_reader
-    from mcap_ros2.decoder import DecoderFactory
-    out = {}
-    with open(path, "rb") as f:
-        for _, ch, m, dec in make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages():
-            out.setdefault(ch.topic, []).append((m.log_time, dec))
-    return out
-
-
 def test_simulator_killed_mid_job_the_open_loop_job_goes_on_and_it_follows_again(rig):
     """The controller is the setpoint source: a job that does not need the
     encoder (G94 feed) runs on to its end while the simulator is dead,
@@ -594,8 +587,7 @@ def test_simulator_killed_mid_job_the_open_loop_job_goes_on_and_it_follows_again
     # the simulator settles on the end point (in 0.2 s on an idle machine;
     # judged by the position reached, not the time: a busy VM holds up the
     # restarted simulator, whose loop then skips steps)
-    peer.wait_for("the simulator at the end point", lambda: max(
-        abs(a - b) for a, b in zip(peer.joint_states[-1][1], [0.160, 0.010, 0.005])) < 1e-6, 30)
+    peer.wait_sim_at("the simulator at the end point", [0.160, 0.010, 0.005])
     with peer.lock:
         js, enc = list(peer.joint_states), list(peer.encoder)
     peer.wait_for("the recording", lambda: "job %d recorded" % job in rig.node_stderr(), 10)
@@ -703,20 +695,15 @@ def test_simulator_killed_during_a_g95_move_ends_the_job_with_the_encoder_lost(r
     # not a fixed time: a busy VM holds up a simulator just started, in
     # discovery and in its loop, which then skips steps; measured on CI:
     # 0.26 mm short of the end 0.5 s after it)
-    def at(target):
-        return lambda: peer.joint_states and peer.joint_states[-1][0] > restart_ns and max(
-            abs(a - b) for a, b in zip(peer.joint_states[-1][1], target)) < 1e-6
     here = sps[0][2]
-    peer.wait_for("the restarted simulator at the setpoints", at(here), 30)
-    print("the restarted simulator stands at the setpoints %.2f s after its start"
-          % ((peer.joint_states[-1][0] - restart_ns) / 1e9))
+    t = peer.wait_sim_at("the restarted simulator at the setpoints", here, restart_ns)
+    print("the restarted simulator stands at the setpoints %.2f s after its start" % ((t - restart_ns) / 1e9))
     r = peer.run_program("N10 G00 X20 Y20 Z10\n")
     assert r.accepted, r.message
     st = peer.final_status(r.job_id)
     assert st.state == IDLE and st.last_error == "", st.last_error
-    peer.wait_for("the simulator at the job's end point", at([0.020, 0.020, 0.010]), 30)
-    print("... and at the next job's end point %.2f s after the job's end"
-          % ((peer.joint_states[-1][0] - stamp_of(st)) / 1e9))
+    t = peer.wait_sim_at("the simulator at the job's end point", [0.020, 0.020, 0.010], restart_ns)
+    print("... and at the next job's end point %.2f s after the job's end" % ((t - stamp_of(st)) / 1e9))
     # a killed subscriber stays matched until its lease ends (50 s): the
     # setpoints go on to everyone past the 8192 samples rustdds would
     # otherwise hold for it (they stopped 8 s after the kill, for 40 s)

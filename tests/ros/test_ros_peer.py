@@ -4,7 +4,6 @@ it. Run through scripts/test.sh (which sets up the peer), or:
 
     scripts/ros_peer/setup.sh && . .venv-ros/env.sh && python3 -m pytest tests/ros
 """
-import math
 import os
 import subprocess
 import sys
@@ -17,7 +16,7 @@ from std_srvs.srv import SetBool, Trigger
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram
-from ros_nodes import ROOT, TARGET, build, start, SpinningPeer, stop
+from ros_nodes import ROOT, TARGET, build, start, SpinningPeer, stamp_s, stop
 
 DOMAIN = str(100 + os.getpid() % 100)
 NS = "/cnc"
@@ -54,7 +53,7 @@ class Peer(SpinningPeer):
 
     def _sp(self, m):
         with self.lock:
-            self.setpoints.append((m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, list(m.position), list(m.name)))
+            self.setpoints.append((stamp_s(m.header.stamp), list(m.position), list(m.name)))
 
     def _st(self, m):
         with self.lock:
@@ -68,13 +67,8 @@ class Peer(SpinningPeer):
         return self.call(self.run, req)
 
     def wait_state(self, job_id, state, timeout=30.0):
-        t0 = time.time()
-        while time.time() - t0 < timeout:
-            with self.lock:
-                if any(s.job_id == job_id and s.state == state for s in self.status):
-                    return
-            time.sleep(0.01)
-        raise AssertionError("job %d never reached state %d" % (job_id, state))
+        self.wait_for("job %d in state %d" % (job_id, state),
+                      lambda: any(s.job_id == job_id and s.state == state for s in self.status), timeout)
 
 
 
@@ -209,14 +203,7 @@ def test_busy_refusal_feed_hold_resume_and_abort(peer):
 def _x_speed(peer, t0, t1, timeout=30.0):
     """Mean X setpoint speed (mm/s) over stamps t0..t1 (s), once setpoints
     stamped t1 or later have arrived (a busy subscriber lags behind)."""
-    deadline = time.time() + timeout
-    while True:
-        with peer.lock:
-            newest = peer.setpoints[-1][0] if peer.setpoints else 0.0
-        if newest >= t1:
-            break
-        assert time.time() < deadline, "no setpoints up to %.3f (newest %.3f)" % (t1, newest)
-        time.sleep(0.01)
+    peer.wait_for("setpoints up to %.3f" % t1, lambda: peer.setpoints and peer.setpoints[-1][0] >= t1, timeout)
     with peer.lock:
         pts = [(t, p[0]) for t, p, _ in peer.setpoints if t0 <= t <= t1]
     # (from the first and the last: exact whatever a busy subscriber missed
@@ -227,14 +214,11 @@ def _x_speed(peer, t0, t1, timeout=30.0):
 
 def _status_when(peer, job_id, cond, timeout=30.0):
     """The stamp (s) of the job's first status that meets `cond`."""
-    deadline = time.time() + timeout
-    while time.time() < deadline:
-        with peer.lock:
-            hit = [s for s in peer.status if s.job_id == job_id and cond(s)]
-        if hit:
-            return hit[0].header.stamp.sec + hit[0].header.stamp.nanosec * 1e-9
-        time.sleep(0.01)
-    raise AssertionError("no such status of job %d" % job_id)
+    def first():
+        return next((s for s in peer.status if s.job_id == job_id and cond(s)), None)
+    peer.wait_for("a status of job %d" % job_id, lambda: first() is not None, timeout)
+    with peer.lock:
+        return stamp_s(first().header.stamp)
 
 
 def test_feed_override_topic_scales_the_running_job(peer):
@@ -298,7 +282,7 @@ def test_two_machines_share_a_domain_and_a_5mb_program_goes_by_path(peer, tmp_pa
 
     def on_cnc2(m):
         with peer.lock:
-            got2.append((m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, list(m.position)))
+            got2.append((stamp_s(m.header.stamp), list(m.position)))
     sub2 = peer.node.create_subscription(JointState, "/cnc2/joint_setpoints", on_cnc2, 10)
     run2 = peer.node.create_client(RunProgram, "/cnc2/run_program")
     abort2 = peer.node.create_client(Trigger, "/cnc2/abort")
@@ -329,11 +313,10 @@ def test_two_machines_share_a_domain_and_a_5mb_program_goes_by_path(peer, tmp_pa
             with peer.lock:
                 return ([p for t, p, _ in peer.setpoints if t > t_from], [p for t, p in got2 if t > t_from])
         t_from = time.time()
-        t0 = time.time()
-        while time.time() - t0 < 30 and min(map(len, counts())) < 101:
+        while time.time() - t_from < 30 and min(map(len, counts())) < 101:
             time.sleep(0.01)
         cnc, cnc2 = counts()
-        print("100 setpoints of each pair after %.2f s" % (time.time() - t0))
+        print("100 setpoints of each pair after %.2f s" % (time.time() - t_from))
         # /cnc2 moves, /cnc stands still
         assert len(cnc2) > 100 and len(cnc) > 100, (len(cnc2), len(cnc))
         assert cnc2[0] != cnc2[-1]

@@ -29,7 +29,7 @@ from std_srvs.srv import SetBool
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram
-from ros_nodes import ROOT, build, start, SpinningPeer, stop
+from ros_nodes import ROOT, build, read_mcap, start, SpinningPeer, stamp_s, stop
 
 DOMAIN = str(100 + os.getpid() % 100)
 NS, SIM = "/cnc", "/sim"
@@ -87,21 +87,11 @@ def machine(request, tmp_path_factory):
 def read_recording(path):
     """(setpoints [(stamp s, positions m)], encoder readings [(stamp s,
     count, counts_per_rev, count_at_index)], spindle commands [(stamp s,
-    rad/s)]) of a job's recording, in the order the node wrote them."""
-    from mcap.reader import make_reader
-    from mcap_ros2.decoder import DecoderFactory
-    sps, enc, spin = [], [], []
-    with open(path, "rb") as f:
-        reader = make_reader(f, decoder_factories=[DecoderFactory()])
-        for _, ch, m, d in reader.iter_decoded_messages(log_time_order=False):
-            t = m.log_time * 1e-9
-            if ch.topic == NS + "/joint_setpoints":
-                sps.append((t, list(d.position)))
-            elif ch.topic == SIM + "/spindle_encoder":
-                enc.append((t, d.count, d.counts_per_rev, d.count_at_index))
-            elif ch.topic == NS + "/spindle_command":
-                spin.append((t, d.data))
-    enc.sort(key=lambda e: e[0])
+    rad/s)]) of a job's recording, in log time order."""
+    rec = read_mcap(path)
+    sps = [(t * 1e-9, list(d.position)) for t, d in rec.get(NS + "/joint_setpoints", [])]
+    enc = [(t * 1e-9, d.count, d.counts_per_rev, d.count_at_index) for t, d in rec.get(SIM + "/spindle_encoder", [])]
+    spin = [(t * 1e-9, d.data) for t, d in rec.get(NS + "/spindle_command", [])]
     return sps, enc, spin
 
 
@@ -127,14 +117,11 @@ class Peer(SpinningPeer):
         self.spin()
         for c in (self.run, self.encoder_enabled, self.spindle_stalled):
             assert c.wait_for_service(timeout_sec=30.0), "no service %s" % c.srv_name
-        t0 = time.time()
-        while time.time() - t0 < 10 and self.newest is None:
-            time.sleep(0.05)
-        assert self.newest is not None, "no setpoints"
+        self.wait_for("setpoints", lambda: self.newest is not None, 10)
 
     def _sp(self, m):
         with self.lock:
-            self.newest = (m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, list(m.position))
+            self.newest = (stamp_s(m.header.stamp), list(m.position))
 
     def _spin(self, m):
         with self.lock:
@@ -177,14 +164,13 @@ class Peer(SpinningPeer):
     def recording(self, reply, timeout=30.0):
         """The job's recording, once the node has closed it (its log says
         so): (setpoints, encoder readings, spindle commands)."""
-        t0 = time.time()
         done = "job %d recorded" % reply.job_id
-        while time.time() - t0 < timeout:
+
+        def closed():
             with open(self.node_log, "rb") as f:
-                if done in f.read().decode(errors="replace"):
-                    return read_recording(reply.recording)
-            time.sleep(0.05)
-        raise AssertionError("the recording of job %d was not closed" % reply.job_id)
+                return done in f.read().decode(errors="replace")
+        self.wait_for("the recording of job %d closed" % reply.job_id, closed, timeout)
+        return read_recording(reply.recording)
 
     def run_to_end(self, text):
         r = self.run_program(text)
