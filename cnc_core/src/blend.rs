@@ -13,9 +13,9 @@
 //! The stage holds the last line back until the next event says whether
 //! its end is a corner to blend.
 
+use crate::canon::{Event, Feed, Src};
+use crate::geom::V3;
 use crate::geom::{Arc, Geom, Plane};
-use crate::interp::{Event, Feed, Src};
-use crate::V3;
 use std::collections::VecDeque;
 
 /// A held line: its (possibly trimmed) start, its end, feed and source.

@@ -3,15 +3,16 @@
 //! (equal to the executed one, by the shared [`Timeline`]) and the bounding
 //! box.
 
+use crate::canon::{Event, Feed, Src};
 use crate::diag::Diagnostic;
 use crate::dialect::Dialect;
 use crate::geom::Geom;
-use crate::interp::{Event, Feed, Interpreter, Src};
+use crate::geom::V3;
+use crate::interp::Interpreter;
 use crate::machine::Machine;
 use crate::parse::{parse_words, Appended, Word};
 use crate::plan::{Item, ItemSink, Lookahead, PlanLimits, Profile, Timeline};
 use crate::source::{ProgramSource, SourceError, SourcePos};
-use crate::V3;
 use std::collections::VecDeque;
 
 /// What the check found.

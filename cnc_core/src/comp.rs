@@ -13,9 +13,9 @@
 //! Errors (no intersection, an element whose offset reverses, an arc
 //! smaller than the tool) are returned as messages naming the blocks.
 
+use crate::canon::{CompMode as Mode, Event, Feed, Src};
+use crate::geom::V3;
 use crate::geom::{Arc, Geom, Plane};
-use crate::interp::{Event, Feed, Src};
-use crate::V3;
 use std::f64::consts::{PI, TAU};
 
 type P2 = (f64, f64);
@@ -49,18 +49,6 @@ fn wrap(a: f64) -> f64 {
         d -= TAU;
     }
     d
-}
-
-/// Which side the tool is on.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Mode {
-    /// +1: G41 (left), −1: G42 (right)
-    pub side: f64,
-    /// tool radius, mm
-    pub radius: f64,
-    pub plane: Plane,
-    /// R × the tip vector (lathe tool type), machine coordinates
-    pub tip: V3,
 }
 
 /// A programmed element in the plane.

@@ -30,16 +30,16 @@
 //! for a thread, stop the axes under control and end the run with
 //! [`Executor::fault`] set.
 
+use crate::canon::{Feed, Src, ThreadMove, ThreadSeg};
 use crate::dialect::Dialect;
-use crate::interp::{Feed, Interpreter, Modal, Src};
+use crate::geom::V3;
+use crate::interp::{Interpreter, Modal};
 use crate::machine::Machine;
 use crate::plan::{Item, PlanLimits, PlannedMove, Planner, Timeline};
 use crate::source::ProgramSource;
 use crate::thread::{
-    EncoderReading, SpindleTracker, ThreadMove, ThreadSeg, AT_SPEED_SETTLE_S, AT_SPEED_TOLERANCE,
-    ENCODER_TIMEOUT_CYCLES,
+    EncoderReading, SpindleTracker, AT_SPEED_SETTLE_S, AT_SPEED_TOLERANCE, ENCODER_TIMEOUT_CYCLES,
 };
-use crate::V3;
 
 /// The largest feed override, as a scale (200 %).
 pub const MAX_OVERRIDE: f64 = 2.0;

@@ -3,8 +3,11 @@
 //! geometry at a path parameter, never accumulated, and `eval(length)`
 //! returns the programmed end point exactly.
 
-use crate::V3;
 use std::f64::consts::TAU;
+
+/// A position or direction in machine coordinates (X, Y, Z), millimetres.
+/// On a lathe X is the radius (the cross-slide position), never the diameter.
+pub type V3 = nalgebra::Vector3<f64>;
 
 /// The working plane: G17 XY, G18 ZX, G19 YZ.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

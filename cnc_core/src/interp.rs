@@ -4,79 +4,21 @@
 //! holds only the current block: memory does not grow with the program.
 
 use crate::blend::Blender;
-use crate::comp::{Comp, Mode as CompMode};
+use crate::canon::{CompMode, Event, Feed, RunoutPath, Src, ThreadMove, ThreadSeg};
+use crate::comp::Comp;
 use crate::diag::{num, Diagnostic};
-use crate::dialect::Dialect;
+use crate::dialect::{Dialect, Meaning, Rules};
+use crate::geom::V3;
 use crate::geom::{Arc, Geom, Plane};
 use crate::machine::Machine;
 use crate::machine::{tip_vector, ToolConfig};
 use crate::parse::{block_no, parse_line, Block, Word};
+use crate::shares::{KINK_SHARE, SPEED_MARGIN, THREAD_SHARE};
 use crate::source::{ProgramSource, SourceError, SourcePos};
-use crate::thread::{RunoutPath, ThreadMove, ThreadSeg, SPEED_MARGIN, THREAD_SHARE};
-use crate::V3;
 use std::collections::VecDeque;
 
 /// Largest radius difference between an arc's start and end, mm.
 pub const ARC_TOLERANCE_MM: f64 = 0.002;
-
-/// Where an event came from.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Src {
-    pub line: u32,
-    pub block_no: Option<u64>,
-}
-
-/// How fast a move goes.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Feed {
-    /// G00: as fast as the axes allow
-    Rapid,
-    /// G94: mm/min along the path
-    PerMin(f64),
-    /// G95: mm per spindle revolution, with the commanded speed in rpm
-    PerRev { mm_per_rev: f64, rpm: f64 },
-}
-
-impl Feed {
-    /// Path speed in mm/s (infinite for rapid: the axes limit it).
-    #[inline]
-    pub fn speed_mm_s(&self) -> f64 {
-        match *self {
-            Feed::Rapid => f64::INFINITY,
-            Feed::PerMin(f) => f / 60.0,
-            Feed::PerRev { mm_per_rev, rpm } => mm_per_rev * rpm.abs() / 60.0,
-        }
-    }
-}
-
-/// A canonical command.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Event {
-    Move {
-        geom: Geom,
-        feed: Feed,
-        src: Src,
-    },
-    Dwell {
-        seconds: f64,
-        src: Src,
-    },
-    /// spindle command, rpm, signed (+ = M03 clockwise)
-    Spindle {
-        rpm: f64,
-        src: Src,
-    },
-    Tool {
-        number: u32,
-        src: Src,
-    },
-    /// G33: a thread block, synchronized with the spindle
-    Thread(ThreadMove),
-    /// M02/M30 or the end of the text
-    End {
-        src: Src,
-    },
-}
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Motion {
@@ -228,6 +170,25 @@ mod slot {
     /// G61/G64: exact path / path tolerance
     pub const PATH: usize = 29;
     pub const COUNT: usize = 30;
+
+    /// The slot of a word with a dialect's meaning.
+    pub fn of(m: super::Meaning) -> usize {
+        use super::Meaning as M;
+        match m {
+            M::HelixOn => HELIX_ON,
+            M::HelixPitch => PITCH,
+            M::HelixOff => HELIX_OFF,
+            M::Jump => JUMP,
+            M::Thread => THREAD,
+            M::Polar(_) => MOTION,
+            M::PolarLastDirection => LAST_DIR,
+            M::PoleHere => POLE_HERE,
+            M::JumpTarget => L,
+            M::JumpCount => Q,
+            M::PolarRadius => R,
+            M::PolarAngle => H,
+        }
+    }
 }
 
 /// The words of one block, sorted by meaning, each with its column. Each
@@ -325,6 +286,10 @@ impl<'b> Words<'b> {
 pub struct Interpreter<S> {
     src: S,
     dialect: Dialect,
+    /// the dialect's vocabulary, and its thread G code (whose blocks'
+    /// text is kept for errors found at the next block)
+    rules: &'static Rules,
+    thread_code: Option<f64>,
     present: [bool; 3],
     lo: V3,
     hi: V3,
@@ -457,9 +422,12 @@ impl<S: ProgramSource> Interpreter<S> {
         let lo = V3::from_fn(|i, _| machine.axis(i).map_or(0.0, |a| a.min_mm));
         let hi = V3::from_fn(|i, _| machine.axis(i).map_or(0.0, |a| a.max_mm));
         let lathe = machine.kind == crate::machine::MachineKind::Lathe;
+        let rules = dialect.rules();
         Interpreter {
             src,
             dialect,
+            rules,
+            thread_code: rules.code_of(Meaning::Thread).map(|c| c as f64),
             present,
             lo,
             hi,
@@ -663,8 +631,9 @@ impl<S: ProgramSource> Interpreter<S> {
         // both take it lossily as UTF-8), so the text is copied only into
         // the errors found, not into `buf` for every line.
         self.buf.clear();
-        if self.dialect == Dialect::Cnc836
-            && words.iter().any(|w| w.letter == b'G' && w.value == 33.0)
+        if self
+            .thread_code
+            .is_some_and(|c| words.iter().any(|w| w.letter == b'G' && w.value == c))
         {
             // a thread block's errors may be found at the next block
             self.buf.extend_from_slice(text);
@@ -717,6 +686,8 @@ impl<S: ProgramSource> Interpreter<S> {
         let Interpreter {
             src: old,
             dialect,
+            rules,
+            thread_code,
             present,
             lo,
             hi,
@@ -767,6 +738,8 @@ impl<S: ProgramSource> Interpreter<S> {
         let new = Interpreter {
             src,
             dialect,
+            rules,
+            thread_code,
             present,
             lo,
             hi,
@@ -884,28 +857,23 @@ impl<S: ProgramSource> Interpreter<S> {
                         61 | 64 => once!(slot::PATH, w.path = code as u8, "G61/G64"),
                         94 => once!(slot::FEED_MODE, w.per_rev = false, "G94/G95"),
                         95 => once!(slot::FEED_MODE, w.per_rev = true, "G94/G95"),
-                        9 if self.dialect == Dialect::Cnc836 => once!(slot::HELIX_ON, "G09"),
-                        10 if self.dialect == Dialect::Cnc836 => once!(slot::PITCH, "G10"),
-                        73 if self.dialect == Dialect::Cnc836 => once!(slot::JUMP, "G73"),
-                        33 if self.dialect == Dialect::Cnc836 => once!(slot::THREAD, "G33"),
-                        98 if self.dialect == Dialect::Cnc836 => once!(slot::HELIX_OFF, "G98"),
-                        10..=13 if self.dialect == Dialect::Heidenhain => once!(
-                            slot::MOTION,
-                            w.motion = POLAR[code as usize - 10],
-                            "a motion G code (G00-G03, G10-G13, G15)"
-                        ),
-                        15 if self.dialect == Dialect::Heidenhain => {
-                            once!(slot::MOTION, "a motion G code (G00-G03, G10-G13, G15)");
-                            w.at[slot::LAST_DIR] = k as u8 + 1;
-                        }
-                        29 if self.dialect == Dialect::Heidenhain => once!(slot::POLE_HERE, "G29"),
-                        _ => self.error(
-                            Some(word),
-                            format!(
-                                "unsupported G code G{code:02} in the {} dialect",
-                                self.dialect
+                        _ => match self.rules.g_code(code) {
+                            Some((Meaning::Polar(k), what)) => {
+                                once!(slot::MOTION, w.motion = POLAR[k as usize], what)
+                            }
+                            Some((Meaning::PolarLastDirection, what)) => {
+                                once!(slot::MOTION, what);
+                                w.at[slot::LAST_DIR] = k as u8 + 1;
+                            }
+                            Some((m, what)) => once!(slot::of(m), what),
+                            None => self.error(
+                                Some(word),
+                                format!(
+                                    "unsupported G code G{code:02} in the {} dialect",
+                                    self.dialect
+                                ),
                             ),
-                        ),
+                        },
                     }
                 }
                 b'M' => {
@@ -951,10 +919,11 @@ impl<S: ProgramSource> Interpreter<S> {
                 b'S' => once!(slot::S, "S"),
                 b'T' => once!(slot::T, "T"),
                 b'P' => once!(slot::P, "P"),
-                b'L' if self.dialect == Dialect::Cnc836 => once!(slot::L, "L"),
-                b'R' if self.dialect == Dialect::Heidenhain => once!(slot::R, "R"),
-                b'H' if self.dialect == Dialect::Heidenhain => once!(slot::H, "H"),
-                b'Q' if self.dialect == Dialect::Cnc836 => once!(slot::Q, "Q"),
+                other if self.rules.address(other).is_some() => {
+                    if let Some(m) = self.rules.address(other) {
+                        once!(slot::of(m), (other as char).to_string())
+                    }
+                }
                 other => {
                     let axes: String = (0..3)
                         .filter(|&i| self.present[i])
@@ -966,7 +935,11 @@ impl<S: ProgramSource> Interpreter<S> {
                             "unknown address '{}' in the {} dialect: expected one of N G M{axes} I J K F S T P{}",
                             other as char,
                             self.dialect,
-                            if self.dialect == Dialect::Cnc836 { " L Q" } else { " R H" }
+                            self.rules
+                                .addresses
+                                .iter()
+                                .map(|a| format!(" {}", a.0 as char))
+                                .collect::<String>()
                         ),
                     );
                 }
@@ -982,10 +955,7 @@ impl<S: ProgramSource> Interpreter<S> {
         // a thread block held back learns whether this block goes on with it
         let g33 = w.get(slot::THREAD);
         let chained = self.release_thread(g33.is_some());
-        if self.dialect == Dialect::Cnc836 && !self.cnc836_block(w) {
-            return;
-        }
-        if self.dialect == Dialect::Heidenhain && !self.heidenhain_block(w) {
+        if !self.helix_block(w) || !self.pole_block(w) {
             return;
         }
         // --- feed, speed, tool -------------------------------------------------
@@ -993,7 +963,7 @@ impl<S: ProgramSource> Interpreter<S> {
             self.modal.per_rev = w.per_rev;
         }
         if let Some(f) = w.f().filter(|_| g33.is_none()) {
-            if w.dwell().is_none() || self.dialect != Dialect::Heidenhain {
+            if w.dwell().is_none() || !self.rules.dwell_time_in_f {
                 if f.value < 0.0 {
                     self.error(
                         Some(&f),
@@ -1148,9 +1118,10 @@ impl<S: ProgramSource> Interpreter<S> {
         }
     }
 
-    /// The cnc836 block rules that come before the block runs: G98 alone,
-    /// G10 pitch blocks, G09, the dragged axis. False: the block is done.
-    fn cnc836_block(&mut self, w: &Words) -> bool {
+    /// The helix's block rules that come before the block runs: G98 alone,
+    /// G10 pitch blocks, G09, the dragged axis; and L/Q only with a jump.
+    /// False: the block is done.
+    fn helix_block(&mut self, w: &Words) -> bool {
         if let Some(g98) = w.get(slot::HELIX_OFF) {
             let other = w.all.iter().find(|x| x.letter != b'N' && x.col != g98.col);
             if let Some(o) = other {
@@ -1542,13 +1513,16 @@ impl<S: ProgramSource> Interpreter<S> {
         Ok(found)
     }
 
-    /// heidenhain blocks that set the pole: I/J (plane-dependent) with no
-    /// motion, or G29 (the pole where the tool stands). False: the block is
-    /// done.
-    fn heidenhain_block(&mut self, w: &Words) -> bool {
+    /// Blocks that set the pole: I/J (plane-dependent) with no motion, in
+    /// a dialect whose centre words alone set it, or G29 (the pole where
+    /// the tool stands). False: the block is done.
+    fn pole_block(&mut self, w: &Words) -> bool {
         let (p, q, n) = self.modal.plane.axes();
         if w.has(slot::POLE_HERE) {
             self.pole = Some(self.pos);
+            return true;
+        }
+        if !self.rules.centres_set_pole {
             return true;
         }
         let has_center = w.centers().any(|c| c.is_some());
@@ -1790,7 +1764,7 @@ impl<S: ProgramSource> Interpreter<S> {
 
     fn exec_dwell(&mut self, w: &Words, g4: &Word, src: Src) {
         let mut time: Option<Word> = w.p();
-        if self.dialect == Dialect::Heidenhain && time.is_none() {
+        if self.rules.dwell_time_in_f && time.is_none() {
             time = w.f();
         }
         if time.is_none() {
@@ -2280,8 +2254,7 @@ impl<S: ProgramSource> Interpreter<S> {
             let v_now = r0 * v_lead;
             for i in 0..3 {
                 let jump = (v_now[i] - v_prev[i]).abs();
-                if self.present[i] && jump > crate::plan::KINK_SHARE * self.th.amax[i] * self.th.dt
-                {
+                if self.present[i] && jump > KINK_SHARE * self.th.amax[i] * self.th.dt {
                     self.error(
                         Some(&anchor),
                         format!(

@@ -14,6 +14,7 @@
 //! [`source::ProgramSource`], so memory does not grow with program length.
 
 pub mod blend;
+pub mod canon;
 pub mod check;
 pub mod comp;
 pub mod diag;
@@ -24,6 +25,7 @@ pub mod interp;
 pub mod machine;
 pub mod parse;
 pub mod plan;
+pub mod shares;
 pub mod source;
 pub mod thread;
 
@@ -32,6 +34,4 @@ pub use diag::Diagnostic;
 pub use dialect::Dialect;
 pub use machine::Machine;
 
-/// A position or direction in machine coordinates (X, Y, Z), millimetres.
-/// On a lathe X is the radius (the cross-slide position), never the diameter.
-pub type V3 = nalgebra::Vector3<f64>;
+pub use geom::V3;

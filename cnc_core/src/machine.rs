@@ -3,7 +3,7 @@
 //! key.
 
 use crate::dialect::Dialect;
-use crate::V3;
+use crate::geom::V3;
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize)]
@@ -638,9 +638,9 @@ impl Machine {
     /// is no further from the path than that piece's chord: on an arc of
     /// radius r its sagitta, (M−1)²·dt²·v²/(8r) ≤ (M−1)²·dt²·a_c/8 with a_c
     /// the centripetal acceleration (the planner keeps it under
-    /// `plan::ARC_NORMAL_MAX`·a_max; for steady speed the mean is inside by
+    /// `shares::ARC_NORMAL_MAX`·a_max; for steady speed the mean is inside by
     /// only (M²−1)·dt²·a_c/24). A nearly tangent junction, whose velocity
-    /// jump is at most `plan::KINK_SHARE`·a_max·dt, is cut by at most
+    /// jump is at most `shares::KINK_SHARE`·a_max·dt, is cut by at most
     /// (M−1)·dt·Δv/4. Straight lines are not moved at all.
     pub fn smoothing_error_mm(&self) -> f64 {
         let m = self.smoothing_samples() as f64;
@@ -650,8 +650,8 @@ impl Machine {
         let dt = self.dt();
         let a = self.max_acceleration();
         let w = (m - 1.0) * dt;
-        let arc = w * w * crate::plan::ARC_NORMAL_MAX * a / 8.0;
-        let kink = w * crate::plan::KINK_SHARE * a * dt / 4.0;
+        let arc = w * w * crate::shares::ARC_NORMAL_MAX * a / 8.0;
+        let kink = w * crate::shares::KINK_SHARE * a * dt / 4.0;
         arc + kink
     }
 

@@ -16,26 +16,13 @@
 //! next move shows the junction to be smooth (raising an acceleration
 //! only ever raises the entry speeds already handed out).
 
+use crate::canon::ThreadMove;
+use crate::canon::{Event, Feed, Src};
+use crate::geom::V3;
 use crate::geom::{ceil, Geom};
-use crate::interp::{Event, Feed, Src};
 use crate::machine::Machine;
-use crate::thread::ThreadMove;
-use crate::V3;
+use crate::shares::{ARC_NORMAL_MAX, KINK_SHARE, LINE_SHARE, SMOOTH_SHARE};
 use std::collections::VecDeque;
-
-/// Share of each axis's acceleration reserved for velocity jumps at
-/// nearly tangent junctions (within one sample).
-pub const KINK_SHARE: f64 = 0.15;
-/// Share of the acceleration used by a move next to a kink.
-pub const LINE_SHARE: f64 = 1.0 - KINK_SHARE;
-/// A junction counts as smooth if its velocity jump at the moves' speed
-/// cap is at most this share of each axis's acceleration (a rounding-level
-/// direction change, as between an arc and its tangent line).
-pub const SMOOTH_SHARE: f64 = 1e-9;
-/// Largest share of an arc's acceleration spent on the centripetal part
-/// (cos 30°, as LinuxCNC); the tangential part gets what is left of the
-/// move's share, √(S² − n²) for share S, at least half of it.
-pub const ARC_NORMAL_MAX: f64 = 0.866_025_403_784_438_6;
 
 /// A trapezoidal (or triangular) speed profile over one move.
 #[derive(Clone, Copy, Debug, PartialEq)]

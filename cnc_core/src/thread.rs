@@ -15,7 +15,7 @@
 //! into the line it meets tangentially: `u = pitch (θ − θs)² / (2Δ)` for
 //! θs = θ₀ − Δ/2 ≤ θ ≤ θ₀ + Δ/2. Its acceleration is `pitch ω² / Δ`, so Δ
 //! is chosen from the axis limits at the programmed speed (plus
-//! [`SPEED_MARGIN`]), and the run-in begins Δ/2 before θ₀ as predicted from
+//! [`SPEED_MARGIN`](crate::shares::SPEED_MARGIN)), and the run-in begins Δ/2 before θ₀ as predicted from
 //! the measured spindle. The last block of a chain ends with the mirror
 //! image, a deceleration into the end point. Blocks in between follow the
 //! line without a new index wait (θ₀ of the next block is where this one
@@ -28,15 +28,9 @@
 //! it, so the runout axis's acceleration stays within its limit. The end
 //! point is exactly `J tan α` from the programmed one.
 
-use crate::interp::Src;
-use crate::V3;
+use crate::canon::{RunoutPath, ThreadMove, ThreadSeg};
+use crate::geom::V3;
 
-/// The spindle may turn this much faster than S while a run-in or a
-/// deceleration runs; they are planned for it.
-pub const SPEED_MARGIN: f64 = 1.05;
-/// Share of an axis's acceleration a thread's run-in, deceleration and
-/// runout use (the rest absorbs the spindle's speed ripple).
-pub const THREAD_SHARE: f64 = 0.8;
 /// Encoder readings older than this many interpolation cycles mean the
 /// signal is lost (during G33 or G95 motion: controlled stop, error),
 /// unless the machine file sets `spindle.encoder_timeout_ms`.
@@ -47,19 +41,6 @@ pub const AT_SPEED_TOLERANCE: f64 = 0.05;
 /// ... for this long plus the time the spindle's ramp takes over the
 /// tolerance band, s (so the thread does not start at the end of the ramp).
 pub const AT_SPEED_SETTLE_S: f64 = 0.05;
-
-/// The runout of a thread block, along its lead travel `u`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RunoutPath {
-    /// the axis that leaves the thread (0 X, 1 Y, 2 Z)
-    pub axis: usize,
-    /// lead travel at which the runout begins (`len − J`), mm
-    pub from: f64,
-    /// tan of the runout angle, signed (the direction the axis moves)
-    pub tan: f64,
-    /// width of the parabola that rounds the kink at `from`, mm
-    pub blend: f64,
-}
 
 impl RunoutPath {
     /// The runout axis's offset after lead travel `u`.
@@ -74,23 +55,6 @@ impl RunoutPath {
             self.tan * (u - self.from)
         }
     }
-}
-
-/// The path of one G33 block, parametrized by the lead axis travel.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ThreadSeg {
-    pub start: V3,
-    /// the programmed end point
-    pub prog_end: V3,
-    /// where the tool ends: the programmed end, moved by the runout
-    pub end: V3,
-    /// the lead axis (largest travel)
-    pub lead: usize,
-    /// lead axis travel, mm (> 0)
-    pub len: f64,
-    /// pitch along the lead axis, mm per revolution
-    pub pitch: f64,
-    pub runout: Option<RunoutPath>,
 }
 
 impl ThreadSeg {
@@ -122,23 +86,6 @@ impl ThreadSeg {
         }
         (d, r)
     }
-}
-
-/// A planned G33 block.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ThreadMove {
-    pub seg: ThreadSeg,
-    pub src: Src,
-    /// programmed spindle speed, rpm, signed (+ M03)
-    pub rpm: f64,
-    /// the first block of a chain: its start angle from the index, in
-    /// revolutions (I/360), and the run-in Δ, revolutions
-    pub runin: Option<(f64, f64)>,
-    /// the last block of a chain: the deceleration Δ, revolutions
-    pub decel: Option<f64>,
-    /// lead acceleration of the run-in and the deceleration, mm/s² (a
-    /// controlled stop in the thread uses it too)
-    pub accel: f64,
 }
 
 impl ThreadMove {
@@ -341,6 +288,7 @@ impl SpindleTracker {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::canon::Src;
 
     fn seg(len: f64, pitch: f64) -> ThreadSeg {
         let start = V3::new(10.0, 0.0, 5.0);

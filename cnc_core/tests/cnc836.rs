@@ -1,8 +1,9 @@
 //! The cnc836 dialect (dialects.md 2.1, 2.2): helix G09/G10/G98 and jumps
 //! with repetition G73, with their block rules.
 
+use cnc_core::canon::Event;
 use cnc_core::exec::{Executor, Sample};
-use cnc_core::interp::{Event, Interpreter};
+use cnc_core::interp::Interpreter;
 use cnc_core::source::StrSource;
 use cnc_core::{check, Dialect, Machine, V3};
 

@@ -3,8 +3,9 @@
 //! *programmed* contour, computed here from the contour's lines and arcs
 //! (point-to-segment and point-to-arc distances), not by the offset code.
 
+use cnc_core::canon::Event;
 use cnc_core::exec::{Executor, Sample};
-use cnc_core::interp::{Event, Interpreter};
+use cnc_core::interp::Interpreter;
 use cnc_core::source::StrSource;
 use cnc_core::{check, Dialect, Machine, V3};
 

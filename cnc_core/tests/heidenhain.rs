@@ -1,9 +1,10 @@
 //! The heidenhain dialect's polar coordinates (dialects.md 3): the pole,
 //! polar lines G10/G11, polar arcs G12/G13/G15, R and H.
 
+use cnc_core::canon::Event;
 use cnc_core::exec::{Executor, Sample};
 use cnc_core::geom::Geom;
-use cnc_core::interp::{Event, Interpreter};
+use cnc_core::interp::Interpreter;
 use cnc_core::source::StrSource;
 use cnc_core::{check, Dialect, Machine, V3};
 

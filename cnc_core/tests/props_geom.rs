@@ -9,10 +9,11 @@
 //! (G02/G03 with a radius `R` instead of a centre is not in either
 //! dialect: `R` is HEIDENHAIN's polar radius, tested here as such.)
 
+use cnc_core::canon::Event;
 use cnc_core::diag::num;
 use cnc_core::exec::{Executor, Sample};
 use cnc_core::geom::{Arc, Geom};
-use cnc_core::interp::{Event, Interpreter};
+use cnc_core::interp::Interpreter;
 use cnc_core::source::StrSource;
 use cnc_core::{check, Dialect, Machine, V3};
 use proptest::prelude::*;
