@@ -3,7 +3,7 @@
 //! (equal to the executed one, by the shared [`Timeline`]) and the bounding
 //! box.
 
-use crate::canon::{Event, Feed, Src};
+use crate::canon::Event;
 use crate::diag::Diagnostic;
 use crate::dialect::Dialect;
 use crate::geom::Geom;
@@ -11,7 +11,8 @@ use crate::geom::V3;
 use crate::interp::Interpreter;
 use crate::machine::Machine;
 use crate::parse::{parse_words, Appended, Word};
-use crate::plan::{Item, ItemSink, Lookahead, PlanLimits, Profile, Timeline};
+use crate::pipeline::{Estimate, Front, Totals};
+use crate::plan::PlanLimits;
 use crate::source::{ProgramSource, SourceError, SourcePos};
 use std::collections::VecDeque;
 
@@ -64,88 +65,6 @@ const LINES: usize = 512;
 /// Batches of lines on their way through the interpreter at most.
 const IN_FLIGHT: usize = 4;
 
-/// The planning half of the check: look-ahead and timeline, fed events in
-/// program order.
-struct Plan {
-    look: Lookahead<()>,
-    totals: Totals,
-}
-
-/// What the planned items add up to.
-struct Totals {
-    tl: Timeline,
-    moves: u64,
-    ended: bool,
-}
-
-impl ItemSink for Totals {
-    /// only the profile counts: the queue keeps nothing else of a move
-    type Kept = ();
-    #[inline]
-    fn keep(_: &Geom, _: Feed, _: Src) {}
-    #[inline]
-    fn planned(&mut self, (): (), profile: Profile) {
-        self.moves += 1;
-        self.tl.finish_profile(&profile);
-    }
-    #[inline]
-    fn item(&mut self, item: Item) {
-        match item {
-            // (moves come to `planned`)
-            Item::Move(m) => self.planned((), m.profile),
-            Item::Dwell { seconds, .. } => self.tl.finish_dwell(seconds),
-            Item::End { .. } => self.ended = true,
-            Item::Spindle { rpm, .. } => self.tl.set_spindle(rpm),
-            Item::Thread(m) => {
-                self.moves += 1;
-                self.tl.finish_thread(&m);
-            }
-            Item::Tool { .. } => {}
-        }
-    }
-}
-
-impl Plan {
-    fn new(lim: PlanLimits) -> Self {
-        Plan {
-            look: Lookahead::new(lim),
-            totals: Totals {
-                tl: Timeline::for_limits(&lim),
-                moves: 0,
-                ended: false,
-            },
-        }
-    }
-
-    /// Plans a batch of events; nothing after the end counts.
-    /// `arc_tangents`: the start and end tangents of the arcs among them,
-    /// in order, as far as they have been computed already.
-    fn run(&mut self, events: &VecDeque<Event>, arc_tangents: &[(V3, V3)]) {
-        let mut arc_tangents = arc_tangents.iter();
-        for ev in events {
-            if self.totals.ended {
-                return;
-            }
-            let tangents = match ev {
-                Event::Move {
-                    geom: Geom::Arc(_), ..
-                } => arc_tangents.next().copied(),
-                _ => None,
-            };
-            self.look.push(ev, tangents, &mut self.totals);
-        }
-    }
-
-    /// After the last event: plans what is left (the interpreter always
-    /// ends with an `End` event, so this is a safeguard).
-    fn finish(mut self) -> Totals {
-        if !self.totals.ended {
-            self.look.flush(&mut self.totals);
-        }
-        self.totals
-    }
-}
-
 /// Checks a whole program.
 ///
 /// A program of more than a few hundred moves is checked by two threads in
@@ -159,7 +78,7 @@ impl Plan {
 pub fn check<S: ProgramSource>(source: S, dialect: Dialect, machine: &Machine) -> CheckReport {
     let lim = PlanLimits::from_machine(machine);
     let mut interp = Interpreter::new(source, dialect, machine).with_loop_scan();
-    let mut plan = Plan::new(lim);
+    let mut plan = Estimate::new(lim);
     let mut first = VecDeque::with_capacity(FIRST_EVENTS);
     if interp.fill(&mut first, FIRST_EVENTS) {
         return check_concurrently(interp, plan, first, dialect, machine);
@@ -170,8 +89,8 @@ pub fn check<S: ProgramSource>(source: S, dialect: Dialect, machine: &Machine) -
 
 /// The check on this thread, one batch of events at a time.
 fn one_thread<S: ProgramSource>(
-    mut interp: Interpreter<S>,
-    mut plan: Plan,
+    mut interp: Interpreter<S, Front>,
+    mut plan: Estimate,
     lim: PlanLimits,
 ) -> CheckReport {
     let mut events = VecDeque::with_capacity(FIRST_EVENTS);
@@ -185,7 +104,7 @@ fn one_thread<S: ProgramSource>(
 }
 
 fn report<T: ProgramSource>(
-    interp: &Interpreter<T>,
+    interp: &Interpreter<T, Front>,
     totals: Totals,
     lim: PlanLimits,
 ) -> CheckReport {
@@ -194,7 +113,7 @@ fn report<T: ProgramSource>(
         moves: totals.moves,
         duration_s: totals.tl.group_k0 as f64 * lim.dt,
         ticks: totals.tl.group_k0,
-        bbox: interp.bbox(),
+        bbox: interp.path_bbox(),
         errors: interp.errors().to_vec(),
         error_count: interp.error_count(),
     }
@@ -282,7 +201,7 @@ impl Batch {
 
     /// Runs the lines through the interpreter and keeps its events; with
     /// `tangents`, also computes the tangents of the arcs for the planner.
-    fn interpret(&mut self, interp: &mut Interpreter<Fed>, tangents: bool) {
+    fn interpret(&mut self, interp: &mut Interpreter<Fed, Front>, tangents: bool) {
         let (mut t0, mut w0) = (0, 0);
         for l in &mut self.lines {
             if interp.is_finished() {
@@ -322,8 +241,8 @@ impl Batch {
 /// The rest of the check after `first` (planned here) with the pipeline
 /// described at [`check`]; if no thread can be started, on this thread.
 fn check_concurrently<S: ProgramSource>(
-    interp: Interpreter<S>,
-    mut plan: Plan,
+    interp: Interpreter<S, Front>,
+    mut plan: Estimate,
     first: VecDeque<Event>,
     dialect: Dialect,
     machine: &Machine,
@@ -333,7 +252,7 @@ fn check_concurrently<S: ProgramSource>(
     use std::sync::mpsc::{channel, sync_channel};
     let (to_interp, interp_rx) = sync_channel::<Batch>(IN_FLIGHT);
     let (interp_tx, from_interp) = channel::<Batch>();
-    let (start_tx, start_rx) = sync_channel::<Interpreter<Fed>>(1);
+    let (start_tx, start_rx) = sync_channel::<Interpreter<Fed, Front>>(1);
     // The arcs' tangents can be computed on either thread (the same bits
     // either way). The interpreting thread takes them on while it keeps up
     // (no further batch waits for it), which evens out the work.
@@ -416,7 +335,7 @@ fn check_concurrently<S: ProgramSource>(
                 }
                 one_thread(
                     Interpreter::new(source, dialect, machine).with_loop_scan(),
-                    Plan::new(lim),
+                    Estimate::new(lim),
                     lim,
                 )
             }
@@ -430,7 +349,7 @@ fn check_concurrently<S: ProgramSource>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::Planner;
+    use crate::plan::{Item, Planner, Timeline};
     use crate::source::{ReaderSource, StrSource};
 
     /// The check as one thread does it: event by event through the

@@ -33,9 +33,10 @@
 use crate::canon::{Feed, Src, ThreadMove, ThreadSeg};
 use crate::dialect::Dialect;
 use crate::geom::V3;
-use crate::interp::{Interpreter, Modal};
+use crate::interp::Modal;
 use crate::machine::Machine;
-use crate::plan::{Item, PlanLimits, PlannedMove, Planner, Timeline};
+use crate::pipeline::Pipeline;
+use crate::plan::{Item, PlanLimits, PlannedMove};
 use crate::source::ProgramSource;
 use crate::thread::{
     EncoderReading, SpindleTracker, AT_SPEED_SETTLE_S, AT_SPEED_TOLERANCE, ENCODER_TIMEOUT_CYCLES,
@@ -121,9 +122,8 @@ struct StopRun {
 
 /// Runs a program (which must have passed [`crate::check`]) sample by sample.
 pub struct Executor<S> {
-    interp: Interpreter<S>,
-    planner: Planner,
-    timeline: Timeline,
+    /// interpreter, front stages, look-ahead and timeline
+    pipe: Pipeline<S>,
     dt: f64,
     k: u64,
     /// virtual tick: advances by `scale` per sample
@@ -215,9 +215,7 @@ impl<S: ProgramSource> Executor<S> {
     pub fn new(source: S, dialect: Dialect, machine: &Machine) -> Self {
         let lim = PlanLimits::from_machine(machine);
         Executor {
-            interp: Interpreter::new(source, dialect, machine),
-            planner: Planner::new(lim),
-            timeline: Timeline::for_limits(&lim),
+            pipe: Pipeline::new(source, dialect, machine),
             dt: lim.dt,
             k: 0,
             vk: 0.0,
@@ -294,7 +292,7 @@ impl<S: ProgramSource> Executor<S> {
     /// The interpreter's modal state (it runs ahead of the samples by the
     /// look-ahead window).
     pub fn modal(&self) -> &Modal {
-        &self.interp.modal
+        self.pipe.modal()
     }
 
     /// Sets the feed scale to head for (the feed override): 0 holds
@@ -416,22 +414,11 @@ impl<S: ProgramSource> Executor<S> {
 
     /// Errors the interpreter met (none for a checked program).
     pub fn error_count(&self) -> usize {
-        self.interp.error_count()
+        self.pipe.error_count()
     }
 
     fn next_item(&mut self) -> Option<Item> {
-        loop {
-            if let Some(i) = self.planner.pop() {
-                return Some(i);
-            }
-            match self.interp.next() {
-                Some(ev) => self.planner.push(ev),
-                None => {
-                    self.planner.flush();
-                    return self.planner.pop();
-                }
-            }
-        }
+        self.pipe.next_item()
     }
 
     fn sample(&self, pos: V3, speed: f64, last: bool) -> Sample {
@@ -458,8 +445,12 @@ impl<S: ProgramSource> Executor<S> {
     /// revolutions counted in direction `dir`; `None` index: none seen yet.
     fn spindle_angle(&self, dir: f64) -> Result<(f64, Option<f64>, f64), String> {
         let Some(tr) = &self.tracker else {
-            let rev_s = dir * self.timeline.spin_rpm / 60.0;
-            return Ok((dir * self.timeline.ideal_rev(self.vk), Some(0.0), rev_s));
+            let rev_s = dir * self.pipe.timeline.spin_rpm / 60.0;
+            return Ok((
+                dir * self.pipe.timeline.ideal_rev(self.vk),
+                Some(0.0),
+                rev_s,
+            ));
         };
         let t = self.k as f64 * self.dt;
         let (Some(last), Some((c, cps))) = (tr.last, tr.predict(t)) else {
@@ -528,7 +519,7 @@ impl<S: ProgramSource> Executor<S> {
                 let held = self.target == 0.0;
                 match index {
                     Some(ix) if at_speed && !held => {
-                        let t0 = self.timeline.thread_begin(&m, theta, ix);
+                        let t0 = self.pipe.timeline.thread_begin(&m, theta, ix);
                         run.theta0 = Some(t0);
                         t0
                     }
@@ -560,7 +551,7 @@ impl<S: ProgramSource> Executor<S> {
         };
         if run.end_tick.is_none() && m.decel.is_some() && self.tracker.is_none() {
             // the ideal spindle: the chain's last block ends on a known tick
-            run.end_tick = Some(self.timeline.ideal_thread_end(&m));
+            run.end_tick = Some(self.pipe.timeline.ideal_thread_end(&m));
         }
         let x = theta - theta0;
         let done = match run.end_tick {
@@ -573,9 +564,9 @@ impl<S: ProgramSource> Executor<S> {
             if m.decel.is_some() {
                 let k = run.end_tick.unwrap_or(self.vk.ceil() as u64);
                 self.vk = self.vk.max(k as f64);
-                self.timeline.finish_group_at(k);
+                self.pipe.timeline.finish_group_at(k);
             } else {
-                self.timeline.thread_next(&m);
+                self.pipe.timeline.thread_next(&m);
             }
             return None;
         }
@@ -647,7 +638,7 @@ impl<S: ProgramSource> Executor<S> {
         }
         self.bypass = false;
         loop {
-            if self.cur.is_none() && self.vk < self.timeline.group_k0 as f64 {
+            if self.cur.is_none() && self.vk < self.pipe.timeline.group_k0 as f64 {
                 if self.fault.is_some() {
                     // stopped for good: the run ends here (the filter
                     // settles on the end point as the run drains)
@@ -666,20 +657,20 @@ impl<S: ProgramSource> Executor<S> {
                 match item {
                     None | Some(Item::End { .. }) => return self.end_at(self.pos),
                     Some(Item::Move(m)) => {
-                        let stop = self.timeline.stop_tick(&m);
+                        let stop = self.pipe.timeline.stop_tick(&m);
                         self.cur = Some(Cur::Move(m, stop));
                     }
                     Some(Item::Dwell { seconds, src }) => {
                         self.scale = self.target.min(1.0);
                         self.src = src;
-                        let end = self.timeline.group_k0 + self.timeline.ticks(seconds);
-                        self.timeline.finish_dwell(seconds);
+                        let end = self.pipe.timeline.group_k0 + self.pipe.timeline.ticks(seconds);
+                        self.pipe.timeline.finish_dwell(seconds);
                         self.cur = Some(Cur::Dwell(end));
                     }
                     Some(Item::Spindle { rpm, src }) => {
                         self.src = src;
                         self.spindle = rpm;
-                        self.timeline.set_spindle(rpm);
+                        self.pipe.timeline.set_spindle(rpm);
                     }
                     Some(Item::Tool { number, src }) => {
                         self.src = src;
@@ -689,7 +680,7 @@ impl<S: ProgramSource> Executor<S> {
                         self.cur = Some(Cur::Thread(ThreadRun {
                             m,
                             // a chained block is synchronized already
-                            theta0: m.runin.is_none().then_some(self.timeline.theta0),
+                            theta0: m.runin.is_none().then_some(self.pipe.timeline.theta0),
                             end_tick: None,
                             waited: 0,
                             settled: 0,
@@ -702,7 +693,7 @@ impl<S: ProgramSource> Executor<S> {
             }
             match self.cur.take() {
                 Some(Cur::Move(m, stop)) => {
-                    let tau = self.timeline.local_time(self.vk);
+                    let tau = self.pipe.timeline.local_time(self.vk);
                     let running = match stop {
                         Some(end) => self.vk < end as f64,
                         None => tau < m.profile.duration,
@@ -735,7 +726,7 @@ impl<S: ProgramSource> Executor<S> {
                         self.s_base = 0.0;
                         self.s_last = 0.0;
                     }
-                    self.timeline.finish_move(&m);
+                    self.pipe.timeline.finish_move(&m);
                 }
                 Some(Cur::Dwell(end)) if self.vk < end as f64 => {
                     self.cur = Some(Cur::Dwell(end));

@@ -3,9 +3,7 @@
 //! records every error (and keeps going, so one check reports them all), and
 //! holds only the current block: memory does not grow with the program.
 
-use crate::blend::Blender;
-use crate::canon::{CompMode, Event, Feed, RunoutPath, Src, ThreadMove, ThreadSeg};
-use crate::comp::Comp;
+use crate::canon::{Canon, CompMode, Event, Feed, RunoutPath, Src, ThreadMove, ThreadSeg};
 use crate::diag::{num, Diagnostic};
 use crate::dialect::{Dialect, Meaning, Rules};
 use crate::geom::V3;
@@ -15,6 +13,7 @@ use crate::machine::{tip_vector, ToolConfig};
 use crate::parse::{block_no, parse_line, Block, Word};
 use crate::shares::{KINK_SHARE, SPEED_MARGIN, THREAD_SHARE};
 use crate::source::{ProgramSource, SourceError, SourcePos};
+use crate::travel::{self, Travel};
 use std::collections::VecDeque;
 
 /// Largest radius difference between an arc's start and end, mm.
@@ -283,7 +282,7 @@ impl<'b> Words<'b> {
 
 /// Interprets a program into [`Event`]s. Iterate it; afterwards read the
 /// errors, block count and bounding box.
-pub struct Interpreter<S> {
+pub struct Interpreter<S, C> {
     src: S,
     dialect: Dialect,
     /// the dialect's vocabulary, and its thread G code (whose blocks'
@@ -291,8 +290,8 @@ pub struct Interpreter<S> {
     rules: &'static Rules,
     thread_code: Option<f64>,
     present: [bool; 3],
-    lo: V3,
-    hi: V3,
+    /// the axes' ranges
+    travel: Travel,
     diameter: bool,
     max_rpm: Option<f64>,
     max_errors: usize,
@@ -302,7 +301,6 @@ pub struct Interpreter<S> {
     /// the block being executed (boxed: it is taken out while executing,
     /// and moving the pointer is cheaper than moving 1 KiB of words)
     block: Option<Box<Block>>,
-    pending: VecDeque<Event>,
     errors: Vec<Diagnostic>,
     error_count: usize,
     blocks: u64,
@@ -355,20 +353,16 @@ pub struct Interpreter<S> {
     /// after a G33 block with runout: 2 = the next block must be empty,
     /// 1 = the next must program every axis
     after_runout: u8,
-    /// radius compensation (between the moves and the events out)
-    comp: Comp,
+    /// the stages the commands go to (compensation, blending), and the
+    /// errors they report
+    canon: C,
+    canon_errors: Vec<String>,
     /// the tool table and the entry selected by T (None: no offset)
     tools: std::sync::Arc<[ToolConfig]>,
     lathe: bool,
     tool_cfg: Option<ToolConfig>,
-    /// the path tolerance (G64 P), mm; 0: exact path (G61)
-    tolerance: f64,
     /// the machine's default tolerance (for a G64 without P)
     default_tolerance: f64,
-    /// corner blending (the last stage) and a scratch queue for the
-    /// compensation's output
-    blend: Blender,
-    scratch: VecDeque<Event>,
 }
 
 /// G73's L: the block number to jump back to, if it is one.
@@ -416,11 +410,10 @@ struct Held {
     text: String,
 }
 
-impl<S: ProgramSource> Interpreter<S> {
-    pub fn new(src: S, dialect: Dialect, machine: &Machine) -> Self {
+impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
+    /// An interpreter handing its commands to `canon`.
+    pub fn with_canon(src: S, dialect: Dialect, machine: &Machine, canon: C) -> Self {
         let present = [0, 1, 2].map(|i| machine.axis(i).is_some());
-        let lo = V3::from_fn(|i, _| machine.axis(i).map_or(0.0, |a| a.min_mm));
-        let hi = V3::from_fn(|i, _| machine.axis(i).map_or(0.0, |a| a.max_mm));
         let lathe = machine.kind == crate::machine::MachineKind::Lathe;
         let rules = dialect.rules();
         Interpreter {
@@ -429,8 +422,7 @@ impl<S: ProgramSource> Interpreter<S> {
             rules,
             thread_code: rules.code_of(Meaning::Thread).map(|c| c as f64),
             present,
-            lo,
-            hi,
+            travel: Travel::new(machine),
             diameter: machine.diameter_mode(),
             max_rpm: machine.spindle.as_ref().map(|s| s.max_rpm),
             max_errors: machine.limits.max_errors,
@@ -447,7 +439,6 @@ impl<S: ProgramSource> Interpreter<S> {
             pos: machine.home(),
             buf: Vec::with_capacity(256),
             block: Some(Box::default()),
-            pending: VecDeque::with_capacity(8),
             errors: Vec::new(),
             error_count: 0,
             blocks: 0,
@@ -482,14 +473,12 @@ impl<S: ProgramSource> Interpreter<S> {
             thread_pitch: None,
             held: None,
             after_runout: 0,
-            comp: Comp::new(machine.compensation.round_outside_corners, machine.home()),
+            canon,
+            canon_errors: Vec::new(),
             tools: machine.tools.clone().into(),
             lathe,
             tool_cfg: None,
-            tolerance: machine.planner.path_tolerance_mm,
             default_tolerance: machine.planner.path_tolerance_mm,
-            blend: Blender::new(machine.smoothing_error_mm()),
-            scratch: VecDeque::new(),
         }
     }
 
@@ -528,6 +517,10 @@ impl<S: ProgramSource> Interpreter<S> {
     pub fn position(&self) -> V3 {
         self.pos
     }
+    /// The stages behind the interpreter.
+    pub fn canon(&self) -> &C {
+        &self.canon
+    }
     /// Line and block of the last block read.
     pub fn last_src(&self) -> Src {
         self.last
@@ -537,11 +530,10 @@ impl<S: ProgramSource> Interpreter<S> {
     /// has ended, then swaps the waiting events into `batch` (emptied
     /// first). Returns false once the program has ended: no event follows.
     pub(crate) fn fill(&mut self, batch: &mut VecDeque<Event>, min: usize) -> bool {
-        batch.clear();
-        while self.pending.len() < min && !self.finished {
+        while self.canon.ready() < min && !self.finished {
             self.step();
         }
-        std::mem::swap(&mut self.pending, batch);
+        self.canon.take(batch);
         !self.finished
     }
 
@@ -676,21 +668,19 @@ impl<S: ProgramSource> Interpreter<S> {
 
     /// Moves the events waiting into `batch` (emptied first).
     pub(crate) fn take_events(&mut self, batch: &mut VecDeque<Event>) {
-        batch.clear();
-        std::mem::swap(&mut self.pending, batch);
+        self.canon.take(batch);
     }
 
     /// The same interpreter, reading from `src` from now on; returns the
     /// old source (the check hands the source to its reading thread).
-    pub(crate) fn replace_source<T>(self, src: T) -> (S, Interpreter<T>) {
+    pub(crate) fn replace_source<T>(self, src: T) -> (S, Interpreter<T, C>) {
         let Interpreter {
             src: old,
             dialect,
             rules,
             thread_code,
             present,
-            lo,
-            hi,
+            travel,
             diameter,
             max_rpm,
             max_errors,
@@ -698,7 +688,6 @@ impl<S: ProgramSource> Interpreter<S> {
             pos,
             buf,
             block,
-            pending,
             errors,
             error_count,
             blocks,
@@ -726,14 +715,12 @@ impl<S: ProgramSource> Interpreter<S> {
             thread_pitch,
             held,
             after_runout,
-            comp,
+            canon,
+            canon_errors,
             tools,
             lathe,
             tool_cfg,
-            tolerance,
             default_tolerance,
-            blend,
-            scratch,
         } = self;
         let new = Interpreter {
             src,
@@ -741,8 +728,7 @@ impl<S: ProgramSource> Interpreter<S> {
             rules,
             thread_code,
             present,
-            lo,
-            hi,
+            travel,
             diameter,
             max_rpm,
             max_errors,
@@ -750,7 +736,6 @@ impl<S: ProgramSource> Interpreter<S> {
             pos,
             buf,
             block,
-            pending,
             errors,
             error_count,
             blocks,
@@ -778,14 +763,12 @@ impl<S: ProgramSource> Interpreter<S> {
             thread_pitch,
             held,
             after_runout,
-            comp,
+            canon,
+            canon_errors,
             tools,
             lathe,
             tool_cfg,
-            tolerance,
             default_tolerance,
-            blend,
-            scratch,
         };
         (old, new)
     }
@@ -997,7 +980,7 @@ impl<S: ProgramSource> Interpreter<S> {
         }
         if let Some(t) = w.t() {
             match t.as_int().filter(|&n| t.integer && (0..=9999).contains(&n)) {
-                Some(_) if self.comp.active() => self.error(
+                Some(_) if self.canon.compensating() => self.error(
                     Some(&t),
                     "a tool change while radius compensation is active: cancel it with G40 first"
                         .into(),
@@ -1037,7 +1020,7 @@ impl<S: ProgramSource> Interpreter<S> {
         }
         // --- modal geometry state --------------------------------------------
         if w.has(slot::PLANE) {
-            if self.comp.active() && w.plane != self.modal.plane {
+            if self.canon.compensating() && w.plane != self.modal.plane {
                 let pl = w.get(slot::PLANE);
                 self.error(
                     pl.as_ref(),
@@ -1051,19 +1034,20 @@ impl<S: ProgramSource> Interpreter<S> {
             self.exec_comp(w.comp, &g);
         }
         if w.has(slot::PATH) {
-            self.tolerance = 0.0;
+            let mut tolerance = 0.0;
             if w.path == 64 {
                 match w.p() {
                     Some(p) if !(0.0..=10.0).contains(&p.value) => self.error(
                         Some(&p),
                         format!("path tolerance P must be 0..10 mm, found P{}", num(p.value)),
                     ),
-                    Some(p) => self.tolerance = p.value,
-                    None => self.tolerance = self.default_tolerance,
+                    Some(p) => tolerance = p.value,
+                    None => tolerance = self.default_tolerance,
                 }
             }
+            self.canon.set_path_tolerance(tolerance);
         }
-        if let (Some(g), true) = (g33, self.comp.active()) {
+        if let (Some(g), true) = (g33, self.canon.compensating()) {
             self.error(
                 Some(&g),
                 "G33 (thread) with radius compensation active: cancel it with G40 first".into(),
@@ -1902,52 +1886,15 @@ impl<S: ProgramSource> Interpreter<S> {
         }
     }
 
-    /// Passes an event on, through radius compensation when it is (or was)
-    /// in force.
+    /// Hands a canonical command on to the stages behind the interpreter
+    /// (compensation, blending), reporting what they find at this block.
     #[inline]
     fn emit(&mut self, ev: Event) {
-        if self.comp.idle() {
-            self.out(ev);
-            return;
-        }
-        let mut errs = Vec::new();
-        let mut comped = std::mem::take(&mut self.scratch);
-        self.comp.push(ev, &mut comped, &mut errs);
-        for e in errs {
-            self.error(None, e);
-        }
-        // the commanded (compensated) path: travel limits and bounding box
-        for ev in &comped {
-            let Event::Move { geom, src, .. } = *ev else {
-                continue;
-            };
-            let (lo, hi) = geom.bbox();
-            for i in 0..3 {
-                if let Some((_, text)) = self.out_of_travel(i, geom.start()[i], lo[i], hi[i]) {
-                    self.error(
-                        None,
-                        format!(
-                            "travel limit: with radius compensation the path of block {} reaches {text}",
-                            crate::comp::block_name(src)
-                        ),
-                    );
-                }
+        self.canon.command(ev, &mut self.canon_errors);
+        if !self.canon_errors.is_empty() {
+            for e in std::mem::take(&mut self.canon_errors) {
+                self.error(None, e);
             }
-            self.grow_bbox(lo, hi);
-        }
-        for ev in comped.drain(..) {
-            self.out(ev);
-        }
-        self.scratch = comped;
-    }
-
-    /// The last stage: corner blending within the path tolerance.
-    #[inline]
-    fn out(&mut self, ev: Event) {
-        if self.tolerance > 0.0 || self.blend.holds() {
-            self.blend.push(ev, self.tolerance, &mut self.pending);
-        } else {
-            self.pending.push_back(ev);
         }
     }
 
@@ -1961,12 +1908,12 @@ impl<S: ProgramSource> Interpreter<S> {
         let number = if self.lathe { n % 100 } else { n };
         if number == 0 {
             self.tool_cfg = None;
-            self.comp.set_geometry_offset(V3::zeros());
+            self.canon.set_tool_offset(V3::zeros());
             return true;
         }
         match self.tools.iter().find(|x| x.number == number) {
             Some(cfg) => {
-                self.comp.set_geometry_offset(cfg.offset());
+                self.canon.set_tool_offset(cfg.offset());
                 self.tool_cfg = Some(cfg.clone());
                 true
             }
@@ -1992,7 +1939,7 @@ impl<S: ProgramSource> Interpreter<S> {
     /// G40/G41/G42.
     fn exec_comp(&mut self, code: u8, g: &Word) {
         if code == 40 {
-            self.comp.set_mode(None);
+            self.canon.set_compensation(None);
             return;
         }
         let Some(tool) = self.tool_cfg.clone() else {
@@ -2011,7 +1958,7 @@ impl<S: ProgramSource> Interpreter<S> {
             tip[0] = x * r;
             tip[2] = z * r;
         }
-        self.comp.set_mode(Some(CompMode {
+        self.canon.set_compensation(Some(CompMode {
             side: if code == 41 { 1.0 } else { -1.0 },
             radius: r,
             plane: self.modal.plane,
@@ -2400,7 +2347,7 @@ impl<S: ProgramSource> Interpreter<S> {
         }
         // (with radius compensation the commanded path is checked as it
         // leaves the compensation, in `emit`)
-        if self.comp.idle() && !self.changes_nothing(geom) {
+        if self.canon.passes_through() && !self.changes_nothing(geom) {
             let (lo, hi) = geom.bbox();
             self.check_travel(geom, (lo, hi), w, anchor);
             self.grow_bbox(lo, hi);
@@ -2517,12 +2464,8 @@ impl<S: ProgramSource> Interpreter<S> {
             lo[i] = lo[i].min(a.center[i] - a.radius);
             hi[i] = hi[i].max(a.center[i] + a.radius);
         }
-        let eps = 1e-9; // as in check_travel
-        (0..3).all(|i| {
-            lo[i] > box_lo[i]
-                && hi[i] < box_hi[i]
-                && (!self.present[i] || (lo[i] >= self.lo[i] - eps && hi[i] <= self.hi[i] + eps))
-        })
+        (0..3)
+            .all(|i| lo[i] > box_lo[i] && hi[i] < box_hi[i] && self.travel.within(i, lo[i], hi[i]))
     }
 
     /// Reports the first point of `geom` (bounding box `lo`, `hi`) outside
@@ -2530,7 +2473,7 @@ impl<S: ProgramSource> Interpreter<S> {
     fn check_travel(&mut self, geom: &Geom, (lo, hi): (V3, V3), w: &Words, anchor: Option<&Word>) {
         let is_arc = matches!(geom, Geom::Arc(_));
         for i in 0..3 {
-            if let Some((v, text)) = self.out_of_travel(i, geom.start()[i], lo[i], hi[i]) {
+            if let Some((v, text)) = self.travel.exceeded(i, geom.start()[i], lo[i], hi[i]) {
                 let at = w.axis(i).or(anchor.copied());
                 let how = if is_arc && v != geom.end()[i] {
                     "the arc reaches"
@@ -2542,49 +2485,9 @@ impl<S: ProgramSource> Interpreter<S> {
         }
     }
 
-    /// Where a move from `start` with extent `lo`..`hi` on axis `i` leaves
-    /// its travel, with the text "X (diameter) -3, outside the axis range
-    /// 0..500"; `None` inside it, or when only the start is outside (that
-    /// was reported with the move before).
-    fn out_of_travel(&self, i: usize, start: f64, lo: f64, hi: f64) -> Option<(f64, String)> {
-        if !self.present[i] {
-            return None;
-        }
-        let eps = 1e-9;
-        let v = if lo < self.lo[i] - eps {
-            lo
-        } else if hi > self.hi[i] + eps {
-            hi
-        } else {
-            return None;
-        };
-        if v == start {
-            return None;
-        }
-        let (k, what) = if i == 0 && self.diameter {
-            (2.0, " (diameter)")
-        } else {
-            (1.0, "")
-        };
-        Some((
-            v,
-            format!(
-                "{}{} {}, outside the axis range {}..{}",
-                AXIS_LETTERS[i] as char,
-                what,
-                num(v * k),
-                num(self.lo[i] * k),
-                num(self.hi[i] * k)
-            ),
-        ))
-    }
-
     /// Adds a move's extent to the bounding box.
     fn grow_bbox(&mut self, lo: V3, hi: V3) {
-        self.bbox = Some(match self.bbox {
-            None => (lo, hi),
-            Some((a, b)) => (a.inf(&lo), b.sup(&hi)),
-        });
+        travel::grow(&mut self.bbox, lo, hi);
     }
 
     /// Axis `i`'s word `a` in machine coordinates (lathe X: the radius),
@@ -2614,11 +2517,11 @@ impl<S: ProgramSource> Interpreter<S> {
     }
 }
 
-impl<S: ProgramSource> Iterator for Interpreter<S> {
+impl<S: ProgramSource, C: Canon> Iterator for Interpreter<S, C> {
     type Item = Event;
     fn next(&mut self) -> Option<Event> {
         loop {
-            if let Some(e) = self.pending.pop_front() {
+            if let Some(e) = self.canon.pop() {
                 return Some(e);
             }
             if self.finished {

@@ -24,10 +24,12 @@ pub mod geom;
 pub mod interp;
 pub mod machine;
 pub mod parse;
+pub mod pipeline;
 pub mod plan;
 pub mod shares;
 pub mod source;
 pub mod thread;
+pub mod travel;
 
 pub use check::{check, CheckReport};
 pub use diag::Diagnostic;

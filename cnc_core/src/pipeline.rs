@@ -1,0 +1,290 @@
+//! The pipeline: the stages a program's canonical commands pass, in
+//! order, from the interpreter to the samples, put together in one place
+//! for the executor and the check alike.
+//!
+//! ```text
+//! Interpreter ──Canon──► Front: compensate ─► (travel of the
+//!   (words, modal,          compensated path) ─► blend ──► Lookahead ──► Timeline
+//!    motion, loops, ...)                                   (plan.rs)     (ticks)
+//! ```
+//!
+//! [`Front`] is the interpreter's [`Canon`]: radius compensation
+//! (`comp.rs`), the travel limits of the path it makes, and corner
+//! blending within the path tolerance (`blend.rs`). [`Pipeline`] adds the
+//! look-ahead and the timeline for the executor; [`Estimate`] adds them
+//! for the check, which needs only the profiles' durations.
+
+use crate::blend::Blender;
+use crate::canon::{Canon, CompMode, Event, Feed, Src};
+use crate::comp::{block_name, Comp};
+use crate::dialect::Dialect;
+use crate::geom::{Geom, V3};
+use crate::interp::{Interpreter, Modal};
+use crate::machine::Machine;
+use crate::plan::{Item, ItemSink, Lookahead, PlanLimits, Planner, Profile, Timeline};
+use crate::source::ProgramSource;
+use crate::travel::{self, Travel};
+use std::collections::VecDeque;
+
+/// The stages between the interpreter and the planner: compensation, the
+/// travel limits of the compensated path, blending.
+pub struct Front {
+    comp: Comp,
+    blend: Blender,
+    /// the path tolerance (G64 P), mm; 0: exact path (G61)
+    tolerance: f64,
+    travel: Travel,
+    /// the bounding box of the compensated moves
+    bbox: Option<(V3, V3)>,
+    /// the compensation's output, reused
+    scratch: VecDeque<Event>,
+    /// commands ready for the planner
+    out: VecDeque<Event>,
+}
+
+impl Front {
+    pub fn new(machine: &Machine) -> Self {
+        Front {
+            comp: Comp::new(machine.compensation.round_outside_corners, machine.home()),
+            blend: Blender::new(machine.smoothing_error_mm()),
+            tolerance: machine.planner.path_tolerance_mm,
+            travel: Travel::new(machine),
+            bbox: None,
+            scratch: VecDeque::new(),
+            out: VecDeque::with_capacity(8),
+        }
+    }
+
+    /// The bounding box of the moves the compensation made (the
+    /// interpreter keeps that of the moves that passed through).
+    pub fn bbox(&self) -> Option<(V3, V3)> {
+        self.bbox
+    }
+
+    /// The last stage: corner blending within the path tolerance.
+    #[inline]
+    fn pass(&mut self, ev: Event) {
+        if self.tolerance > 0.0 || self.blend.holds() {
+            self.blend.push(ev, self.tolerance, &mut self.out);
+        } else {
+            self.out.push_back(ev);
+        }
+    }
+}
+
+impl Canon for Front {
+    #[inline]
+    fn command(&mut self, ev: Event, errors: &mut Vec<String>) {
+        if self.comp.idle() {
+            self.pass(ev);
+            return;
+        }
+        let mut comped = std::mem::take(&mut self.scratch);
+        self.comp.push(ev, &mut comped, errors);
+        // the commanded (compensated) path: travel limits and bounding box
+        for ev in &comped {
+            let Event::Move { geom, src, .. } = *ev else {
+                continue;
+            };
+            let (lo, hi) = geom.bbox();
+            for i in 0..3 {
+                if let Some((_, text)) = self.travel.exceeded(i, geom.start()[i], lo[i], hi[i]) {
+                    errors.push(format!(
+                        "travel limit: with radius compensation the path of block {} reaches {text}",
+                        block_name(src)
+                    ));
+                }
+            }
+            travel::grow(&mut self.bbox, lo, hi);
+        }
+        for ev in comped.drain(..) {
+            self.pass(ev);
+        }
+        self.scratch = comped;
+    }
+
+    fn set_compensation(&mut self, mode: Option<CompMode>) {
+        self.comp.set_mode(mode);
+    }
+
+    fn set_tool_offset(&mut self, offset: V3) {
+        self.comp.set_geometry_offset(offset);
+    }
+
+    fn set_path_tolerance(&mut self, mm: f64) {
+        self.tolerance = mm;
+    }
+
+    fn compensating(&self) -> bool {
+        self.comp.active()
+    }
+
+    #[inline]
+    fn passes_through(&self) -> bool {
+        self.comp.idle()
+    }
+
+    #[inline]
+    fn ready(&self) -> usize {
+        self.out.len()
+    }
+
+    #[inline]
+    fn pop(&mut self) -> Option<Event> {
+        self.out.pop_front()
+    }
+
+    fn take(&mut self, batch: &mut VecDeque<Event>) {
+        batch.clear();
+        std::mem::swap(&mut self.out, batch);
+    }
+}
+
+impl<S: ProgramSource> Interpreter<S, Front> {
+    /// An interpreter whose commands pass compensation and blending: what
+    /// the planner is fed. Iterate it for the planner's events.
+    pub fn new(src: S, dialect: Dialect, machine: &Machine) -> Self {
+        Interpreter::with_canon(src, dialect, machine, Front::new(machine))
+    }
+
+    /// The bounding box of the path as commanded (programmed moves and
+    /// compensated ones).
+    pub fn path_bbox(&self) -> Option<(V3, V3)> {
+        let mut b = self.bbox();
+        if let Some((lo, hi)) = self.canon().bbox() {
+            travel::grow(&mut b, lo, hi);
+        }
+        b
+    }
+}
+
+/// The executor's pipeline: the interpreter with its front stages, the
+/// look-ahead, and the timeline that puts planned items on sample ticks.
+pub struct Pipeline<S> {
+    interp: Interpreter<S, Front>,
+    planner: Planner,
+    /// shared with the sampling (stops, dwells and threads on ticks)
+    pub timeline: Timeline,
+}
+
+impl<S: ProgramSource> Pipeline<S> {
+    pub fn new(source: S, dialect: Dialect, machine: &Machine) -> Self {
+        let lim = PlanLimits::from_machine(machine);
+        Pipeline {
+            interp: Interpreter::new(source, dialect, machine),
+            planner: Planner::new(lim),
+            timeline: Timeline::for_limits(&lim),
+        }
+    }
+
+    /// The next planned item, pulling commands through as the look-ahead
+    /// needs them.
+    pub fn next_item(&mut self) -> Option<Item> {
+        loop {
+            if let Some(i) = self.planner.pop() {
+                return Some(i);
+            }
+            match self.interp.next() {
+                Some(ev) => self.planner.push(ev),
+                None => {
+                    self.planner.flush();
+                    return self.planner.pop();
+                }
+            }
+        }
+    }
+
+    /// The interpreter's modal state (it runs ahead of the samples by the
+    /// look-ahead window).
+    pub fn modal(&self) -> &Modal {
+        &self.interp.modal
+    }
+
+    /// Errors the interpreter met (none for a checked program).
+    pub fn error_count(&self) -> usize {
+        self.interp.error_count()
+    }
+}
+
+/// The check's half of the pipeline after the interpreter: look-ahead and
+/// timeline, fed events in program order, adding up the profiles'
+/// durations (nothing is sampled).
+pub(crate) struct Estimate {
+    look: Lookahead<()>,
+    totals: Totals,
+}
+
+/// What the planned items add up to.
+pub(crate) struct Totals {
+    pub(crate) tl: Timeline,
+    pub(crate) moves: u64,
+    pub(crate) ended: bool,
+}
+
+impl ItemSink for Totals {
+    /// only the profile counts: the queue keeps nothing else of a move
+    type Kept = ();
+    #[inline]
+    fn keep(_: &Geom, _: Feed, _: Src) {}
+    #[inline]
+    fn planned(&mut self, (): (), profile: Profile) {
+        self.moves += 1;
+        self.tl.finish_profile(&profile);
+    }
+    #[inline]
+    fn item(&mut self, item: Item) {
+        match item {
+            // (moves come to `planned`)
+            Item::Move(m) => self.planned((), m.profile),
+            Item::Dwell { seconds, .. } => self.tl.finish_dwell(seconds),
+            Item::End { .. } => self.ended = true,
+            Item::Spindle { rpm, .. } => self.tl.set_spindle(rpm),
+            Item::Thread(m) => {
+                self.moves += 1;
+                self.tl.finish_thread(&m);
+            }
+            Item::Tool { .. } => {}
+        }
+    }
+}
+
+impl Estimate {
+    pub(crate) fn new(lim: PlanLimits) -> Self {
+        Estimate {
+            look: Lookahead::new(lim),
+            totals: Totals {
+                tl: Timeline::for_limits(&lim),
+                moves: 0,
+                ended: false,
+            },
+        }
+    }
+
+    /// Plans a batch of events; nothing after the end counts.
+    /// `arc_tangents`: the start and end tangents of the arcs among them,
+    /// in order, as far as they have been computed already.
+    pub(crate) fn run(&mut self, events: &VecDeque<Event>, arc_tangents: &[(V3, V3)]) {
+        let mut arc_tangents = arc_tangents.iter();
+        for ev in events {
+            if self.totals.ended {
+                return;
+            }
+            let tangents = match ev {
+                Event::Move {
+                    geom: Geom::Arc(_), ..
+                } => arc_tangents.next().copied(),
+                _ => None,
+            };
+            self.look.push(ev, tangents, &mut self.totals);
+        }
+    }
+
+    /// After the last event: plans what is left (the interpreter always
+    /// ends with an `End` event, so this is a safeguard).
+    pub(crate) fn finish(mut self) -> Totals {
+        if !self.totals.ended {
+            self.look.flush(&mut self.totals);
+        }
+        self.totals
+    }
+}
