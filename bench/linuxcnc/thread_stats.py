@@ -16,8 +16,8 @@ MANIFEST is tab-separated, one run a line ('#' lines are comments):
   tsv         run.sh output
   rpm         the commanded spindle speed
   lead        lead axis: x, y or z (x is the radius on the lathe)
-  pitch       the thread's lead along the lead axis, mm/rev (the spec's F)
-  spec_start  the lead-axis coordinate where the spec's thread starts (for
+  pitch       the thread's lead along the lead axis, mm/rev (G33's F)
+  spec_start  the lead-axis coordinate where the example's thread starts (for
               the groove phase; differs from the G33 start point when a start
               angle is emulated by an earlier start)
   acc_limit   the lead axis's configured acceleration limit, mm/s^2

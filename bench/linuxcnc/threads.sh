@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # G33 thread starts in LinuxCNC's simulator, for comparison with our G33
-# (issue 7): runs the four thread examples of the spec (programs/thread_ex*.ngc)
-# at 200, 800 and (where the spindle allows it) 2000 rpm with run.sh, then
+# (issue 7): runs the four thread examples of docs/dialects.md §2.3.5
+# (programs/thread_ex*.ngc) at 200, 800 and (where the spindle allows it)
+# 2000 rpm with run.sh, then
 # prints a markdown table made by thread_stats.py (definitions:
 # `thread_stats.py --explain`).
 #
