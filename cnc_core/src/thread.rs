@@ -30,6 +30,7 @@
 
 use crate::canon::{RunoutPath, ThreadMove, ThreadSeg};
 use crate::geom::V3;
+use crate::shares::{KINK_SHARE, SPEED_MARGIN, THREAD_SHARE};
 
 /// Encoder readings older than this many interpolation cycles mean the
 /// signal is lost (during G33 or G95 motion: controlled stop, error),
@@ -283,6 +284,129 @@ impl SpindleTracker {
         let per_s = (c[1] + x * 2.0 * c[2]) * 1000.0;
         Some((counts, per_s))
     }
+}
+
+/// What a thread block may ask of the machine: each axis's speed and
+/// acceleration, the interpolation period, and which axes exist.
+#[derive(Clone, Copy, Debug)]
+pub struct ThreadLimits {
+    pub vmax: V3,
+    pub amax: V3,
+    pub dt: f64,
+    pub present: [bool; 3],
+}
+
+/// Why a thread block cannot be cut at its programmed speed. The
+/// interpreter words each for the block's author.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FitError {
+    /// axis `axis` would move at `speed` mm/s, over its `vmax`; the
+    /// spindle speed that keeps it within, rpm
+    TooFast {
+        axis: usize,
+        speed: f64,
+        vmax: f64,
+        s_max: f64,
+    },
+    /// a chain's first block: the run-in needs `ramp` mm of lead travel,
+    /// the block has `room`
+    RunIn { ramp: f64, room: f64 },
+    /// a chained block: axis `axis`'s speed would jump by `jump` mm/s at
+    /// its start
+    Kink { axis: usize, jump: f64 },
+}
+
+/// A thread block fitted to the axes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThreadFit {
+    /// lead acceleration of the run-in and the deceleration, mm/s²
+    pub accel: f64,
+    /// the run-in's Δ, revolutions, and its lead travel, mm
+    pub delta: f64,
+    pub ramp: f64,
+    /// axis velocities at the programmed speed at the block's end, mm/s
+    pub v_end: V3,
+}
+
+/// The spindle's speed a run-in or deceleration is planned for, rev/s
+/// ([`SPEED_MARGIN`] over `rpm`), and the lead's speed then, mm/s.
+pub fn lead_speed(pitch: f64, rpm: f64) -> (f64, f64) {
+    let w_p = rpm.abs() * SPEED_MARGIN / 60.0;
+    (w_p, pitch * w_p)
+}
+
+/// The width of the parabola that rounds a runout's kink, mm of lead
+/// travel, so that the runout axis accelerates within half its share (the
+/// other half: the deceleration).
+pub fn runout_blend(tan: f64, v_lead: f64, amax: f64) -> f64 {
+    tan.abs() * v_lead * v_lead / (0.5 * THREAD_SHARE * amax)
+}
+
+/// Fits a thread block to the axes at `rpm`: every axis within its speed
+/// in the thread, the lead acceleration within [`THREAD_SHARE`] of every
+/// axis's (half of it for the runout axis), the run-in within the block
+/// before its runout (`chained`: none), and a chained block's start
+/// continuing the previous block's end velocity `prev` within the kink
+/// share of one cycle.
+pub fn fit(
+    seg: &ThreadSeg,
+    rpm: f64,
+    lim: &ThreadLimits,
+    chained: bool,
+    prev: Option<V3>,
+) -> Result<ThreadFit, FitError> {
+    let (w_p, v_lead) = lead_speed(seg.pitch, rpm);
+    let (r0, r1) = seg.ratios();
+    let mut accel = f64::INFINITY;
+    for i in 0..3 {
+        let r = r0[i].abs().max(r1[i].abs());
+        if !lim.present[i] || r < 1e-12 {
+            continue;
+        }
+        if v_lead * r > lim.vmax[i] {
+            return Err(FitError::TooFast {
+                axis: i,
+                speed: v_lead * r,
+                vmax: lim.vmax[i],
+                s_max: lim.vmax[i] / (r * seg.pitch * SPEED_MARGIN) * 60.0,
+            });
+        }
+        let share = if seg.runout.is_some_and(|ro| ro.axis == i) {
+            0.5
+        } else {
+            1.0
+        };
+        accel = accel.min(THREAD_SHARE * share * lim.amax[i] / r);
+    }
+    let delta = seg.pitch * w_p * w_p / accel; // revolutions
+    let ramp = 0.5 * seg.pitch * delta; // lead travel, mm
+    let room = seg.runout.map_or(seg.len, |ro| ro.from - 0.5 * ro.blend);
+    if !chained && ramp > room {
+        return Err(FitError::RunIn { ramp, room });
+    }
+    if let Some(v_prev) = prev {
+        let v_now = r0 * v_lead;
+        for i in 0..3 {
+            let jump = (v_now[i] - v_prev[i]).abs();
+            if lim.present[i] && jump > KINK_SHARE * lim.amax[i] * lim.dt {
+                return Err(FitError::Kink { axis: i, jump });
+            }
+        }
+    }
+    Ok(ThreadFit {
+        accel,
+        delta,
+        ramp,
+        v_end: r1 * v_lead,
+    })
+}
+
+/// The deceleration of a chain's last block into its end at lead
+/// acceleration `accel`: Δ, revolutions, and its lead travel, mm.
+pub fn deceleration(m: &ThreadMove, accel: f64) -> (f64, f64) {
+    let (w_p, _) = lead_speed(m.seg.pitch, m.rpm);
+    let delta = m.seg.pitch * w_p * w_p / accel;
+    (delta, 0.5 * m.seg.pitch * delta)
 }
 
 #[cfg(test)]

@@ -5,6 +5,8 @@
 use super::state::Interpreter;
 use super::words::{slot, Words, AXIS_LETTERS};
 use crate::canon::Canon;
+use crate::canon::Feed;
+use crate::geom::{Arc, V3};
 use crate::parse::Word;
 use crate::source::ProgramSource;
 
@@ -109,5 +111,47 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
             self.error(Some(&q), "address Q is only used with G73 (jump)".into());
         }
         true
+    }
+
+    /// G09 in force: the arc `a` (counter-clockwise: `ccw`) to `target` drags the pitch's axis by
+    /// pitch × turns (the turns summed, the position computed from them, so
+    /// no error accumulates over thousands of turns), and F becomes the
+    /// speed of the circular motion in the plane. Returns the feed.
+    pub(super) fn drag_helix(
+        &mut self,
+        a: &mut Arc,
+        target: &mut V3,
+        ccw: bool,
+        feed: Option<Feed>,
+        anchor: Option<&Word>,
+    ) -> Option<Feed> {
+        let (Some((d, pitch)), Some((base, turns))) = (self.pitch, self.helix) else {
+            return feed;
+        };
+        let (p, q, _) = a.plane.axes();
+        if d == p || d == q {
+            self.error(
+                anchor,
+                format!(
+                    "the dragged axis {} is an axis of this arc's {} plane",
+                    AXIS_LETTERS[d] as char,
+                    a.plane.gcode()
+                ),
+            );
+            return feed;
+        }
+        let turns = turns + a.sweep.abs() / std::f64::consts::TAU;
+        self.helix = Some((base, turns));
+        target[d] = base + pitch * turns;
+        *a = Arc::new(a.start, *target, a.center, a.plane, ccw, 0);
+        let c = a.plane_fraction();
+        feed.map(|f| match f {
+            Feed::PerMin(v) => Feed::PerMin(v / c),
+            Feed::PerRev { mm_per_rev, rpm } => Feed::PerRev {
+                mm_per_rev: mm_per_rev / c,
+                rpm,
+            },
+            Feed::Rapid => Feed::Rapid,
+        })
     }
 }

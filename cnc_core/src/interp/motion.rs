@@ -4,7 +4,7 @@
 
 use super::modal::Motion;
 use super::state::Interpreter;
-use super::words::{slot, Words, AXIS_LETTERS, CENTER_LETTERS};
+use super::words::{slot, Words, CENTER_LETTERS};
 use crate::canon::{Canon, Event, Feed, Src};
 use crate::diag::num;
 use crate::geom::V3;
@@ -106,45 +106,14 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
         if arc {
             let mut arc = self.arc_geom(w, target, motion == Motion::CcwArc, anchor.as_ref());
             let mut feed = feed;
-            if let (Some(a), Some((d, pitch)), Some((base, turns))) =
-                (arc.as_mut(), self.pitch, self.helix)
-            {
-                // G09: the dragged axis moves pitch x turns; the turns are
-                // summed, and the position computed from them, so no error
-                // accumulates over thousands of turns
-                let (p, q, _) = a.plane.axes();
-                if d == p || d == q {
-                    self.error(
-                        anchor.as_ref(),
-                        format!(
-                            "the dragged axis {} is an axis of this arc's {} plane",
-                            AXIS_LETTERS[d] as char,
-                            a.plane.gcode()
-                        ),
-                    );
-                } else {
-                    let turns = turns + a.sweep.abs() / std::f64::consts::TAU;
-                    self.helix = Some((base, turns));
-                    target[d] = base + pitch * turns;
-                    *a = Arc::new(
-                        a.start,
-                        target,
-                        a.center,
-                        a.plane,
-                        motion == Motion::CcwArc,
-                        0,
-                    );
-                    // F is the speed of the circular motion in the plane
-                    let c = a.plane_fraction();
-                    feed = feed.map(|f| match f {
-                        Feed::PerMin(v) => Feed::PerMin(v / c),
-                        Feed::PerRev { mm_per_rev, rpm } => Feed::PerRev {
-                            mm_per_rev: mm_per_rev / c,
-                            rpm,
-                        },
-                        Feed::Rapid => Feed::Rapid,
-                    });
-                }
+            if let Some(a) = arc.as_mut() {
+                feed = self.drag_helix(
+                    a,
+                    &mut target,
+                    motion == Motion::CcwArc,
+                    feed,
+                    anchor.as_ref(),
+                );
             }
             self.pos = target;
             if let Some(arc) = arc {

@@ -12,6 +12,7 @@ use crate::machine::Machine;
 use crate::machine::ToolConfig;
 use crate::parse::{Block, Word};
 use crate::source::{ProgramSource, SourcePos};
+use crate::thread::ThreadLimits;
 use crate::travel::Travel;
 use std::collections::VecDeque;
 
@@ -80,6 +81,8 @@ pub struct Interpreter<S, C> {
     pub(super) last_ccw: Option<bool>,
     /// G33: what the axes and the spindle allow
     pub(super) th: ThreadLimits,
+    /// machine constant 8: the runout's (axis, tan of the angle)
+    pub(super) runout: Option<(usize, f64)>,
     /// G33: the last pitch programmed, mm/rev
     pub(super) thread_pitch: Option<f64>,
     /// G33: the last thread block, held until the next block says whether
@@ -106,16 +109,6 @@ pub(super) enum LoopScan {
     Off,
     Wanted,
     Done,
-}
-
-/// What G33 needs of the machine.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct ThreadLimits {
-    pub(super) vmax: V3,
-    pub(super) amax: V3,
-    pub(super) dt: f64,
-    /// machine constant 8: (axis, tan of the angle)
-    pub(super) runout: Option<(usize, f64)>,
 }
 
 /// A thread block waiting for the next block.
@@ -206,10 +199,11 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                 vmax: machine.vmax(),
                 amax: machine.amax(),
                 dt: machine.dt(),
-                runout: machine
-                    .runout()
-                    .map(|r| (r.axis, r.angle_deg.to_radians().tan())),
+                present,
             },
+            runout: machine
+                .runout()
+                .map(|r| (r.axis, r.angle_deg.to_radians().tan())),
             thread_pitch: None,
             held: None,
             after_runout: 0,
@@ -357,6 +351,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
             polar_end,
             last_ccw,
             th,
+            runout,
             thread_pitch,
             held,
             after_runout,
@@ -405,6 +400,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
             polar_end,
             last_ccw,
             th,
+            runout,
             thread_pitch,
             held,
             after_runout,

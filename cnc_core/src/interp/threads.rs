@@ -10,8 +10,8 @@ use crate::diag::{num, Diagnostic};
 use crate::geom::Geom;
 use crate::geom::V3;
 use crate::parse::Word;
-use crate::shares::{KINK_SHARE, SPEED_MARGIN, THREAD_SHARE};
 use crate::source::ProgramSource;
+use crate::thread::{self, FitError};
 
 /// A length for a message, rounded up to the micrometre (a hair over a
 /// whole micrometre from rounding is not rounded up).
@@ -129,12 +129,11 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
             Some(i) => i.value / 360.0,
             None => 0.0,
         };
-        let w_p = rpm.abs() * SPEED_MARGIN / 60.0; // rev/s
-        let v_lead = pitch * w_p;
+        let (_, v_lead) = thread::lead_speed(pitch, rpm);
         let mut end = target;
         let mut runout = None;
         if let Some(j) = w.center(1) {
-            let Some((ax, tan)) = self.th.runout else {
+            let Some((ax, tan)) = self.runout else {
                 self.error(
                     Some(&j),
                     "runout J needs machine constant 8 (runout angle and axis: mc8 under [constants] in the machine file)".into(),
@@ -169,9 +168,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                 self.error(Some(&j), why);
                 return;
             }
-            // the kink is rounded so that the runout axis accelerates
-            // within half its share (the other half: the deceleration)
-            let blend = tan.abs() * v_lead * v_lead / (0.5 * THREAD_SHARE * self.th.amax[ax]);
+            let blend = thread::runout_blend(tan, v_lead, self.th.amax[ax]);
             if 0.5 * blend > j.value {
                 self.error(
                     Some(&j),
@@ -202,72 +199,43 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
             pitch,
             runout,
         };
-        // speeds and accelerations in the thread
-        let (r0, r1) = seg.ratios();
-        let mut accel = f64::INFINITY;
-        for i in 0..3 {
-            let r = r0[i].abs().max(r1[i].abs());
-            if !self.present[i] || r < 1e-12 {
-                continue;
-            }
-            if v_lead * r > self.th.vmax[i] {
-                let s_max = self.th.vmax[i] / (r * pitch * SPEED_MARGIN) * 60.0;
-                self.error(
-                    Some(&anchor),
-                    format!(
+        let fit = match thread::fit(&seg, rpm, &self.th, chained, prev) {
+            Ok(f) => f,
+            Err(e) => {
+                let text = match e {
+                    FitError::TooFast {
+                        axis,
+                        speed,
+                        vmax,
+                        s_max,
+                    } => format!(
                         "G33 at S{} with pitch F{}: axis {} would move at {} mm/s in the thread, over its {} mm/s; lower S to at most {}",
                         num(rpm.abs()),
                         num(pitch),
-                        AXIS_LETTERS[i] as char,
-                        round_up(v_lead * r),
-                        num(self.th.vmax[i]),
+                        AXIS_LETTERS[axis] as char,
+                        round_up(speed),
+                        num(vmax),
                         s_max.floor()
                     ),
-                );
+                    FitError::RunIn { ramp, room } => format!(
+                        "G33: the run-in needs {} mm of {lead_name} travel at S{} (pitch F{}) to reach the thread's speed; the block has {} mm{}: start the thread {} mm earlier or lower S",
+                        round_up(ramp),
+                        num(rpm.abs()),
+                        num(pitch),
+                        num(room),
+                        if runout.is_some() { " before the runout" } else { "" },
+                        round_up(ramp - room)
+                    ),
+                    FitError::Kink { axis, jump } => format!(
+                        "chained G33 blocks must continue the thread smoothly: axis {}'s speed would jump by {} mm/s at this block's start, more than the axis can follow in sync (same direction and pitch, or end the thread and start a new one)",
+                        AXIS_LETTERS[axis] as char,
+                        round_up(jump)
+                    ),
+                };
+                self.error(Some(&anchor), text);
                 return;
             }
-            let share = if runout.is_some_and(|ro| ro.axis == i) {
-                0.5
-            } else {
-                1.0
-            };
-            accel = accel.min(THREAD_SHARE * share * self.th.amax[i] / r);
-        }
-        let delta = pitch * w_p * w_p / accel; // revolutions
-        let ramp = 0.5 * pitch * delta; // lead travel, mm
-        let room = runout.map_or(len, |ro| ro.from - 0.5 * ro.blend);
-        if !chained && ramp > room {
-            self.error(
-                Some(&anchor),
-                format!(
-                    "G33: the run-in needs {} mm of {lead_name} travel at S{} (pitch F{}) to reach the thread's speed; the block has {} mm{}: start the thread {} mm earlier or lower S",
-                    round_up(ramp),
-                    num(rpm.abs()),
-                    num(pitch),
-                    num(room),
-                    if runout.is_some() { " before the runout" } else { "" },
-                    round_up(ramp - room)
-                ),
-            );
-            return;
-        }
-        if let Some(v_prev) = prev {
-            let v_now = r0 * v_lead;
-            for i in 0..3 {
-                let jump = (v_now[i] - v_prev[i]).abs();
-                if self.present[i] && jump > KINK_SHARE * self.th.amax[i] * self.th.dt {
-                    self.error(
-                        Some(&anchor),
-                        format!(
-                            "chained G33 blocks must continue the thread smoothly: axis {}'s speed would jump by {} mm/s at this block's start, more than the axis can follow in sync (same direction and pitch, or end the thread and start a new one)",
-                            AXIS_LETTERS[i] as char,
-                            round_up(jump)
-                        ),
-                    );
-                    return;
-                }
-            }
-        }
+        };
         let (lo, hi) = (
             seg.start.inf(&seg.prog_end).inf(&seg.end),
             seg.start.sup(&seg.prog_end).sup(&seg.end),
@@ -283,15 +251,15 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
             seg,
             src,
             rpm,
-            runin: (!chained).then_some((start_rev, delta)),
+            runin: (!chained).then_some((start_rev, fit.delta)),
             decel: None,
-            accel,
+            accel: fit.accel,
         };
         self.held = Some(Box::new(Held {
             m,
-            accel,
-            runin_len: if chained { 0.0 } else { ramp },
-            v_end: r1 * v_lead,
+            accel: fit.accel,
+            runin_len: if chained { 0.0 } else { fit.ramp },
+            v_end: fit.v_end,
             src,
             col: anchor.col,
             wlen: anchor.len,
@@ -312,9 +280,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
         let mut m = h.m;
         let chained = next_is_g33 && m.seg.runout.is_none();
         if !chained {
-            let w_p = m.rpm.abs() * SPEED_MARGIN / 60.0;
-            let delta = m.seg.pitch * w_p * w_p / h.accel;
-            let ramp = 0.5 * m.seg.pitch * delta;
+            let (delta, ramp) = thread::deceleration(&m, h.accel);
             let room = m.seg.len - h.runin_len;
             if ramp > room + 1e-9 {
                 let lead = AXIS_LETTERS[m.seg.lead] as char;
