@@ -791,6 +791,7 @@ fn handle_run(
         text,
         dialect,
         ticks: report.ticks,
+        start: now[..machine.axes.len()].to_vec(),
     };
     if cmds.send(Cmd::Start(job, recorder, tx)).is_err() {
         return refuse("the control loop is not running".into());
