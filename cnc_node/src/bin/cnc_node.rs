@@ -26,14 +26,13 @@
 //! reading stamped `s` at `t = s − (stamp of the job's sample 0)`.
 
 use clap::Parser;
-use cnc_core::source::StrSource;
-use cnc_core::{check, Dialect, Machine};
+use cnc_core::Machine;
 use cnc_msgs::ros::{self, Grid, WallClock};
 use cnc_msgs::*;
+use cnc_node::admit::{admit, recorder, RecordOpts, Refusal};
 use cnc_node::controller::{Controller, EncoderSample, Job, State, Status, Tick};
 use cnc_node::files::load_machine;
-use cnc_node::program::{read_limited, resolve_in};
-use cnc_node::record::{stamp_ns, JobRecorder, RecordingInfo};
+use cnc_node::record::{stamp_ns, JobRecorder};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, SyncSender, TryRecvError};
@@ -598,14 +597,6 @@ fn time_ns(t: &Time) -> i64 {
     i64::from(t.sec) * 1_000_000_000 + i64::from(t.nanosec)
 }
 
-/// Where and what the node records.
-struct RecordOpts {
-    dir: PathBuf,
-    all: bool,
-    /// the machine file's text (what recordings attach)
-    machine_toml: String,
-}
-
 fn check_worker(
     machine: Machine,
     dir: PathBuf,
@@ -678,14 +669,8 @@ fn fit_reply(text: &str, max: usize) -> String {
     out
 }
 
-fn refuse(message: String) -> RunProgramResponse {
-    RunProgramResponse {
-        accepted: false,
-        message,
-        job_id: 0,
-        estimated_duration: 0.0,
-        recording: String::new(),
-    }
+fn refuse(message: &str) -> RunProgramResponse {
+    Refusal(message.to_string()).reply()
 }
 
 fn handle_run(
@@ -697,118 +682,43 @@ fn handle_run(
     cmds: &Sender<Cmd>,
     here: &Arc<[AtomicU64; 3]>,
 ) -> RunProgramResponse {
-    let max = machine.limits.max_program_bytes;
-    let text = match (req.program.is_empty(), req.program_path.is_empty()) {
-        (false, true) => {
-            if req.program.len() as u64 > max {
-                return refuse(format!(
-                    "the program is {} bytes, over the machine's limit of {max} bytes (limits.max_program_bytes)",
-                    req.program.len()
-                ));
-            }
-            req.program.clone().into_bytes()
-        }
-        (true, false) => {
-            match resolve_in(dir, &req.program_path).and_then(|p| read_limited(&p, max)) {
-                Ok(t) => t,
-                Err(e) => return refuse(e),
-            }
-        }
-        _ => return refuse("exactly one of program and program_path must be set".into()),
-    };
-    let dialect = if req.dialect.is_empty() {
-        machine.dialect
-    } else {
-        match req.dialect.parse::<Dialect>() {
-            Ok(d) => d,
-            Err(e) => return refuse(e),
-        }
-    };
-    // check from where the machine stands now
+    // checked from where the machine stands now; the job carries that
+    // start, and the control loop refuses it if the machine has moved
     let now: Vec<f64> = here
         .iter()
         .map(|h| f64::from_bits(h.load(Ordering::Relaxed)))
         .collect();
-    let m = machine.starting_at(&now[..machine.axes.len()]);
-    let src = StrSource::from_bytes(&text).with_max_line(machine.limits.max_line_bytes);
-    let report = check(src, dialect, &m);
-    if !report.ok() {
-        return refuse(report.message());
-    }
-    if req.dry_run {
-        return RunProgramResponse {
-            accepted: true,
-            message: String::new(),
-            job_id: 0,
-            estimated_duration: report.duration_s,
-            recording: String::new(),
-        };
+    let admitted = match admit(req, machine, &now, dir) {
+        Ok(a) => a,
+        Err(r) => return r.reply(),
+    };
+    if admitted.dry_run {
+        return admitted.reply(0, String::new());
     }
     let job_id = *next_id;
-    let (tx, rx) = mpsc::channel();
-    // the recorder is made here (file I/O off the loop) and travels with
-    // the job, so the recording starts with the job's first sample
-    let recorder = if req.record || rec_opts.all {
-        let name = if req.program_path.is_empty() {
-            "program.nc"
-        } else {
-            req.program_path.as_str()
-        };
-        let stem: String = Path::new(name)
-            .file_stem()
-            .map(|s| {
-                s.to_string_lossy()
-                    .chars()
-                    .filter(|c| c.is_ascii_alphanumeric() || *c == '_' || *c == '-')
-                    .collect()
-            })
-            .unwrap_or_default();
-        let file = rec_opts.dir.join(format!("job_{job_id}_{stem}.mcap"));
-        let info = RecordingInfo {
-            program_name: name.to_string(),
-            program_text: String::from_utf8_lossy(&text).into_owned(),
-            dialect: dialect.id().to_string(),
-            machine_toml: rec_opts.machine_toml.clone(),
-            machine_name: machine.name.clone(),
-            rate_hz: machine.interpolation.rate_hz,
-        };
-        let made = std::fs::create_dir_all(&rec_opts.dir)
-            .map_err(|e| format!("{}: {e}", rec_opts.dir.display()))
-            .and_then(|_| JobRecorder::create(&file, info, machine));
-        match made {
-            Ok(r) => Some(Box::new(r)),
-            Err(e) => return refuse(format!("cannot record the job: {e}")),
-        }
-    } else {
-        None
+    let recorder = match recorder(&admitted, job_id, machine, rec_opts) {
+        Ok(r) => r.map(Box::new),
+        Err(r) => return r.reply(),
     };
     let recording = recorder
         .as_ref()
         .map(|r| r.file.display().to_string())
         .unwrap_or_default();
-    let job = Job {
-        id: job_id,
-        text,
-        dialect,
-        ticks: report.ticks,
-        start: now[..machine.axes.len()].to_vec(),
-    };
-    if cmds.send(Cmd::Start(job, recorder, tx)).is_err() {
-        return refuse("the control loop is not running".into());
+    let accepted = admitted.reply(job_id, recording);
+    let (tx, rx) = mpsc::channel();
+    if cmds
+        .send(Cmd::Start(admitted.job(job_id), recorder, tx))
+        .is_err()
+    {
+        return refuse("the control loop is not running");
     }
     match rx.recv_timeout(Duration::from_secs(2)) {
         Ok(Ok(())) => {
             *next_id += 1;
-            RunProgramResponse {
-                accepted: true,
-                message: String::new(),
-                job_id,
-                estimated_duration: report.duration_s,
-                recording,
-            }
+            accepted
         }
-        Ok(Err(m)) => refuse(m),
-        Err(_) => refuse("the control loop did not answer".into()),
+        Ok(Err(m)) => refuse(&m),
+        Err(_) => refuse("the control loop did not answer"),
     }
 }
 
