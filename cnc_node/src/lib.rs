@@ -6,6 +6,7 @@ pub mod admit;
 pub mod bag;
 pub mod client;
 pub mod controller;
+pub mod convert;
 pub mod files;
 pub mod live;
 pub mod offline;

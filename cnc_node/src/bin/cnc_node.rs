@@ -31,6 +31,7 @@ use cnc_msgs::ros::{self, Grid, WallClock};
 use cnc_msgs::*;
 use cnc_node::admit::{admit, recorder, RecordOpts, Refusal};
 use cnc_node::controller::{Controller, EncoderSample, Job, State, Status, Tick};
+use cnc_node::convert::{self, fit_run_reply, time_ns};
 use cnc_node::files::load_machine;
 use cnc_node::record::{stamp_ns, JobRecorder};
 use std::path::{Path, PathBuf};
@@ -285,23 +286,12 @@ fn run(args: Args) -> Result<(), String> {
                 last_spindle = f64::NAN;
             }
             let t = &o.tick;
-            let js = JointState {
-                header: Header {
-                    stamp: o.stamp,
-                    frame_id: String::new(),
-                },
-                name: names.clone(),
-                position: t.positions[..t.n].iter().map(|p| p / 1000.0).collect(),
-                velocity: Vec::new(),
-                effort: Vec::new(),
-            };
+            let js = convert::joint_setpoints(t, &names, o.stamp);
             let spindle = (t.spindle_rpm != last_spindle).then(|| {
                 last_spindle = t.spindle_rpm;
-                Float64 {
-                    data: t.spindle_rpm * std::f64::consts::TAU / 60.0,
-                }
+                convert::spindle_command(t.spindle_rpm)
             });
-            let status = o.status.as_ref().map(|s| to_msg(s, o.stamp));
+            let status = o.status.as_ref().map(|s| convert::status(s, o.stamp));
             if let Some((id, rec)) = recording.as_mut() {
                 let r = rec
                     .setpoints(&js)
@@ -322,9 +312,7 @@ fn run(args: Args) -> Result<(), String> {
             // drive started later gets it; recordings hold the changes)
             if spindle.is_some() || spindle_sent.elapsed() >= SPINDLE_REPEAT {
                 spindle_sent = Instant::now();
-                let _ = pub_spin.publish(Float64 {
-                    data: t.spindle_rpm * std::f64::consts::TAU / 60.0,
-                });
+                let _ = pub_spin.publish(convert::spindle_command(t.spindle_rpm));
             }
             if let Some(s) = status {
                 let _ = pub_status.publish(s);
@@ -395,25 +383,6 @@ fn finish_recording(id: u32, rec: Rec, err: Option<String>) {
             "cnc_node: recording of job {id} to {} failed: {e}",
             file.display()
         ),
-    }
-}
-
-fn to_msg(s: &Status, stamp: Time) -> ControllerStatus {
-    ControllerStatus {
-        header: Header {
-            stamp,
-            frame_id: String::new(),
-        },
-        state: s.state as u8,
-        job_id: s.job_id,
-        source_line: s.source_line,
-        block_number: s.block_number,
-        active_g_codes: s.active_g_codes.clone(),
-        active_tool: s.active_tool,
-        spindle_speed_command: s.spindle_rpm,
-        feed_override: s.feed_override,
-        progress: s.progress,
-        last_error: s.last_error.clone(),
     }
 }
 
@@ -592,11 +561,6 @@ impl Loop {
     }
 }
 
-/// A stamp in nanoseconds (the controller's clock).
-fn time_ns(t: &Time) -> i64 {
-    i64::from(t.sec) * 1_000_000_000 + i64::from(t.nanosec)
-}
-
 fn check_worker(
     machine: Machine,
     dir: PathBuf,
@@ -608,65 +572,9 @@ fn check_worker(
 ) {
     let mut next_id = 1u32;
     while let Ok((id, req)) = reqs.recv() {
-        let mut resp = handle_run(&machine, &dir, &rec, &req, &mut next_id, &cmds, &here);
-        resp.message = fit_reply(
-            &resp.message,
-            MAX_REPLY_TEXT - resp.recording.len().min(500),
-        );
-        let _ = resps.send((id, resp));
+        let resp = handle_run(&machine, &dir, &rec, &req, &mut next_id, &cmds, &here);
+        let _ = resps.send((id, fit_run_reply(resp)));
     }
-}
-
-/// The most bytes of text (message and recording path) a reply carries.
-///
-/// A reply is kept in one DDS datagram: rustdds 0.15 writes a fragmented
-/// reply with inline QoS (every service reply: the request's identity)
-/// with one stray byte (`DataFrag` writes the `Option` of its parameter
-/// list), which a debug build's DDS thread dies on (a `debug_assert`: the
-/// node then neither publishes nor answers); a release build sends that
-/// byte too. Datagrams to a Fast DDS peer hold about 1,300 bytes of reply;
-/// 1,000 leaves room for the rest.
-const MAX_REPLY_TEXT: usize = 1000;
-
-/// `text` cut to at most `max` bytes: whole lines while they fit, then
-/// `... and N more errors` for the error lines left out (counting those a
-/// trailing `... and N more errors` already stood for); a single line
-/// that does not fit is cut at a character boundary and ends in `...`.
-fn fit_reply(text: &str, max: usize) -> String {
-    if text.len() <= max {
-        return text.to_string();
-    }
-    let more_of = |l: &str| {
-        l.strip_prefix("... and ")
-            .and_then(|r| r.strip_suffix(" more errors"))
-            .and_then(|n| n.parse::<u64>().ok())
-    };
-    let mut out = String::new();
-    let mut left_out = 0u64;
-    // room for the summary line
-    let room = max.saturating_sub(40);
-    for l in text.split('\n') {
-        let sep = usize::from(!out.is_empty());
-        if left_out == 0 && out.len() + sep + l.len() <= room {
-            if sep == 1 {
-                out.push('\n');
-            }
-            out.push_str(l);
-            continue;
-        }
-        left_out += more_of(l).unwrap_or(1);
-    }
-    if out.is_empty() {
-        // one line longer than the room: cut it
-        let mut end = room.min(text.len());
-        while !text.is_char_boundary(end) {
-            end -= 1;
-        }
-        let first = text.split('\n').next().unwrap_or_default();
-        return format!("{}...", &first[..end.min(first.len())]);
-    }
-    out.push_str(&format!("\n... and {left_out} more errors"));
-    out
 }
 
 fn refuse(message: &str) -> RunProgramResponse {
@@ -724,7 +632,7 @@ fn handle_run(
 
 #[cfg(test)]
 mod tests {
-    use super::{drain, fit_reply, LoopGone};
+    use super::{drain, LoopGone};
     use std::sync::mpsc;
     use std::time::Duration;
 
@@ -762,32 +670,5 @@ mod tests {
                 "round {round}"
             );
         }
-    }
-
-    #[test]
-    fn replies_fit_in_one_datagram() {
-        let errors: Vec<String> = (1..=30)
-            .map(|l| format!("line {l}, column 1: unexpected character '`': expected an address letter and a number"))
-            .collect();
-        let text = errors.join("\n");
-        assert_eq!(fit_reply(&text, 10_000), text);
-        let short = fit_reply(&text, 1000);
-        assert!(short.len() <= 1000, "{}", short.len());
-        let lines: Vec<&str> = short.lines().collect();
-        let kept = lines.len() - 1;
-        assert_eq!(lines[..kept], errors[..kept]);
-        assert_eq!(lines[kept], format!("... and {} more errors", 30 - kept));
-        // a summary of errors not kept by the check counts too
-        let text = format!("{}\n... and 500 more errors", errors.join("\n"));
-        let short = fit_reply(&text, 1000);
-        assert!(
-            short.ends_with(&format!("... and {} more errors", 530 - kept)),
-            "{short}"
-        );
-        // one long line (a long program_path): cut at a character boundary
-        let long = format!("program_path '{}' may not contain '..'", "é".repeat(2000));
-        let cut = fit_reply(&long, 1000);
-        assert!(cut.len() <= 1000 && cut.ends_with("..."), "{}", cut.len());
-        assert!(cut.starts_with("program_path 'éé"));
     }
 }
