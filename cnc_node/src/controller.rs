@@ -34,6 +34,10 @@ pub struct Job {
     pub dialect: Dialect,
     /// the check's estimate, ticks
     pub ticks: u64,
+    /// the joint positions the check ran from, mm, in joint order (as
+    /// [`Controller::positions`]): [`Controller::start`] refuses the job
+    /// unless the machine stands exactly there
+    pub start: Vec<f64>,
 }
 
 /// What the status topic shows.
@@ -157,12 +161,36 @@ impl Controller {
         self.job.as_ref().map_or(0, |r| r.id)
     }
 
-    /// Starts a checked job; refused while another runs.
+    /// The setpoints the machine stands at (or moves through), mm, in joint
+    /// order: where a job started now starts from.
+    pub fn positions(&self) -> &[f64] {
+        &self.positions[..self.joints.len()]
+    }
+
+    /// Starts a checked job; refused while another runs, and refused when
+    /// the machine no longer stands where the job was checked from
+    /// ([`Job::start`]).
+    ///
+    /// The start is compared exactly (tolerance 0: every joint's f64
+    /// equal): an idle machine's setpoints do not change, so any
+    /// difference means a job moved it after the check began (a request
+    /// that arrived during a job which ended before its check did). A
+    /// program means something else from another start (G91 moves go
+    /// elsewhere, a first G00 takes another path), and checking it again
+    /// here would hold up the control loop for as long as the check takes:
+    /// the job is refused, nothing moves, and the client sends it again.
     pub fn start(&mut self, job: Job) -> Result<(), String> {
         if let Some(r) = &self.job {
             return Err(format!(
                 "job {} is running; wait for its end or abort it (nothing was queued)",
                 r.id
+            ));
+        }
+        if job.start.as_slice() != self.positions() {
+            return Err(format!(
+                "the machine moved since the program was checked: checked from {}, now at {} (mm); send it again",
+                self.joint_text(&job.start),
+                self.joint_text(self.positions())
             ));
         }
         // a job starts where the machine stands: the program's first move
@@ -320,6 +348,17 @@ impl Controller {
         self.output(before)
     }
 
+    /// Joint positions as `X100 Z20` (mm, each exactly, in the shortest
+    /// text that reads back as the same f64).
+    fn joint_text(&self, p: &[f64]) -> String {
+        self.joints
+            .iter()
+            .zip(p)
+            .map(|(&i, v)| format!("{}{v}", ["X", "Y", "Z"].get(i).copied().unwrap_or("?")))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+
     /// This cycle's output, `before`: (state, line) at its start.
     fn output(&self, before: (State, u32)) -> Tick {
         Tick {
@@ -377,5 +416,68 @@ fn reading(e: EncoderSample, t0_ns: i64) -> EncoderReading {
         counts_per_rev: e.counts_per_rev,
         index_count: e.index_count,
         count_at_index: e.count_at_index,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MS: i64 = 1_000_000;
+
+    fn job(id: u32, text: &str, start: Vec<f64>) -> Job {
+        Job {
+            id,
+            text: text.as_bytes().to_vec(),
+            dialect: Dialect::Cnc836,
+            ticks: 1,
+            start,
+        }
+    }
+
+    /// Ticks until the controller is idle again; the last setpoints.
+    fn run_out(ctl: &mut Controller) -> Vec<f64> {
+        let mut k = 0;
+        while ctl.state() == State::Running && k < 100_000 {
+            k += 1;
+            ctl.tick(k * MS);
+        }
+        assert_eq!(ctl.state(), State::Idle, "{}", ctl.status().last_error);
+        ctl.positions().to_vec()
+    }
+
+    #[test]
+    fn a_job_starts_only_from_where_it_was_checked() {
+        let mut ctl = Controller::new(Machine::builtin_mill());
+        assert_eq!(ctl.positions(), [0.0, 0.0, 0.0]);
+        ctl.start(job(1, "G01 X10 Y5 F6000\n", vec![0.0, 0.0, 0.0]))
+            .unwrap();
+        assert_eq!(run_out(&mut ctl), [10.0, 5.0, 0.0]);
+        // checked at home, but the machine stands at X10 Y5 now
+        let e = ctl
+            .start(job(2, "G91 G01 X10 F600\n", vec![0.0, 0.0, 0.0]))
+            .unwrap_err();
+        assert_eq!(
+            e,
+            "the machine moved since the program was checked: checked from X0 Y0 Z0, now at X10 Y5 Z0 (mm); send it again"
+        );
+        assert_eq!(ctl.state(), State::Idle);
+        assert_eq!(ctl.status().job_id, 1, "job 2 never started");
+        assert_eq!(ctl.tick(1_000 * MS).positions, [10.0, 5.0, 0.0]);
+        // a difference far below a display's resolution counts too
+        let near = vec![10.0, 5.0 + 1e-12, 0.0];
+        let e = ctl.start(job(2, "G91 G01 X10 F600\n", near)).unwrap_err();
+        assert!(
+            e.contains("checked from X10 Y5.000000000001 Z0, now at X10 Y5 Z0"),
+            "{e}"
+        );
+        // a start of the wrong length never matches
+        assert!(ctl
+            .start(job(2, "G91 G01 X10 F600\n", vec![10.0, 5.0]))
+            .is_err());
+        // checked from where it stands: starts, and runs from there
+        ctl.start(job(2, "G91 G01 X10 F600\n", vec![10.0, 5.0, 0.0]))
+            .unwrap();
+        assert_eq!(run_out(&mut ctl), [20.0, 5.0, 0.0]);
     }
 }

@@ -2,9 +2,11 @@
 //! offline simulation loop shared by `cnc simulate` and the tests, and (later)
 //! the ROS 2 node.
 
+pub mod admit;
 pub mod bag;
 pub mod client;
 pub mod controller;
+pub mod convert;
 pub mod files;
 pub mod live;
 pub mod offline;

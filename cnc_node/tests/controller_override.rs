@@ -24,6 +24,8 @@ fn run(mut hook: impl FnMut(u64, &mut Controller)) -> (Vec<f64>, Controller) {
         text: prog.as_bytes().to_vec(),
         dialect: Dialect::Cnc836,
         ticks: r.ticks,
+        // checked from home, where the machine stands
+        start: m.axes.iter().map(|a| a.home_mm).collect(),
     })
     .unwrap();
     let mut x = Vec::new();

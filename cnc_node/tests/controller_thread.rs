@@ -91,6 +91,8 @@ impl Bench {
                     text: program.as_bytes().to_vec(),
                     dialect: Dialect::Cnc836,
                     ticks: report.ticks,
+                    // checked from home, where the machine stands
+                    start: m.axes.iter().map(|a| a.home_mm).collect(),
                 })
                 .unwrap();
                 started = true;

@@ -26,14 +26,14 @@
 //! reading stamped `s` at `t = s − (stamp of the job's sample 0)`.
 
 use clap::Parser;
-use cnc_core::source::StrSource;
-use cnc_core::{check, Dialect, Machine};
+use cnc_core::Machine;
 use cnc_msgs::ros::{self, Grid, WallClock};
 use cnc_msgs::*;
+use cnc_node::admit::{admit, recorder, RecordOpts, Refusal};
 use cnc_node::controller::{Controller, EncoderSample, Job, State, Status, Tick};
+use cnc_node::convert::{self, fit_run_reply, time_ns};
 use cnc_node::files::load_machine;
-use cnc_node::program::{read_limited, resolve_in};
-use cnc_node::record::{stamp_ns, JobRecorder, RecordingInfo};
+use cnc_node::record::{stamp_ns, JobRecorder};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, SyncSender, TryRecvError};
@@ -286,23 +286,12 @@ fn run(args: Args) -> Result<(), String> {
                 last_spindle = f64::NAN;
             }
             let t = &o.tick;
-            let js = JointState {
-                header: Header {
-                    stamp: o.stamp,
-                    frame_id: String::new(),
-                },
-                name: names.clone(),
-                position: t.positions[..t.n].iter().map(|p| p / 1000.0).collect(),
-                velocity: Vec::new(),
-                effort: Vec::new(),
-            };
+            let js = convert::joint_setpoints(t, &names, o.stamp);
             let spindle = (t.spindle_rpm != last_spindle).then(|| {
                 last_spindle = t.spindle_rpm;
-                Float64 {
-                    data: t.spindle_rpm * std::f64::consts::TAU / 60.0,
-                }
+                convert::spindle_command(t.spindle_rpm)
             });
-            let status = o.status.as_ref().map(|s| to_msg(s, o.stamp));
+            let status = o.status.as_ref().map(|s| convert::status(s, o.stamp));
             if let Some((id, rec)) = recording.as_mut() {
                 let r = rec
                     .setpoints(&js)
@@ -323,9 +312,7 @@ fn run(args: Args) -> Result<(), String> {
             // drive started later gets it; recordings hold the changes)
             if spindle.is_some() || spindle_sent.elapsed() >= SPINDLE_REPEAT {
                 spindle_sent = Instant::now();
-                let _ = pub_spin.publish(Float64 {
-                    data: t.spindle_rpm * std::f64::consts::TAU / 60.0,
-                });
+                let _ = pub_spin.publish(convert::spindle_command(t.spindle_rpm));
             }
             if let Some(s) = status {
                 let _ = pub_status.publish(s);
@@ -396,25 +383,6 @@ fn finish_recording(id: u32, rec: Rec, err: Option<String>) {
             "cnc_node: recording of job {id} to {} failed: {e}",
             file.display()
         ),
-    }
-}
-
-fn to_msg(s: &Status, stamp: Time) -> ControllerStatus {
-    ControllerStatus {
-        header: Header {
-            stamp,
-            frame_id: String::new(),
-        },
-        state: s.state as u8,
-        job_id: s.job_id,
-        source_line: s.source_line,
-        block_number: s.block_number,
-        active_g_codes: s.active_g_codes.clone(),
-        active_tool: s.active_tool,
-        spindle_speed_command: s.spindle_rpm,
-        feed_override: s.feed_override,
-        progress: s.progress,
-        last_error: s.last_error.clone(),
     }
 }
 
@@ -593,19 +561,6 @@ impl Loop {
     }
 }
 
-/// A stamp in nanoseconds (the controller's clock).
-fn time_ns(t: &Time) -> i64 {
-    i64::from(t.sec) * 1_000_000_000 + i64::from(t.nanosec)
-}
-
-/// Where and what the node records.
-struct RecordOpts {
-    dir: PathBuf,
-    all: bool,
-    /// the machine file's text (what recordings attach)
-    machine_toml: String,
-}
-
 fn check_worker(
     machine: Machine,
     dir: PathBuf,
@@ -617,75 +572,13 @@ fn check_worker(
 ) {
     let mut next_id = 1u32;
     while let Ok((id, req)) = reqs.recv() {
-        let mut resp = handle_run(&machine, &dir, &rec, &req, &mut next_id, &cmds, &here);
-        resp.message = fit_reply(
-            &resp.message,
-            MAX_REPLY_TEXT - resp.recording.len().min(500),
-        );
-        let _ = resps.send((id, resp));
+        let resp = handle_run(&machine, &dir, &rec, &req, &mut next_id, &cmds, &here);
+        let _ = resps.send((id, fit_run_reply(resp)));
     }
 }
 
-/// The most bytes of text (message and recording path) a reply carries.
-///
-/// A reply is kept in one DDS datagram: rustdds 0.15 writes a fragmented
-/// reply with inline QoS (every service reply: the request's identity)
-/// with one stray byte (`DataFrag` writes the `Option` of its parameter
-/// list), which a debug build's DDS thread dies on (a `debug_assert`: the
-/// node then neither publishes nor answers); a release build sends that
-/// byte too. Datagrams to a Fast DDS peer hold about 1,300 bytes of reply;
-/// 1,000 leaves room for the rest.
-const MAX_REPLY_TEXT: usize = 1000;
-
-/// `text` cut to at most `max` bytes: whole lines while they fit, then
-/// `... and N more errors` for the error lines left out (counting those a
-/// trailing `... and N more errors` already stood for); a single line
-/// that does not fit is cut at a character boundary and ends in `...`.
-fn fit_reply(text: &str, max: usize) -> String {
-    if text.len() <= max {
-        return text.to_string();
-    }
-    let more_of = |l: &str| {
-        l.strip_prefix("... and ")
-            .and_then(|r| r.strip_suffix(" more errors"))
-            .and_then(|n| n.parse::<u64>().ok())
-    };
-    let mut out = String::new();
-    let mut left_out = 0u64;
-    // room for the summary line
-    let room = max.saturating_sub(40);
-    for l in text.split('\n') {
-        let sep = usize::from(!out.is_empty());
-        if left_out == 0 && out.len() + sep + l.len() <= room {
-            if sep == 1 {
-                out.push('\n');
-            }
-            out.push_str(l);
-            continue;
-        }
-        left_out += more_of(l).unwrap_or(1);
-    }
-    if out.is_empty() {
-        // one line longer than the room: cut it
-        let mut end = room.min(text.len());
-        while !text.is_char_boundary(end) {
-            end -= 1;
-        }
-        let first = text.split('\n').next().unwrap_or_default();
-        return format!("{}...", &first[..end.min(first.len())]);
-    }
-    out.push_str(&format!("\n... and {left_out} more errors"));
-    out
-}
-
-fn refuse(message: String) -> RunProgramResponse {
-    RunProgramResponse {
-        accepted: false,
-        message,
-        job_id: 0,
-        estimated_duration: 0.0,
-        recording: String::new(),
-    }
+fn refuse(message: &str) -> RunProgramResponse {
+    Refusal(message.to_string()).reply()
 }
 
 fn handle_run(
@@ -697,123 +590,49 @@ fn handle_run(
     cmds: &Sender<Cmd>,
     here: &Arc<[AtomicU64; 3]>,
 ) -> RunProgramResponse {
-    let max = machine.limits.max_program_bytes;
-    let text = match (req.program.is_empty(), req.program_path.is_empty()) {
-        (false, true) => {
-            if req.program.len() as u64 > max {
-                return refuse(format!(
-                    "the program is {} bytes, over the machine's limit of {max} bytes (limits.max_program_bytes)",
-                    req.program.len()
-                ));
-            }
-            req.program.clone().into_bytes()
-        }
-        (true, false) => {
-            match resolve_in(dir, &req.program_path).and_then(|p| read_limited(&p, max)) {
-                Ok(t) => t,
-                Err(e) => return refuse(e),
-            }
-        }
-        _ => return refuse("exactly one of program and program_path must be set".into()),
-    };
-    let dialect = if req.dialect.is_empty() {
-        machine.dialect
-    } else {
-        match req.dialect.parse::<Dialect>() {
-            Ok(d) => d,
-            Err(e) => return refuse(e),
-        }
-    };
-    // check from where the machine stands now
+    // checked from where the machine stands now; the job carries that
+    // start, and the control loop refuses it if the machine has moved
     let now: Vec<f64> = here
         .iter()
         .map(|h| f64::from_bits(h.load(Ordering::Relaxed)))
         .collect();
-    let m = machine.starting_at(&now[..machine.axes.len()]);
-    let src = StrSource::from_bytes(&text).with_max_line(machine.limits.max_line_bytes);
-    let report = check(src, dialect, &m);
-    if !report.ok() {
-        return refuse(report.message());
-    }
-    if req.dry_run {
-        return RunProgramResponse {
-            accepted: true,
-            message: String::new(),
-            job_id: 0,
-            estimated_duration: report.duration_s,
-            recording: String::new(),
-        };
+    let admitted = match admit(req, machine, &now, dir) {
+        Ok(a) => a,
+        Err(r) => return r.reply(),
+    };
+    if admitted.dry_run {
+        return admitted.reply(0, String::new());
     }
     let job_id = *next_id;
-    let (tx, rx) = mpsc::channel();
-    // the recorder is made here (file I/O off the loop) and travels with
-    // the job, so the recording starts with the job's first sample
-    let recorder = if req.record || rec_opts.all {
-        let name = if req.program_path.is_empty() {
-            "program.nc"
-        } else {
-            req.program_path.as_str()
-        };
-        let stem: String = Path::new(name)
-            .file_stem()
-            .map(|s| {
-                s.to_string_lossy()
-                    .chars()
-                    .filter(|c| c.is_ascii_alphanumeric() || *c == '_' || *c == '-')
-                    .collect()
-            })
-            .unwrap_or_default();
-        let file = rec_opts.dir.join(format!("job_{job_id}_{stem}.mcap"));
-        let info = RecordingInfo {
-            program_name: name.to_string(),
-            program_text: String::from_utf8_lossy(&text).into_owned(),
-            dialect: dialect.id().to_string(),
-            machine_toml: rec_opts.machine_toml.clone(),
-            machine_name: machine.name.clone(),
-            rate_hz: machine.interpolation.rate_hz,
-        };
-        let made = std::fs::create_dir_all(&rec_opts.dir)
-            .map_err(|e| format!("{}: {e}", rec_opts.dir.display()))
-            .and_then(|_| JobRecorder::create(&file, info, machine));
-        match made {
-            Ok(r) => Some(Box::new(r)),
-            Err(e) => return refuse(format!("cannot record the job: {e}")),
-        }
-    } else {
-        None
+    let recorder = match recorder(&admitted, job_id, machine, rec_opts) {
+        Ok(r) => r.map(Box::new),
+        Err(r) => return r.reply(),
     };
     let recording = recorder
         .as_ref()
         .map(|r| r.file.display().to_string())
         .unwrap_or_default();
-    let job = Job {
-        id: job_id,
-        text,
-        dialect,
-        ticks: report.ticks,
-    };
-    if cmds.send(Cmd::Start(job, recorder, tx)).is_err() {
-        return refuse("the control loop is not running".into());
+    let accepted = admitted.reply(job_id, recording);
+    let (tx, rx) = mpsc::channel();
+    if cmds
+        .send(Cmd::Start(admitted.job(job_id), recorder, tx))
+        .is_err()
+    {
+        return refuse("the control loop is not running");
     }
     match rx.recv_timeout(Duration::from_secs(2)) {
         Ok(Ok(())) => {
             *next_id += 1;
-            RunProgramResponse {
-                accepted: true,
-                message: String::new(),
-                job_id,
-                estimated_duration: report.duration_s,
-                recording,
-            }
+            accepted
         }
-        Ok(Err(m)) => refuse(m),
-        Err(_) => refuse("the control loop did not answer".into()),
+        Ok(Err(m)) => refuse(&m),
+        Err(_) => refuse("the control loop did not answer"),
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{drain, fit_reply, LoopGone};
+    use super::{drain, LoopGone};
     use std::sync::mpsc;
     use std::time::Duration;
 
@@ -851,32 +670,5 @@ mod tests {
                 "round {round}"
             );
         }
-    }
-
-    #[test]
-    fn replies_fit_in_one_datagram() {
-        let errors: Vec<String> = (1..=30)
-            .map(|l| format!("line {l}, column 1: unexpected character '`': expected an address letter and a number"))
-            .collect();
-        let text = errors.join("\n");
-        assert_eq!(fit_reply(&text, 10_000), text);
-        let short = fit_reply(&text, 1000);
-        assert!(short.len() <= 1000, "{}", short.len());
-        let lines: Vec<&str> = short.lines().collect();
-        let kept = lines.len() - 1;
-        assert_eq!(lines[..kept], errors[..kept]);
-        assert_eq!(lines[kept], format!("... and {} more errors", 30 - kept));
-        // a summary of errors not kept by the check counts too
-        let text = format!("{}\n... and 500 more errors", errors.join("\n"));
-        let short = fit_reply(&text, 1000);
-        assert!(
-            short.ends_with(&format!("... and {} more errors", 530 - kept)),
-            "{short}"
-        );
-        // one long line (a long program_path): cut at a character boundary
-        let long = format!("program_path '{}' may not contain '..'", "é".repeat(2000));
-        let cut = fit_reply(&long, 1000);
-        assert!(cut.len() <= 1000 && cut.ends_with("..."), "{}", cut.len());
-        assert!(cut.starts_with("program_path 'éé"));
     }
 }

@@ -1,0 +1,285 @@
+//! The controller's output as the node's ROS messages: setpoints in metres
+//! (`sensor_msgs/JointState`), the spindle command in rad/s
+//! (`std_msgs/Float64`), the status (`cnc_msgs/ControllerStatus`), stamps
+//! in the controller's clock, and a `run_program` reply's text cut to what
+//! one DDS datagram carries. The controller works in mm and rpm.
+
+use crate::controller::{Status, Tick};
+use cnc_msgs::{ControllerStatus, Float64, Header, JointState, RunProgramResponse, Time};
+
+/// The status topic's message of `s`, stamped `stamp`.
+pub fn status(s: &Status, stamp: Time) -> ControllerStatus {
+    ControllerStatus {
+        header: header(stamp),
+        state: s.state as u8,
+        job_id: s.job_id,
+        source_line: s.source_line,
+        block_number: s.block_number,
+        active_g_codes: s.active_g_codes.clone(),
+        active_tool: s.active_tool,
+        spindle_speed_command: s.spindle_rpm,
+        feed_override: s.feed_override,
+        progress: s.progress,
+        last_error: s.last_error.clone(),
+    }
+}
+
+/// A cycle's setpoints, m, named `names` (the joints', in joint order),
+/// stamped `stamp`; no velocities or efforts.
+pub fn joint_setpoints(tick: &Tick, names: &[String], stamp: Time) -> JointState {
+    let n = tick.n.min(tick.positions.len());
+    JointState {
+        header: header(stamp),
+        name: names.to_vec(),
+        position: tick.positions[..n].iter().map(|p| p / 1000.0).collect(),
+        velocity: Vec::new(),
+        effort: Vec::new(),
+    }
+}
+
+/// The spindle command of `rpm` (signed), in rad/s.
+pub fn spindle_command(rpm: f64) -> Float64 {
+    Float64 {
+        data: rpm_to_rad_s(rpm),
+    }
+}
+
+/// rpm to rad/s.
+pub fn rpm_to_rad_s(rpm: f64) -> f64 {
+    rpm * std::f64::consts::TAU / 60.0
+}
+
+/// A stamp in nanoseconds of the controller's clock (signed: a stamp
+/// before the epoch stays before it).
+pub fn time_ns(t: &Time) -> i64 {
+    i64::from(t.sec) * 1_000_000_000 + i64::from(t.nanosec)
+}
+
+fn header(stamp: Time) -> Header {
+    Header {
+        stamp,
+        frame_id: String::new(),
+    }
+}
+
+/// The most bytes of text (message and recording path) a reply carries.
+///
+/// A reply is kept in one DDS datagram: rustdds 0.15 writes a fragmented
+/// reply with inline QoS (every service reply: the request's identity)
+/// with one stray byte (`DataFrag` writes the `Option` of its parameter
+/// list), which a debug build's DDS thread dies on (a `debug_assert`: the
+/// node then neither publishes nor answers); a release build sends that
+/// byte too. Datagrams to a Fast DDS peer hold about 1,300 bytes of reply;
+/// 1,000 leaves room for the rest.
+pub const MAX_REPLY_TEXT: usize = 1000;
+
+/// `reply` with its message cut ([`fit_reply`]) so that message and
+/// recording path (counted up to 500 bytes) fit in [`MAX_REPLY_TEXT`].
+pub fn fit_run_reply(mut reply: RunProgramResponse) -> RunProgramResponse {
+    reply.message = fit_reply(
+        &reply.message,
+        MAX_REPLY_TEXT - reply.recording.len().min(500),
+    );
+    reply
+}
+
+/// `text` cut to at most `max` bytes: whole lines while they fit, then
+/// `... and N more errors` for the error lines left out (counting those a
+/// trailing `... and N more errors` already stood for); a single line
+/// that does not fit is cut at a character boundary and ends in `...`.
+pub fn fit_reply(text: &str, max: usize) -> String {
+    if text.len() <= max {
+        return text.to_string();
+    }
+    let more_of = |l: &str| {
+        l.strip_prefix("... and ")
+            .and_then(|r| r.strip_suffix(" more errors"))
+            .and_then(|n| n.parse::<u64>().ok())
+    };
+    let mut out = String::new();
+    let mut left_out = 0u64;
+    // room for the summary line
+    let room = max.saturating_sub(40);
+    for l in text.split('\n') {
+        let sep = usize::from(!out.is_empty());
+        if left_out == 0 && out.len() + sep + l.len() <= room {
+            if sep == 1 {
+                out.push('\n');
+            }
+            out.push_str(l);
+            continue;
+        }
+        left_out += more_of(l).unwrap_or(1);
+    }
+    if out.is_empty() {
+        // one line longer than the room: cut it
+        let mut end = room.min(text.len());
+        while !text.is_char_boundary(end) {
+            end -= 1;
+        }
+        let first = text.split('\n').next().unwrap_or_default();
+        return format!("{}...", &first[..end.min(first.len())]);
+    }
+    out.push_str(&format!("\n... and {left_out} more errors"));
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::controller::State;
+
+    const STAMP: Time = Time {
+        sec: 1_795_000_000,
+        nanosec: 250_000_000,
+    };
+
+    #[test]
+    fn setpoints_are_in_metres_named_and_stamped() {
+        let t = Tick {
+            positions: [123.5, -40.25, 7.0],
+            n: 2,
+            spindle_rpm: 0.0,
+            state: State::Running,
+            changed: false,
+        };
+        let names = vec!["x".to_string(), "z".to_string()];
+        let js = joint_setpoints(&t, &names, STAMP);
+        assert_eq!(js.position, [0.1235, -0.04025]);
+        assert_eq!(js.name, names);
+        assert_eq!(js.header.stamp, STAMP);
+        assert_eq!(js.header.frame_id, "");
+        assert!(js.velocity.is_empty() && js.effort.is_empty());
+        // three joints
+        let t = Tick { n: 3, ..t };
+        let js = joint_setpoints(&t, &["x".into(), "y".into(), "z".into()], STAMP);
+        assert_eq!(js.position, [0.1235, -0.04025, 0.007]);
+        // a count past the array never reads past it
+        let t = Tick { n: 9, ..t };
+        assert_eq!(joint_setpoints(&t, &[], STAMP).position.len(), 3);
+    }
+
+    #[test]
+    fn the_spindle_command_is_in_rad_per_s() {
+        // 60 rpm is one turn a second
+        let r = spindle_command(60.0).data;
+        assert!((r - std::f64::consts::TAU).abs() < 1e-12, "{r}");
+        assert_eq!(rpm_to_rad_s(0.0), 0.0);
+        let r = spindle_command(-3000.0).data;
+        assert!((r + 314.159_265_358_979).abs() < 1e-9, "{r}");
+        let r = rpm_to_rad_s(12_000.0);
+        assert!((r - 1_256.637_061_435_917).abs() < 1e-9, "{r}");
+    }
+
+    #[test]
+    fn the_status_message_carries_every_field() {
+        let s = Status {
+            state: State::Hold,
+            job_id: 7,
+            source_line: 12,
+            block_number: 120,
+            active_g_codes: vec!["G01".into(), "G17".into(), "G90".into(), "G94".into()],
+            active_tool: 3,
+            spindle_rpm: 2500.0,
+            feed_override: 0.5,
+            progress: 0.25,
+            last_error: "none".into(),
+        };
+        let m = status(&s, STAMP);
+        assert_eq!(m.header.stamp, STAMP);
+        assert_eq!(m.header.frame_id, "");
+        assert_eq!(m.state, 2);
+        assert_eq!(m.state, ControllerStatus::STATE_HOLD);
+        assert_eq!((m.job_id, m.source_line, m.block_number), (7, 12, 120));
+        assert_eq!(m.active_g_codes, ["G01", "G17", "G90", "G94"]);
+        assert_eq!(m.active_tool, 3);
+        // the status keeps rpm, as the message's field says
+        assert_eq!(m.spindle_speed_command, 2500.0);
+        assert_eq!((m.feed_override, m.progress), (0.5, 0.25));
+        assert_eq!(m.last_error, "none");
+        for (st, v) in [
+            (State::Idle, ControllerStatus::STATE_IDLE),
+            (State::Running, ControllerStatus::STATE_RUNNING),
+            (State::Error, ControllerStatus::STATE_ERROR),
+        ] {
+            assert_eq!(
+                status(
+                    &Status {
+                        state: st,
+                        ..s.clone()
+                    },
+                    STAMP
+                )
+                .state,
+                v
+            );
+        }
+    }
+
+    #[test]
+    fn stamps_in_nanoseconds() {
+        assert_eq!(time_ns(&STAMP), 1_795_000_000_250_000_000);
+        let before = Time {
+            sec: -1,
+            nanosec: 500_000_000,
+        };
+        assert_eq!(time_ns(&before), -500_000_000);
+    }
+
+    #[test]
+    fn replies_fit_in_one_datagram() {
+        let errors: Vec<String> = (1..=30)
+            .map(|l| format!("line {l}, column 1: unexpected character '`': expected an address letter and a number"))
+            .collect();
+        let text = errors.join("\n");
+        assert_eq!(fit_reply(&text, 10_000), text);
+        let short = fit_reply(&text, 1000);
+        assert!(short.len() <= 1000, "{}", short.len());
+        let lines: Vec<&str> = short.lines().collect();
+        let kept = lines.len() - 1;
+        assert_eq!(lines[..kept], errors[..kept]);
+        assert_eq!(lines[kept], format!("... and {} more errors", 30 - kept));
+        // a summary of errors not kept by the check counts too
+        let text = format!("{}\n... and 500 more errors", errors.join("\n"));
+        let short = fit_reply(&text, 1000);
+        assert!(
+            short.ends_with(&format!("... and {} more errors", 530 - kept)),
+            "{short}"
+        );
+        // one long line (a long program_path): cut at a character boundary
+        let long = format!("program_path '{}' may not contain '..'", "é".repeat(2000));
+        let cut = fit_reply(&long, 1000);
+        assert!(cut.len() <= 1000 && cut.ends_with("..."), "{}", cut.len());
+        assert!(cut.starts_with("program_path 'éé"));
+    }
+
+    #[test]
+    fn a_reply_with_a_recording_keeps_room_for_its_path() {
+        let errors: Vec<String> = (1..=30)
+            .map(|l| format!("line {l}, column 1: unexpected character '`': expected an address letter and a number"))
+            .collect();
+        let reply = RunProgramResponse {
+            accepted: false,
+            message: errors.join("\n"),
+            job_id: 0,
+            estimated_duration: 0.0,
+            recording: "r".repeat(300),
+        };
+        let r = fit_run_reply(reply.clone());
+        assert!(r.message.len() <= 700, "{}", r.message.len());
+        assert_eq!(r.message, fit_reply(&reply.message, 700));
+        assert_eq!(r.recording, reply.recording);
+        // a recording path counts up to 500 bytes
+        let r = fit_run_reply(RunProgramResponse {
+            recording: "r".repeat(5000),
+            ..reply.clone()
+        });
+        assert_eq!(r.message, fit_reply(&reply.message, 500));
+        // a short message is kept as it is
+        let r = fit_run_reply(RunProgramResponse {
+            message: "ok".into(),
+            ..reply
+        });
+        assert_eq!(r.message, "ok");
+    }
+}
