@@ -1,5 +1,5 @@
 //! Tool-nose and cutter radius compensation G40/G41/G42
-//! (`compensation.md`): a stage between the interpreter's moves and the
+//! (`docs/compensation.md` §4, §5): a stage between the interpreter's moves and the
 //! planner. The programmed contour is offset by the tool radius to the
 //! G41 (left) or G42 (right) side, seen along the direction of travel in
 //! the plane; consecutive offset elements are joined at their intersection

@@ -287,7 +287,7 @@ pub struct ToolConfig {
     #[serde(default)]
     pub radius_mm: f64,
     /// lathe tool type 0-9: where the imaginary tip lies from the nose
-    /// centre (compensation.md); 0 and 9: the nose centre is programmed
+    /// centre (`docs/compensation.md` §3); 0 and 9: the nose centre is programmed
     #[serde(default)]
     pub tip: u8,
     /// geometry offsets: where the controlled point (the imaginary tip, or
@@ -319,7 +319,7 @@ pub struct CompensationConfig {
 }
 
 /// The direction of the imaginary tip from the nose centre for tool type
-/// 0-9, in units of the nose radius, as (X, Z) (compensation.md).
+/// 0-9, in units of the nose radius, as (X, Z) (`docs/compensation.md` §3).
 pub fn tip_vector(tip: u8) -> (f64, f64) {
     match tip {
         1 => (1.0, 1.0),

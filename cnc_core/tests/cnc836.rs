@@ -1,4 +1,4 @@
-//! The cnc836 dialect (dialects.md 2.1, 2.2): helix G09/G10/G98 and jumps
+//! The cnc836 dialect (`docs/dialects.md` §2.1, §2.2): helix G09/G10/G98 and jumps
 //! with repetition G73, with their block rules.
 
 use cnc_core::canon::Event;

@@ -1,4 +1,4 @@
-//! Radius compensation G40/G41/G42 (compensation.md) against an
+//! Radius compensation G40/G41/G42 (`docs/compensation.md`) against an
 //! independent geometry oracle: the distance of every sample to the
 //! *programmed* contour, computed here from the contour's lines and arcs
 //! (point-to-segment and point-to-arc distances), not by the offset code.

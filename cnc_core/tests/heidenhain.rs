@@ -1,4 +1,4 @@
-//! The heidenhain dialect's polar coordinates (dialects.md 3): the pole,
+//! The heidenhain dialect's polar coordinates (`docs/dialects.md` §3): the pole,
 //! polar lines G10/G11, polar arcs G12/G13/G15, R and H.
 
 use cnc_core::canon::Event;

@@ -1,4 +1,4 @@
-//! G33 thread cutting (dialects.md 2.3): every block rule refused with its
+//! G33 thread cutting (`docs/dialects.md` §2.3): every block rule refused with its
 //! line, the check-time run-in/deceleration fit, and, with the ideal
 //! spindle (no encoder attached), exact geometry, chains in phase and the
 //! estimate equal to the run.

@@ -23,9 +23,9 @@
 
 use crate::offline::{simulate, Step};
 use crate::record::{self, topics};
+use cnc_core::canon::{Event, Feed};
 use cnc_core::exec::Sample;
 use cnc_core::geom::{Geom, Plane};
-use cnc_core::canon::{Event, Feed};
 use cnc_core::interp::Interpreter;
 use cnc_core::machine::{axis_index, tip_vector, MachineKind, ToolConfig};
 use cnc_core::parse::{parse_line, Block};

@@ -147,7 +147,7 @@ fn mean(v: impl Iterator<Item = f64>) -> f64 {
     wrap(first.unwrap_or(0.0) + s / n as f64)
 }
 
-/// Example 1 of the spec at `rpm`, starting at X20 (diameter) Z5.
+/// Thread example 1 of docs/dialects.md §2.3.5 at `rpm`, starting at X20 (diameter) Z5.
 fn example1(rpm: f64) -> String {
     format!("N5 G00 X20 Z5\nN10 M03 S{rpm}\nN20 G33 Z-40 F1\nN30 G00 X30\nN40 Z5\nN50 M30\n")
 }
@@ -498,8 +498,8 @@ fn g95_follows_the_measured_spindle_without_an_index_wait() {
     }
 }
 
-/// The table in BENCHMARKS.md ("G33 threads: ours"): the spec's four
-/// examples at 200, 800 and 2000 rpm with ±2 % ripple.
+/// The table in BENCHMARKS.md ("G33 threads: ours"): the four thread
+/// examples of docs/dialects.md §2.3.5 at 200, 800 and 2000 rpm with ±2 % ripple.
 /// `cargo test --release -p cnc_node --test thread -- --ignored --nocapture thread_table`
 #[test]
 #[ignore]

@@ -1,4 +1,4 @@
-//! The controller as a ROS 2 node (`ros_interface.md`).
+//! The controller as a ROS 2 node (`docs/ros_interface.md`).
 //!
 //! Four threads, so the control loop never waits on DDS, a file or a check:
 //! - control: at the interpolation rate (on the instants of a fixed grid,
