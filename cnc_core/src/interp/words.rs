@@ -52,8 +52,8 @@ pub(super) mod slot {
     pub const COUNT: usize = 30;
 
     /// The slot of a word with a dialect's meaning.
-    pub fn of(m: super::Meaning) -> usize {
-        use super::Meaning as M;
+    pub fn of(m: crate::dialect::Meaning) -> usize {
+        use crate::dialect::Meaning as M;
         match m {
             M::HelixOn => HELIX_ON,
             M::HelixPitch => PITCH,
