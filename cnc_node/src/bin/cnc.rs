@@ -420,7 +420,7 @@ struct Progress(indicatif::ProgressBar);
 
 impl Sink for Progress {
     fn step(&mut self, st: &Step) -> Result<(), String> {
-        if st.sample.k % 10_000 == 0 {
+        if st.sample.k.is_multiple_of(10_000) {
             self.0.set_position(st.sample.k);
         }
         Ok(())
@@ -525,12 +525,15 @@ fn cmd_plot(
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
+    // checked once and run once for both figures
+    let run =
+        cnc_node::plot::ProgramRun::new(&m, d, &name, &text, out.is_some(), thread.is_some())?;
     if let Some(out) = out {
-        cnc_node::plot::plot_program(&m, d, &name, &text, out)?;
+        cnc_node::plot::render(&cnc_node::plot::run_figure(&run)?, out)?;
         println!("{}: plotted to {}", file.display(), out.display());
     }
     if let Some((tout, pass)) = thread {
-        let s = cnc_node::plot::plot_thread_error(&m, d, &name, &text, pass, tout)?;
+        let s = cnc_node::plot::plot_run_thread(&run, pass, tout)?;
         println!(
             "{}: thread pass {pass} of {} plotted to {}",
             file.display(),
