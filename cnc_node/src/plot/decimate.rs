@@ -1,7 +1,8 @@
 //! Thinning long streams of points to a bounded number ([`Decimator`]),
 //! so that a long run does not grow memory or the file.
 
-/// Most points of one series of [`plot_program`] and [`plot_recording`].
+/// Most points of one series of [`plot_program`](super::plot_program) and
+/// [`plot_recording`](super::plot_recording).
 pub const MAX_SERIES_POINTS: usize = 20_000;
 
 /// Thins a stream of points to at most `max` kept points (plus the last

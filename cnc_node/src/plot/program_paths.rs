@@ -190,7 +190,7 @@ pub(crate) fn grow(b: &mut Option<Box3>, p: V3) {
     }
 }
 
-/// The paths of a program under radius compensation, for [`plot_program`].
+/// The paths of a program under radius compensation, for [`plot_program`](super::plot_program).
 #[derive(Clone, Debug)]
 pub struct CompPaths {
     /// the programmed contour: the interpreter's moves on

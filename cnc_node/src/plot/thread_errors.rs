@@ -55,7 +55,7 @@ pub struct ThreadPass {
     pub points: Vec<ThreadErrorPoint>,
 }
 
-/// The lead error of every G33 pass of a run ([`thread_error_series`]).
+/// The lead error of every G33 pass of a run ([`thread_error_series`](super::thread_error_series)).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ThreadErrorSeries {
     /// encoder counts per spindle revolution
