@@ -111,6 +111,47 @@ fn simulate_prints_cycle_time_and_following_error_and_writes_csv() {
     std::fs::remove_file(csv).ok();
 }
 
+/// `--mcap` and `--csv` together: one run feeds both; the recording is the
+/// golden byte for byte (as `record_simulation` writes it) and the CSV the
+/// same as a run with `--csv` alone.
+#[test]
+fn simulate_with_mcap_and_csv_writes_the_golden_and_the_csv() {
+    let dir = std::env::temp_dir().join(format!("cnc-cli-both-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (mcap, csv, alone) = (
+        dir.join("mill_pocket.mcap"),
+        dir.join("both.csv"),
+        dir.join("alone.csv"),
+    );
+    let (code, out, err) = cnc(&[
+        "simulate",
+        "examples/mill_pocket.nc",
+        "--mcap",
+        mcap.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines.len(), 2, "{out}");
+    assert!(
+        lines[0].contains("recorded 43743 messages on 9 topics to"),
+        "{out}"
+    );
+    assert!(lines[1].contains("cycle time 19.783s"), "{out}");
+    let golden = std::fs::read(root().join("bags/mill_pocket.mcap")).unwrap();
+    assert!(std::fs::read(&mcap).unwrap() == golden, "not the golden");
+    let (code, _, err) = cnc(&[
+        "simulate",
+        "examples/mill_pocket.nc",
+        "--csv",
+        alone.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(std::fs::read(&csv).unwrap() == std::fs::read(&alone).unwrap());
+    std::fs::remove_dir_all(dir).ok();
+}
+
 #[test]
 fn simulate_at_ten_kilohertz() {
     let (code, out, err) = cnc(&[

@@ -3,7 +3,7 @@
 use cnc_core::{Dialect, Machine};
 use cnc_node::plot::{
     labels, plot_program, plot_recording, plot_thread_error, program_figure, render_svg,
-    thread_error_series, thread_labels, Figure, Panel, Point,
+    run_figure, thread_error_series, thread_labels, Figure, Panel, Point, ProgramRun,
 };
 use cnc_node::record::record_simulation;
 use std::path::{Path, PathBuf};
@@ -598,6 +598,30 @@ fn thread_error_refusals() {
         plot_thread_error(&m, m.dialect, "t.nc", THREAD, 1, &dir.path().join("t.jpg")).unwrap_err();
     assert!(e.contains(".svg or .png"), "{e}");
     assert!(!out.exists());
+}
+
+/// Both figures of a program from one run (`cnc plot -o ... --thread ...`)
+/// are those of the separate calls, which each run the program.
+#[test]
+fn one_run_for_both_figures() {
+    let m = Machine::builtin_lathe();
+    let text = example("lathe_thread.nc");
+    let run = ProgramRun::new(&m, m.dialect, "lathe_thread.nc", &text, true, true).unwrap();
+    assert!(
+        run_figure(&run).unwrap()
+            == program_figure(&m, m.dialect, "lathe_thread.nc", &text).unwrap()
+    );
+    let series = thread_error_series(&m, m.dialect, &text).unwrap();
+    assert_eq!(run.thread_errors().unwrap(), &series);
+    assert_eq!(series.passes.len(), 2);
+    // only what was asked for
+    let paths = ProgramRun::new(&m, m.dialect, "t.nc", &text, true, false).unwrap();
+    assert!(paths.thread_errors().is_err());
+    let thread = ProgramRun::new(&m, m.dialect, "t.nc", &text, false, true).unwrap();
+    assert!(run_figure(&thread).is_err());
+    // a program that fails the check is refused before any run
+    let e = ProgramRun::new(&m, m.dialect, "bad.nc", "G1 X\n", true, true).err();
+    assert!(e.is_some_and(|e| e.starts_with("bad.nc: ") && e.contains("nothing plotted")));
 }
 
 fn cnc(args: &[&str]) -> (i32, String, String) {

@@ -3,7 +3,8 @@
 use clap::{Parser, Subcommand};
 use cnc_core::{check, CheckReport, Dialect, Machine, V3};
 use cnc_node::files::{load_machine, open_program};
-use cnc_node::offline::simulate;
+use cnc_node::offline::{run, CsvSink, SimSummary, Sink, Step};
+use cnc_node::record::{RecordingInfo, SimRecorder};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -336,19 +337,57 @@ fn cmd_simulate(
 ) -> Result<ExitCode, String> {
     let m = load(machine, rate)?;
     let d = dialect.unwrap_or(m.dialect);
+    // checked once; every output is a sink of the one run
     let r = run_check(file, d, &m)?;
     if !report_errors(file, &r) {
         return Ok(ExitCode::from(1));
     }
-    if let Some(out) = mcap {
-        // the recording is a run of its own (a simulation costs a fraction
-        // of a second per ten minutes of motion), from the program in memory
-        let text = std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
-        let name = file
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let sum = cnc_node::record::record_simulation(&m, &name, &text, d, out)?;
+    let mut recording = match mcap {
+        Some(out) => {
+            let text =
+                std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
+            let name = file
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let info = RecordingInfo::offline(&m, &name, &text, d)?;
+            Some((SimRecorder::create(out, info, &m, r.ticks)?, out))
+        }
+        None => None,
+    };
+    let mut table = match csv {
+        Some(p) => Some(CsvSink::create(p, &m)?),
+        None => None,
+    };
+    // a progress bar for runs of more than a few seconds of motion, on a terminal
+    let mut bar = (std::io::stdout().is_terminal() && r.ticks > 200_000).then(|| {
+        let b = indicatif::ProgressBar::new(r.ticks);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{bar:40} {percent:>3}% sample {pos}/{len} {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        Progress(b)
+    });
+    let mut sinks: Vec<&mut dyn Sink> = Vec::new();
+    if let Some((rec, _)) = recording.as_mut() {
+        sinks.push(rec);
+    }
+    if let Some(t) = table.as_mut() {
+        sinks.push(t);
+    }
+    if let Some(b) = bar.as_mut() {
+        sinks.push(b);
+    }
+    let src = open_program(file, &m)?;
+    let result = run(src, d, &m, &mut sinks);
+    if let Some(Progress(b)) = bar {
+        b.finish_and_clear();
+    }
+    let summary = result?;
+    if let Some((rec, out)) = recording {
+        let sum = rec.into_summary()?;
         println!(
             "{}: recorded {} messages on {} topics to {} ({} bytes)",
             file.display(),
@@ -357,65 +396,6 @@ fn cmd_simulate(
             out.display(),
             sum.bytes
         );
-    }
-    let mut out = match csv {
-        Some(p) => {
-            let f = std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display()))?;
-            let mut w = std::io::BufWriter::with_capacity(1 << 16, f);
-            let names: Vec<&str> = m.axes.iter().map(|a| a.name.as_str()).collect();
-            let mut head = String::from("t");
-            for n in &names {
-                head.push_str(&format!(",{n}_set"));
-            }
-            for n in &names {
-                head.push_str(&format!(",{n}_act"));
-            }
-            writeln!(w, "{head}").map_err(|e| e.to_string())?;
-            Some(w)
-        }
-        None => None,
-    };
-    // a progress bar for runs of more than a few seconds of motion, on a terminal
-    let bar = (std::io::stdout().is_terminal() && r.ticks > 200_000).then(|| {
-        let b = indicatif::ProgressBar::new(r.ticks);
-        b.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{bar:40} {percent:>3}% sample {pos}/{len} {eta}",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b
-    });
-    let mut io_err: Option<std::io::Error> = None;
-    let mut buf = ryu::Buffer::new();
-    let src = open_program(file, &m)?;
-    let summary = simulate(src, d, &m, |st| {
-        if let Some(b) = &bar {
-            if st.sample.k % 10_000 == 0 {
-                b.set_position(st.sample.k);
-            }
-        }
-        if let (Some(w), None) = (out.as_mut(), io_err.as_ref()) {
-            let mut line = String::with_capacity(96);
-            line.push_str(buf.format(st.sample.t));
-            for v in st.setpoints.iter().chain(st.actual.iter()) {
-                line.push(',');
-                line.push_str(buf.format(*v));
-            }
-            line.push('\n');
-            if let Err(e) = w.write_all(line.as_bytes()) {
-                io_err = Some(e);
-            }
-        }
-    });
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
-    if let Some(mut w) = out {
-        if let Some(e) = io_err {
-            return Err(format!("writing the CSV: {e}"));
-        }
-        w.flush().map_err(|e| format!("writing the CSV: {e}"))?;
     }
     let errs: Vec<String> = m
         .axes
@@ -433,6 +413,22 @@ fn cmd_simulate(
         errs.join(", ")
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// The progress bar as a sink of the run.
+struct Progress(indicatif::ProgressBar);
+
+impl Sink for Progress {
+    fn step(&mut self, st: &Step) -> Result<(), String> {
+        if st.sample.k.is_multiple_of(10_000) {
+            self.0.set_position(st.sample.k);
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self, _: &SimSummary) -> Result<(), String> {
+        Ok(())
+    }
 }
 
 fn cmd_run(
@@ -529,12 +525,15 @@ fn cmd_plot(
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
+    // checked once and run once for both figures
+    let run =
+        cnc_node::plot::ProgramRun::new(&m, d, &name, &text, out.is_some(), thread.is_some())?;
     if let Some(out) = out {
-        cnc_node::plot::plot_program(&m, d, &name, &text, out)?;
+        cnc_node::plot::render(&cnc_node::plot::run_figure(&run)?, out)?;
         println!("{}: plotted to {}", file.display(), out.display());
     }
     if let Some((tout, pass)) = thread {
-        let s = cnc_node::plot::plot_thread_error(&m, d, &name, &text, pass, tout)?;
+        let s = cnc_node::plot::plot_run_thread(&run, pass, tout)?;
         println!(
             "{}: thread pass {pass} of {} plotted to {}",
             file.display(),

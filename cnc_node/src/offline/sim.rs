@@ -1,5 +1,6 @@
-//! The offline run: executor samples drive the in-process axis and spindle
-//! model (the same model the simulator node uses).
+//! The simulation of an offline run: executor samples drive the
+//! in-process axis and spindle model (the same model the simulator node
+//! uses), one [`Step`] per sample.
 
 use cnc_core::exec::{Executor, Sample};
 use cnc_core::source::ProgramSource;
