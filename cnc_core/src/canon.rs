@@ -135,8 +135,9 @@ pub trait Canon {
     /// Takes the next command. Errors found (on the path this command
     /// completes) are added to `errors` as texts.
     fn command(&mut self, cmd: Event, errors: &mut Vec<String>);
-    /// G40 (`None`), G41/G42: in force from the next move in the plane on.
-    fn set_compensation(&mut self, mode: Option<CompMode>);
+    /// G40 (`None`), G41/G42: in force from the next move in the plane on;
+    /// `at`: the block that programs it.
+    fn set_compensation(&mut self, mode: Option<CompMode>, at: Src);
     /// The selected tool's geometry offset, machine coordinates.
     fn set_tool_offset(&mut self, offset: V3);
     /// The path tolerance (G64 P), mm; 0: exact path (G61).

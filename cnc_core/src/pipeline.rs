@@ -103,7 +103,7 @@ impl Canon for Front {
         self.scratch = comped;
     }
 
-    fn set_compensation(&mut self, mode: Option<CompMode>) {
+    fn set_compensation(&mut self, mode: Option<CompMode>, _at: Src) {
         self.comp.set_mode(mode);
     }
 

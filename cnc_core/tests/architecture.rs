@@ -220,9 +220,7 @@ fn parent(module: &str) -> String {
 /// here); a path ends at the first character that cannot continue it.
 fn expand(tail: &str) -> Vec<String> {
     let t: String = tail.chars().filter(|c| !c.is_whitespace()).collect();
-    let head_end = t
-        .find(|c: char| c == '{' || c == '}' || c == ',')
-        .unwrap_or(t.len());
+    let head_end = t.find(['{', '}', ',']).unwrap_or(t.len());
     let head = t[..head_end].trim_end_matches("::");
     if t[head_end..].starts_with('{') {
         let inner_end = t[head_end..].find('}').map_or(t.len(), |e| head_end + e);

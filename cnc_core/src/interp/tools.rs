@@ -50,7 +50,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
     /// G40/G41/G42.
     pub(super) fn exec_comp(&mut self, code: u8, g: &Word) {
         if code == 40 {
-            self.canon.set_compensation(None);
+            self.canon.set_compensation(None, self.last);
             return;
         }
         let Some(tool) = self.tool_cfg.clone() else {
@@ -69,11 +69,14 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
             tip[0] = x * r;
             tip[2] = z * r;
         }
-        self.canon.set_compensation(Some(CompMode {
-            side: if code == 41 { 1.0 } else { -1.0 },
-            radius: r,
-            plane: self.modal.plane,
-            tip,
-        }));
+        self.canon.set_compensation(
+            Some(CompMode {
+                side: if code == 41 { 1.0 } else { -1.0 },
+                radius: r,
+                plane: self.modal.plane,
+                tip,
+            }),
+            self.last,
+        );
     }
 }

@@ -22,7 +22,8 @@
 //! The files: `figure` (the model), `render`, `legend`, `scale` and
 //! `style` (drawing: plotters' backends, the legend, ranges, ticks and
 //! clipping, font and sizes), `decimate`, `program_paths` (the programmed
-//! path and the compensated paths from the interpreter) and
+//! path and the compensated paths from one run of the interpreter, its
+//! canonical commands watched on their way into compensation) and
 //! `thread_errors` (analysis), `run` (the offline run behind a program's
 //! figures), `path_figure` and `thread_figure` (the CNC figures).
 //!
@@ -44,7 +45,7 @@ mod thread_figure;
 pub use decimate::{Decimator, MAX_SERIES_POINTS};
 pub use figure::{Band, Dash, Figure, Format, Panel, Point, Rgb, Series};
 pub use path_figure::{labels, plot_program, plot_recording, program_figure, run_figure};
-pub use program_paths::{comp_paths, without_radii, CompPaths, ToolOutline, MAX_OUTLINES};
+pub use program_paths::{comp_paths, CompPaths, ToolOutline, MAX_OUTLINES};
 pub use render::{render, render_png, render_svg};
 pub use run::ProgramRun;
 pub use thread_errors::{ThreadErrorPoint, ThreadErrorSeries, ThreadErrors, ThreadPass};

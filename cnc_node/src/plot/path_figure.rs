@@ -4,7 +4,7 @@
 
 use super::decimate::{one_run, Decimator, MAX_SERIES_POINTS};
 use super::figure::{Dash, Figure, Format, Panel, Point, Rgb, Series};
-use super::program_paths::{comp_paths, grow, programmed_path, ToolOutline, FEED, RAPID};
+use super::program_paths::{grow, program_paths, ToolOutline, FEED, RAPID};
 use super::render::render;
 use super::run::{ProgramRun, Run};
 use super::scale::pad;
@@ -88,10 +88,11 @@ fn path_figure(
     text: &str,
     run: &Run,
 ) -> Figure {
-    let comp = comp_paths(machine, dialect, text);
+    let paths = program_paths(machine, dialect, text);
+    let comp = paths.comp;
     let programmed = match &comp {
         Some(c) => c.contour.clone(),
-        None => programmed_path(machine, dialect, text),
+        None => paths.programmed,
     };
     let mut bbox = None;
     for p in programmed

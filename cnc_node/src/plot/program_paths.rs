@@ -1,16 +1,18 @@
 //! The programmed path and, under radius compensation (G41/G42), the
 //! programmed contour, the nose- or cutter-centre path and the tip's path,
-//! from the interpreter's moves (a second, partial reading of the program:
-//! the plane, compensation and tool selection of each line).
+//! from one run of the interpreter whose canonical commands are watched
+//! on their way into the pipeline's compensation stage and out of it
+//! ([`Watch`], a [`Canon`] around the pipeline's [`Front`]).
 
 use super::decimate::{one_run, Decimator, MAX_SERIES_POINTS};
+use cnc_core::canon::{Canon, CompMode, Event, Feed, Src};
 use cnc_core::geom::{Geom, Plane};
-use cnc_core::canon::{Event, Feed};
 use cnc_core::interp::Interpreter;
-use cnc_core::machine::{tip_vector, MachineKind, ToolConfig};
-use cnc_core::parse::{parse_line, Block};
+use cnc_core::machine::{tip_vector, MachineKind};
+use cnc_core::pipeline::Front;
 use cnc_core::source::StrSource;
 use cnc_core::{Dialect, Machine, V3};
+use std::collections::{HashMap, VecDeque};
 
 /// Tags of the programmed path's runs.
 pub(crate) const RAPID: u8 = 1;
@@ -33,140 +35,192 @@ fn geom_points(geom: &Geom, mut f: impl FnMut(V3)) {
     }
 }
 
-/// The machine with every tool's radius and tool type 0: on it the
-/// interpreter's moves are the programmed contour (G41/G42 offset by
-/// nothing; geometry offsets stay, so the contour is in the setpoints'
-/// frame).
-pub fn without_radii(machine: &Machine) -> Machine {
-    let mut m = machine.clone();
-    for t in &mut m.tools {
-        t.radius_mm = 0.0;
-        t.tip = 0;
+fn tag(feed: Feed) -> u8 {
+    if matches!(feed, Feed::Rapid) {
+        RAPID
+    } else {
+        FEED
     }
-    m
-}
-
-/// The G words of one line the plot follows: the plane (G17-G19) and
-/// radius compensation (40, 41, 42).
-#[derive(Clone, Copy, Debug, Default)]
-struct LineModes {
-    plane: Option<Plane>,
-    comp: Option<u8>,
-}
-
-/// Each line's [`LineModes`] (index: line − 1). A line that does not
-/// parse counts with the words before its error (the program is checked
-/// before it is plotted anyway).
-fn line_modes(dialect: Dialect, text: &str) -> Vec<LineModes> {
-    let mut block = Block::default();
-    text.lines()
-        .enumerate()
-        .map(|(i, line)| {
-            let mut m = LineModes::default();
-            let _ = parse_line(dialect, i as u32 + 1, line.as_bytes(), &mut block);
-            for w in block.words.iter().filter(|w| w.letter == b'G') {
-                match w.as_int() {
-                    Some(17) => m.plane = Some(Plane::XY),
-                    Some(18) => m.plane = Some(Plane::ZX),
-                    Some(19) => m.plane = Some(Plane::YZ),
-                    Some(c @ 40..=42) => m.comp = Some(c as u8),
-                    _ => {}
-                }
-            }
-            m
-        })
-        .collect()
-}
-
-/// Follows the plane, radius compensation and the selected tool along the
-/// interpreter's events. Events come in the order the blocks run; the
-/// modes of the lines from the previous event's line to this event's are
-/// applied in order (after a jump back, G73, only the event's own line).
-struct CompTracker<'a> {
-    modes: &'a [LineModes],
-    next_line: u32,
-    plane: Plane,
-    active: bool,
-    lathe: bool,
-    tools: &'a [ToolConfig],
-    tool: Option<&'a ToolConfig>,
 }
 
 /// Where a move stands with respect to radius compensation.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 enum CompMove {
     Off,
     /// the block with G41/G42: from the uncompensated to the compensated
     /// position
-    Entry,
-    On,
+    Entry(CompMode),
+    On(CompMode),
 }
 
-impl<'a> CompTracker<'a> {
-    fn new(machine: &'a Machine, modes: &'a [LineModes]) -> CompTracker<'a> {
-        let lathe = machine.kind == MachineKind::Lathe;
-        CompTracker {
-            modes,
-            next_line: 1,
-            plane: if lathe { Plane::ZX } else { Plane::XY },
-            active: false,
-            lathe,
-            tools: &machine.tools,
-            tool: None,
-        }
-    }
+/// The pipeline's front stages, watched: every command as programmed on
+/// its way in (the contour, and each move's compensation state by its
+/// block), and the compensation mode and tool offset handed on.
+struct Watch {
+    front: Front,
+    /// G41/G42 in force (as programmed), and the block that programmed it
+    mode: Option<(CompMode, Src)>,
+    /// the tool's geometry offset
+    offset: V3,
+    /// G41/G42 was programmed at all
+    used: bool,
+    /// the state of each line's moves (a line run again by a loop takes
+    /// the state of its latest run)
+    state: HashMap<u32, CompMove>,
+    contour: Decimator<V3>,
+    comp_box: Option<Box3>,
+}
 
-    /// The state of a move from `line`.
-    fn at(&mut self, line: u32) -> CompMove {
-        let from = if line >= self.next_line {
-            self.next_line
-        } else {
-            line
-        };
-        let mut entry = false;
-        for l in from.max(1)..=line {
-            let Some(m) = self.modes.get(l as usize - 1) else {
-                break;
+impl Canon for Watch {
+    fn command(&mut self, cmd: Event, errors: &mut Vec<String>) {
+        if let Event::Move { geom, feed, src } = cmd {
+            let state = match self.mode {
+                None => CompMove::Off,
+                Some((m, at)) if at == src => CompMove::Entry(m),
+                Some((m, _)) => CompMove::On(m),
             };
-            if let Some(p) = m.plane {
-                self.plane = p;
-            }
-            if let Some(c) = m.comp {
-                self.active = c != 40;
-                entry = l == line && c != 40;
-            }
+            self.state.insert(src.line, state);
+            let t = tag(feed);
+            let off = self.offset;
+            geom_points(&geom, |p| {
+                let p = p - off;
+                self.contour.push(t, p);
+                if matches!(state, CompMove::On(_)) {
+                    grow(&mut self.comp_box, p);
+                }
+            });
         }
-        self.next_line = line.saturating_add(1);
-        match (self.active, entry) {
-            (false, _) => CompMove::Off,
-            (true, true) => CompMove::Entry,
-            (true, false) => CompMove::On,
+        self.front.command(cmd, errors);
+    }
+    fn set_compensation(&mut self, mode: Option<CompMode>, at: Src) {
+        self.used |= mode.is_some();
+        self.mode = mode.map(|m| (m, at));
+        self.front.set_compensation(mode, at);
+    }
+    fn set_tool_offset(&mut self, offset: V3) {
+        self.offset = offset;
+        self.front.set_tool_offset(offset);
+    }
+    fn set_path_tolerance(&mut self, mm: f64) {
+        self.front.set_path_tolerance(mm);
+    }
+    fn compensating(&self) -> bool {
+        self.front.compensating()
+    }
+    fn passes_through(&self) -> bool {
+        self.front.passes_through()
+    }
+    fn ready(&self) -> usize {
+        self.front.ready()
+    }
+    fn pop(&mut self) -> Option<Event> {
+        self.front.pop()
+    }
+    fn take(&mut self, batch: &mut VecDeque<Event>) {
+        self.front.take(batch)
+    }
+}
+
+/// The paths of a program for its figure.
+pub(crate) struct ProgramPaths {
+    /// every move as the planner gets it (commanded), tagged rapid or feed
+    pub programmed: Vec<(u8, Vec<V3>)>,
+    /// with G41/G42: the contour, the centre and tip paths, the outlines
+    pub comp: Option<CompPaths>,
+}
+
+/// The paths of a program from one run of its interpreter. The program
+/// should pass the check first.
+pub(crate) fn program_paths(machine: &Machine, dialect: Dialect, text: &str) -> ProgramPaths {
+    let lathe = machine.kind == MachineKind::Lathe;
+    let watch = Watch {
+        front: Front::new(machine),
+        mode: None,
+        offset: V3::zeros(),
+        used: false,
+        state: HashMap::new(),
+        contour: Decimator::new(MAX_SERIES_POINTS),
+        comp_box: None,
+    };
+    let mut interp = Interpreter::with_canon(StrSource::new(text), dialect, machine, watch);
+    let mut programmed = Decimator::new(MAX_SERIES_POINTS);
+    let mut tip = Decimator::new(MAX_SERIES_POINTS);
+    let mut centre = Decimator::new(MAX_SERIES_POINTS);
+    let mut outlines = Decimator::new(MAX_OUTLINES);
+    let mut comp_box = None;
+    // the tool selected, in the commanded stream: (R × its tip vector on a
+    // lathe)
+    let mut v = V3::zeros();
+    while let Some(ev) = interp.next() {
+        let (geom, feed, src) = match ev {
+            Event::Tool { number, .. } => {
+                let n = if lathe { number % 100 } else { number };
+                v = match machine.tools.iter().find(|t| n != 0 && t.number == n) {
+                    Some(t) if lathe => {
+                        let (x, z) = tip_vector(t.tip);
+                        V3::new(x, 0.0, z) * t.radius_mm
+                    }
+                    _ => V3::zeros(),
+                };
+                continue;
+            }
+            Event::Move { geom, feed, src } => (geom, feed, src),
+            _ => continue,
+        };
+        let t = tag(feed);
+        geom_points(&geom, |p| programmed.push(t, p));
+        let state = interp
+            .canon()
+            .state
+            .get(&src.line)
+            .copied()
+            .unwrap_or(CompMove::Off);
+        geom_points(&geom, |p| {
+            tip.push(0, p);
+            centre.push(0, p - v);
+            if matches!(state, CompMove::On(_)) {
+                grow(&mut comp_box, p);
+                grow(&mut comp_box, p - v);
+            }
+        });
+        if let CompMove::Entry(m) | CompMove::On(m) = state {
+            let c = geom.end() - v;
+            let r = m.radius;
+            let (p, q, _) = m.plane.axes();
+            let mut d = V3::zeros();
+            d[p] = r;
+            d[q] = r;
+            grow(&mut comp_box, c - d);
+            grow(&mut comp_box, c + d);
+            grow(&mut comp_box, geom.end());
+            outlines.push(
+                0,
+                ToolOutline {
+                    centre: c,
+                    radius: r,
+                    plane: m.plane,
+                },
+            );
         }
     }
-
-    /// A `T` word: the tool (mill) or offset (lathe, the last two digits).
-    fn select(&mut self, number: u32) {
-        let n = if self.lathe { number % 100 } else { number };
-        self.tool = (n != 0)
-            .then(|| self.tools.iter().find(|t| t.number == n))
-            .flatten();
-    }
-
-    /// The selected tool's radius, mm.
-    fn radius(&self) -> f64 {
-        self.tool.map_or(0.0, |t| t.radius_mm)
-    }
-
-    /// From the nose centre to the imaginary tip (lathe): R × the tool
-    /// type's tip vector, machine coordinates.
-    fn tip(&self) -> V3 {
-        match self.tool {
-            Some(t) if self.lathe => {
-                let (x, z) = tip_vector(t.tip);
-                V3::new(x, 0.0, z) * t.radius_mm
-            }
-            _ => V3::zeros(),
+    let watch = interp.canon();
+    let comp = watch.used.then(|| {
+        if let Some((lo, hi)) = watch.comp_box {
+            grow(&mut comp_box, lo);
+            grow(&mut comp_box, hi);
         }
+        CompPaths {
+            contour: watch.contour.clone().finish(),
+            centre: one_run(centre),
+            tip: one_run(tip),
+            outlines: one_run(outlines),
+            comp_box,
+            lathe,
+        }
+    });
+    ProgramPaths {
+        programmed: programmed.finish(),
+        comp,
     }
 }
 
@@ -194,8 +248,9 @@ pub(crate) fn grow(b: &mut Option<Box3>, p: V3) {
 /// The paths of a program under radius compensation, for [`plot_program`](super::plot_program).
 #[derive(Clone, Debug)]
 pub struct CompPaths {
-    /// the programmed contour: the interpreter's moves on
-    /// [`without_radii`] of the machine, as runs tagged rapid (1) or feed (0)
+    /// the programmed contour: the interpreter's moves as programmed
+    /// (before compensation, moved by the tool's geometry offset into the
+    /// setpoints' frame), as runs tagged rapid (1) or feed (0)
     pub contour: Vec<(u8, Vec<V3>)>,
     /// the nose (lathe) or cutter (mill) centre: the commanded point minus
     /// R × the selected tool's tip vector (on a mill the commanded point)
@@ -218,107 +273,8 @@ pub struct CompPaths {
 pub const MAX_OUTLINES: usize = 200;
 
 /// The programmed contour, the nose- or cutter-centre path and the
-/// commanded (tip) path of a program that uses G41/G42 (`None` if no line
-/// holds either). The program should pass the check first.
+/// commanded (tip) path of a program that uses G41/G42 (`None` if it
+/// programs neither). The program should pass the check first.
 pub fn comp_paths(machine: &Machine, dialect: Dialect, text: &str) -> Option<CompPaths> {
-    let modes = line_modes(dialect, text);
-    if !modes.iter().any(|m| matches!(m.comp, Some(41 | 42))) {
-        return None;
-    }
-    let mut comp_box = None;
-    // the contour
-    let bare = without_radii(machine);
-    let mut contour = Decimator::new(MAX_SERIES_POINTS);
-    let mut tr = CompTracker::new(&bare, &modes);
-    for ev in Interpreter::new(StrSource::new(text), dialect, &bare) {
-        let Event::Move { geom, feed, src } = ev else {
-            continue;
-        };
-        let state = tr.at(src.line);
-        let tag = if matches!(feed, Feed::Rapid) {
-            RAPID
-        } else {
-            FEED
-        };
-        geom_points(&geom, |p| {
-            contour.push(tag, p);
-            if state == CompMove::On {
-                grow(&mut comp_box, p);
-            }
-        });
-    }
-    // the machine itself: the tip, the centre, the outlines
-    let mut tip = Decimator::new(MAX_SERIES_POINTS);
-    let mut centre = Decimator::new(MAX_SERIES_POINTS);
-    let mut outlines = Decimator::new(MAX_OUTLINES);
-    let mut tr = CompTracker::new(machine, &modes);
-    for ev in Interpreter::new(StrSource::new(text), dialect, machine) {
-        let (geom, src) = match ev {
-            Event::Tool { number, .. } => {
-                tr.select(number);
-                continue;
-            }
-            Event::Move { geom, src, .. } => (geom, src),
-            _ => continue,
-        };
-        let state = tr.at(src.line);
-        let v = tr.tip();
-        geom_points(&geom, |p| {
-            tip.push(0, p);
-            centre.push(0, p - v);
-            if state == CompMove::On {
-                grow(&mut comp_box, p);
-                grow(&mut comp_box, p - v);
-            }
-        });
-        if state != CompMove::Off {
-            let c = geom.end() - v;
-            let r = tr.radius();
-            let (p, q, _) = tr.plane.axes();
-            let mut d = V3::zeros();
-            d[p] = r;
-            d[q] = r;
-            grow(&mut comp_box, c - d);
-            grow(&mut comp_box, c + d);
-            grow(&mut comp_box, geom.end());
-            outlines.push(
-                0,
-                ToolOutline {
-                    centre: c,
-                    radius: r,
-                    plane: tr.plane,
-                },
-            );
-        }
-    }
-    Some(CompPaths {
-        contour: contour.finish(),
-        centre: one_run(centre),
-        tip: one_run(tip),
-        outlines: one_run(outlines),
-        comp_box,
-        lathe: tr.lathe,
-    })
-}
-
-/// The programmed path: every move's geometry sampled (lines: their ends;
-/// arcs: chords of at most 2°), tagged rapid or feed.
-pub(crate) fn programmed_path(
-    machine: &Machine,
-    dialect: Dialect,
-    text: &str,
-) -> Vec<(u8, Vec<V3>)> {
-    let mut d = Decimator::new(MAX_SERIES_POINTS);
-    for ev in Interpreter::new(StrSource::new(text), dialect, machine) {
-        let Event::Move { geom, feed, .. } = ev else {
-            continue;
-        };
-        let tag = if matches!(feed, Feed::Rapid) {
-            RAPID
-        } else {
-            FEED
-        };
-        geom_points(&geom, |p| d.push(tag, p));
-    }
-    d.finish()
+    program_paths(machine, dialect, text).comp
 }
