@@ -4,8 +4,8 @@
 //! the plane, compensation and tool selection of each line).
 
 use super::decimate::{one_run, Decimator, MAX_SERIES_POINTS};
-use cnc_core::geom::{Geom, Plane};
 use cnc_core::canon::{Event, Feed};
+use cnc_core::geom::{Geom, Plane};
 use cnc_core::interp::Interpreter;
 use cnc_core::machine::{tip_vector, MachineKind, ToolConfig};
 use cnc_core::parse::{parse_line, Block};
