@@ -54,6 +54,21 @@ pub fn time_ns(t: &Time) -> i64 {
     i64::from(t.sec) * 1_000_000_000 + i64::from(t.nanosec)
 }
 
+/// A stamp from ns since the Unix epoch (seconds past `i32::MAX` stay
+/// at `i32::MAX`).
+pub fn time_from_ns(ns: u64) -> Time {
+    Time {
+        sec: (ns / 1_000_000_000).min(i32::MAX as u64) as i32,
+        nanosec: (ns % 1_000_000_000) as u32,
+    }
+}
+
+/// ns since the Unix epoch of a stamp (unsigned: a stamp before the
+/// epoch counts its seconds as 0, unlike [`time_ns`]).
+pub fn stamp_ns(t: &Time) -> u64 {
+    (t.sec.max(0) as u64) * 1_000_000_000 + t.nanosec as u64
+}
+
 fn header(stamp: Time) -> Header {
     Header {
         stamp,

@@ -4,7 +4,7 @@
 //! pose, and the tool path cloud. Positions come in mm (machine axes) and
 //! go out in m, as ROS has them.
 
-use super::cdr::time_from_ns;
+use crate::convert::time_from_ns;
 use cnc_core::exec::Sample;
 use cnc_msgs::{
     ControllerStatus, Float64, Header, JointState, Point, PointCloud2, PointField, Pose,

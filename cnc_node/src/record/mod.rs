@@ -36,11 +36,12 @@
 //! by size alone. Compression is single-threaded, so equal inputs give
 //! byte-identical files on every machine.
 //!
-//! The parts: `writer` ([`Recorder`]: the MCAP file), `cdr` (the codec
-//! and stamps), `rosbag2` (its metadata and QoS YAML), [`messages`] (the
-//! ROS messages built from samples and steps, their topics and frames),
-//! `sim` ([`SimRecorder`]: the recording of an offline run) and `job`
-//! ([`JobRecorder`]: the node's live recording of a job).
+//! The parts: `writer` ([`Recorder`]: the MCAP file), `cdr` (the codec),
+//! `rosbag2` (its metadata and QoS YAML), [`messages`] (the ROS messages
+//! built from samples and steps, their topics and frames), `sim`
+//! ([`SimRecorder`]: the recording of an offline run) and `job`
+//! ([`JobRecorder`]: the node's live recording of a job). Stamps
+//! ([`time_from_ns`], [`stamp_ns`]) are [`crate::convert`]'s.
 //!
 //! ```no_run
 //! use cnc_node::record::{Recorder, RecordingInfo};
@@ -57,7 +58,8 @@ mod rosbag2;
 mod sim;
 mod writer;
 
-pub use cdr::{from_cdr, stamp_ns, time_from_ns, to_cdr, to_cdr_into, CDR_LE_HEADER};
+pub use crate::convert::{stamp_ns, time_from_ns};
+pub use cdr::{from_cdr, to_cdr, to_cdr_into, CDR_LE_HEADER};
 pub use job::JobRecorder;
 pub use messages::{topics, POSE_EVERY, TOOLPATH_MAX_POINTS, TOOL_FRAME, WORLD_FRAME};
 pub use rosbag2::{

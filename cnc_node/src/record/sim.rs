@@ -268,7 +268,7 @@ impl<W: Write + Seek> Sink for SimRecorder<W> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::record::cdr::time_from_ns;
+    use crate::convert::time_from_ns;
     use cnc_msgs::Time;
 
     #[test]
