@@ -1,52 +1,53 @@
-//! The controller's output as the node's ROS messages: setpoints in metres
-//! (`sensor_msgs/JointState`), the spindle command in rad/s
-//! (`std_msgs/Float64`), the status (`cnc_msgs/ControllerStatus`) and
-//! stamps in the controller's clock. The controller works in mm and rpm.
+//! Where the controller's samples, ticks and status become ROS messages,
+//! in one place (and stamps go back to ns). The controller works in mm and
+//! rpm; the messages carry m and rad/s, as ROS has them.
+//!
+//! - Topics ([`topics`]) and frames ([`WORLD_FRAME`], [`TOOL_FRAME`]) of
+//!   recordings, how often the tool's pose is recorded ([`POSE_EVERY`])
+//!   and the most points of the tool path ([`TOOLPATH_MAX_POINTS`]).
+//! - Stamps: [`time_from_ns`] and back [`stamp_ns`] (ns since the Unix
+//!   epoch, unsigned, as recordings have them), [`time_ns`] (signed, the
+//!   controller's clock), and the [`header`] of every message.
+//! - The node's messages of a control cycle: [`joint_setpoints`] of a
+//!   [`Tick`], [`spindle_command`] (rad/s), [`status`] of a [`Status`].
+//! - The messages a recording derives from samples and setpoints:
+//!   [`joint_state`] (with [`joint_velocities`]), [`sample_status`], the
+//!   tool's frame and pose ([`tool_position`], [`tool_tf`], [`tool_pose`])
+//!   and the tool path cloud ([`push_point`], [`toolpath_cloud`]).
+//!
+//! `record` builds its messages here; this module does not use `record`.
 
 use crate::controller::{Status, Tick};
-use cnc_msgs::{ControllerStatus, Float64, Header, JointState, Time};
+use cnc_core::exec::Sample;
+use cnc_msgs::{
+    ControllerStatus, Float64, Header, JointState, Point, PointCloud2, PointField, Pose,
+    PoseStamped, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3,
+};
 
-/// The status topic's message of `s`, stamped `stamp`.
-pub fn status(s: &Status, stamp: Time) -> ControllerStatus {
-    ControllerStatus {
-        header: header(stamp),
-        state: s.state as u8,
-        job_id: s.job_id,
-        source_line: s.source_line,
-        block_number: s.block_number,
-        active_g_codes: s.active_g_codes.clone(),
-        active_tool: s.active_tool,
-        spindle_speed_command: s.spindle_rpm,
-        feed_override: s.feed_override,
-        progress: s.progress,
-        last_error: s.last_error.clone(),
-    }
+/// Topics of a recording: the node's and the simulator's in their default
+/// namespaces (`/cnc`, `/sim`); an offline recording has them all.
+pub mod topics {
+    pub const JOINT_SETPOINTS: &str = "/cnc/joint_setpoints";
+    pub const JOINT_STATES: &str = "/sim/joint_states";
+    pub const SPINDLE_COMMAND: &str = "/cnc/spindle_command";
+    pub const STATUS: &str = "/cnc/status";
+    pub const TF: &str = "/tf";
+    pub const TOOL_POSE: &str = "/cnc/tool_pose";
+    pub const SPINDLE_ENCODER: &str = "/sim/spindle_encoder";
+    pub const TOOLPATH: &str = "/cnc/toolpath";
+    pub const PROGRAM: &str = "/cnc/program";
+    pub const MACHINE_FILE: &str = "/cnc/machine_file";
 }
 
-/// A cycle's setpoints, m, named `names` (the joints', in joint order),
-/// stamped `stamp`; no velocities or efforts.
-pub fn joint_setpoints(tick: &Tick, names: &[String], stamp: Time) -> JointState {
-    let n = tick.n.min(tick.positions.len());
-    JointState {
-        header: header(stamp),
-        name: names.to_vec(),
-        position: tick.positions[..n].iter().map(|p| p / 1000.0).collect(),
-        velocity: Vec::new(),
-        effort: Vec::new(),
-    }
-}
+/// Frames of `/tf`, `/cnc/tool_pose` and `/cnc/toolpath`.
+pub const WORLD_FRAME: &str = "world";
+pub const TOOL_FRAME: &str = "tool";
 
-/// The spindle command of `rpm` (signed), in rad/s.
-pub fn spindle_command(rpm: f64) -> Float64 {
-    Float64 {
-        data: rpm_to_rad_s(rpm),
-    }
-}
+/// Records `/tf` and `/cnc/tool_pose` every this many samples.
+pub const POSE_EVERY: u64 = 10;
 
-/// rpm to rad/s.
-pub fn rpm_to_rad_s(rpm: f64) -> f64 {
-    rpm * std::f64::consts::TAU / 60.0
-}
+/// The most points of the `/cnc/toolpath` cloud.
+pub const TOOLPATH_MAX_POINTS: u64 = 100_000;
 
 /// A stamp in nanoseconds of the controller's clock (signed: a stamp
 /// before the epoch stays before it).
@@ -69,10 +70,172 @@ pub fn stamp_ns(t: &Time) -> u64 {
     (t.sec.max(0) as u64) * 1_000_000_000 + t.nanosec as u64
 }
 
-fn header(stamp: Time) -> Header {
+/// A header stamped `stamp` in `frame` (`""`: no frame, as the joint
+/// states and the status have).
+pub fn header(stamp: Time, frame: &str) -> Header {
     Header {
         stamp,
-        frame_id: String::new(),
+        frame_id: frame.to_string(),
+    }
+}
+
+/// mm to m, value by value.
+fn metres(v: &[f64]) -> Vec<f64> {
+    v.iter().map(|p| p / 1000.0).collect()
+}
+
+/// The status topic's message of `s`, stamped `stamp`.
+pub fn status(s: &Status, stamp: Time) -> ControllerStatus {
+    ControllerStatus {
+        header: header(stamp, ""),
+        state: s.state as u8,
+        job_id: s.job_id,
+        source_line: s.source_line,
+        block_number: s.block_number,
+        active_g_codes: s.active_g_codes.clone(),
+        active_tool: s.active_tool,
+        spindle_speed_command: s.spindle_rpm,
+        feed_override: s.feed_override,
+        progress: s.progress,
+        last_error: s.last_error.clone(),
+    }
+}
+
+/// A cycle's setpoints, m, named `names` (the joints', in joint order),
+/// stamped `stamp`; no velocities or efforts.
+pub fn joint_setpoints(tick: &Tick, names: &[String], stamp: Time) -> JointState {
+    let n = tick.n.min(tick.positions.len());
+    JointState {
+        header: header(stamp, ""),
+        name: names.to_vec(),
+        position: metres(&tick.positions[..n]),
+        velocity: Vec::new(),
+        effort: Vec::new(),
+    }
+}
+
+/// `/cnc/spindle_command` of a speed of `rpm` (signed): rad/s. The node
+/// publishes it and both recorders record it.
+pub fn spindle_command(rpm: f64) -> Float64 {
+    Float64 {
+        data: rpm_to_rad_s(rpm),
+    }
+}
+
+/// rpm to rad/s.
+pub fn rpm_to_rad_s(rpm: f64) -> f64 {
+    rpm * std::f64::consts::TAU / 60.0
+}
+
+/// A joint state stamped `ns`: `names`, positions in mm (written in m),
+/// velocities as given (m/s; empty: none).
+pub fn joint_state(
+    ns: u64,
+    names: &[String],
+    position_mm: &[f64],
+    velocity: Vec<f64>,
+) -> JointState {
+    JointState {
+        header: header(time_from_ns(ns), ""),
+        name: names.to_vec(),
+        position: metres(position_mm),
+        velocity,
+        effort: Vec::new(),
+    }
+}
+
+/// Velocities (m/s) as finite differences of positions `now` and `prev`
+/// (mm) `dt` s apart; zeros when there is no previous position.
+pub fn joint_velocities(now: &[f64], prev: &[f64], dt: f64) -> Vec<f64> {
+    if prev.len() == now.len() {
+        now.iter()
+            .zip(prev)
+            .map(|(a, p)| (a - p) / 1000.0 / dt)
+            .collect()
+    } else {
+        vec![0.0; now.len()]
+    }
+}
+
+/// `/cnc/status` of job 1 at sample `s` stamped `ns`: running, or idle at
+/// the last sample; `progress` 0 to 1.
+pub fn sample_status(ns: u64, s: &Sample, progress: f64) -> ControllerStatus {
+    ControllerStatus {
+        header: header(time_from_ns(ns), ""),
+        state: if s.last {
+            ControllerStatus::STATE_IDLE
+        } else {
+            ControllerStatus::STATE_RUNNING
+        },
+        job_id: 1,
+        source_line: s.src.line,
+        block_number: s.src.block_no.map_or(-1, |b| b as i64),
+        active_g_codes: Vec::new(),
+        active_tool: s.tool as i32,
+        spindle_speed_command: s.spindle_rpm,
+        feed_override: 1.0,
+        progress,
+        last_error: String::new(),
+    }
+}
+
+/// The tool position (m) of a sample: its commanded X, Y, Z.
+pub fn tool_position(s: &Sample) -> [f64; 3] {
+    [s.pos[0] / 1000.0, s.pos[1] / 1000.0, s.pos[2] / 1000.0]
+}
+
+/// `/tf`: `world` → `tool` at `[x, y, z]` (m), stamped `ns`.
+pub fn tool_tf(ns: u64, [x, y, z]: [f64; 3]) -> TFMessage {
+    TFMessage {
+        transforms: vec![TransformStamped {
+            header: header(time_from_ns(ns), WORLD_FRAME),
+            child_frame_id: TOOL_FRAME.to_string(),
+            transform: Transform {
+                translation: Vector3 { x, y, z },
+                rotation: Quaternion::IDENTITY,
+            },
+        }],
+    }
+}
+
+/// `/cnc/tool_pose` at `[x, y, z]` (m) in `world`, stamped `ns`.
+pub fn tool_pose(ns: u64, [x, y, z]: [f64; 3]) -> PoseStamped {
+    PoseStamped {
+        header: header(time_from_ns(ns), WORLD_FRAME),
+        pose: Pose {
+            position: Point { x, y, z },
+            orientation: Quaternion::IDENTITY,
+        },
+    }
+}
+
+/// Appends one x, y, z float32 point (m) to a tool path cloud's data.
+pub fn push_point(path: &mut Vec<u8>, p: [f64; 3]) {
+    for v in p {
+        path.extend_from_slice(&(v as f32).to_le_bytes());
+    }
+}
+
+/// The `/cnc/toolpath` cloud of the points pushed by [`push_point`],
+/// stamped `ns`.
+pub fn toolpath_cloud(data: Vec<u8>, ns: u64) -> PointCloud2 {
+    let n = (data.len() / 12) as u32;
+    let field = |name: &str, offset: u32| PointField {
+        name: name.to_string(),
+        offset,
+        datatype: PointField::FLOAT32,
+        count: 1,
+    };
+    PointCloud2 {
+        header: header(time_from_ns(ns), WORLD_FRAME),
+        height: 1,
+        width: n,
+        fields: vec![field("x", 0), field("y", 4), field("z", 8)],
+        is_bigendian: false,
+        point_step: 12,
+        row_step: 12 * n,
+        data,
+        is_dense: true,
     }
 }
 
