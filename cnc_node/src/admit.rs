@@ -9,7 +9,8 @@
 //! it to the job, whose [`Controller::start`](crate::controller::Controller::start)
 //! refuses it if the machine has moved since. [`recorder`] opens the job's
 //! recording when it is recorded. Every refusal is a [`Refusal`] whose text
-//! is the reply's message.
+//! is the reply's message; [`fit_run_reply`] cuts a reply's text to what
+//! one DDS datagram carries.
 
 use crate::controller::Job;
 use crate::program::{read_limited, resolve_in};
@@ -229,4 +230,128 @@ pub fn recorder(
         .and_then(|_| JobRecorder::create(&file, info, machine))
         .map(Some)
         .map_err(|e| Refusal(format!("cannot record the job: {e}")))
+}
+
+/// The most bytes of text (message and recording path) a reply carries.
+///
+/// A reply is kept in one DDS datagram: rustdds 0.15 writes a fragmented
+/// reply with inline QoS (every service reply: the request's identity)
+/// with one stray byte (`DataFrag` writes the `Option` of its parameter
+/// list), which a debug build's DDS thread dies on (a `debug_assert`: the
+/// node then neither publishes nor answers); a release build sends that
+/// byte too. Datagrams to a Fast DDS peer hold about 1,300 bytes of reply;
+/// 1,000 leaves room for the rest.
+pub const MAX_REPLY_TEXT: usize = 1000;
+
+/// `reply` with its message cut ([`fit_reply`]) so that message and
+/// recording path (counted up to 500 bytes) fit in [`MAX_REPLY_TEXT`].
+pub fn fit_run_reply(mut reply: RunProgramResponse) -> RunProgramResponse {
+    reply.message = fit_reply(
+        &reply.message,
+        MAX_REPLY_TEXT - reply.recording.len().min(500),
+    );
+    reply
+}
+
+/// `text` cut to at most `max` bytes: whole lines while they fit, then
+/// `... and N more errors` for the error lines left out (counting those a
+/// trailing `... and N more errors` already stood for); a single line
+/// that does not fit is cut at a character boundary and ends in `...`.
+pub fn fit_reply(text: &str, max: usize) -> String {
+    if text.len() <= max {
+        return text.to_string();
+    }
+    let more_of = |l: &str| {
+        l.strip_prefix("... and ")
+            .and_then(|r| r.strip_suffix(" more errors"))
+            .and_then(|n| n.parse::<u64>().ok())
+    };
+    let mut out = String::new();
+    let mut left_out = 0u64;
+    // room for the summary line
+    let room = max.saturating_sub(40);
+    for l in text.split('\n') {
+        let sep = usize::from(!out.is_empty());
+        if left_out == 0 && out.len() + sep + l.len() <= room {
+            if sep == 1 {
+                out.push('\n');
+            }
+            out.push_str(l);
+            continue;
+        }
+        left_out += more_of(l).unwrap_or(1);
+    }
+    if out.is_empty() {
+        // one line longer than the room: cut it
+        let mut end = room.min(text.len());
+        while !text.is_char_boundary(end) {
+            end -= 1;
+        }
+        let first = text.split('\n').next().unwrap_or_default();
+        return format!("{}...", &first[..end.min(first.len())]);
+    }
+    out.push_str(&format!("\n... and {left_out} more errors"));
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn replies_fit_in_one_datagram() {
+        let errors: Vec<String> = (1..=30)
+            .map(|l| format!("line {l}, column 1: unexpected character '`': expected an address letter and a number"))
+            .collect();
+        let text = errors.join("\n");
+        assert_eq!(fit_reply(&text, 10_000), text);
+        let short = fit_reply(&text, 1000);
+        assert!(short.len() <= 1000, "{}", short.len());
+        let lines: Vec<&str> = short.lines().collect();
+        let kept = lines.len() - 1;
+        assert_eq!(lines[..kept], errors[..kept]);
+        assert_eq!(lines[kept], format!("... and {} more errors", 30 - kept));
+        // a summary of errors not kept by the check counts too
+        let text = format!("{}\n... and 500 more errors", errors.join("\n"));
+        let short = fit_reply(&text, 1000);
+        assert!(
+            short.ends_with(&format!("... and {} more errors", 530 - kept)),
+            "{short}"
+        );
+        // one long line (a long program_path): cut at a character boundary
+        let long = format!("program_path '{}' may not contain '..'", "é".repeat(2000));
+        let cut = fit_reply(&long, 1000);
+        assert!(cut.len() <= 1000 && cut.ends_with("..."), "{}", cut.len());
+        assert!(cut.starts_with("program_path 'éé"));
+    }
+
+    #[test]
+    fn a_reply_with_a_recording_keeps_room_for_its_path() {
+        let errors: Vec<String> = (1..=30)
+            .map(|l| format!("line {l}, column 1: unexpected character '`': expected an address letter and a number"))
+            .collect();
+        let reply = RunProgramResponse {
+            accepted: false,
+            message: errors.join("\n"),
+            job_id: 0,
+            estimated_duration: 0.0,
+            recording: "r".repeat(300),
+        };
+        let r = fit_run_reply(reply.clone());
+        assert!(r.message.len() <= 700, "{}", r.message.len());
+        assert_eq!(r.message, fit_reply(&reply.message, 700));
+        assert_eq!(r.recording, reply.recording);
+        // a recording path counts up to 500 bytes
+        let r = fit_run_reply(RunProgramResponse {
+            recording: "r".repeat(5000),
+            ..reply.clone()
+        });
+        assert_eq!(r.message, fit_reply(&reply.message, 500));
+        // a short message is kept as it is
+        let r = fit_run_reply(RunProgramResponse {
+            message: "ok".into(),
+            ..reply
+        });
+        assert_eq!(r.message, "ok");
+    }
 }

@@ -1,16 +1,93 @@
-//! The controller's output as the node's ROS messages: setpoints in metres
-//! (`sensor_msgs/JointState`), the spindle command in rad/s
-//! (`std_msgs/Float64`), the status (`cnc_msgs/ControllerStatus`), stamps
-//! in the controller's clock, and a `run_program` reply's text cut to what
-//! one DDS datagram carries. The controller works in mm and rpm.
+//! Where the controller's samples, ticks and status become ROS messages,
+//! in one place (and stamps go back to ns). The controller works in mm and
+//! rpm; the messages carry m and rad/s, as ROS has them.
+//!
+//! - Topics ([`topics`]) and frames ([`WORLD_FRAME`], [`TOOL_FRAME`]) of
+//!   recordings, how often the tool's pose is recorded ([`POSE_EVERY`])
+//!   and the most points of the tool path ([`TOOLPATH_MAX_POINTS`]).
+//! - Stamps: [`time_from_ns`] and back [`stamp_ns`] (ns since the Unix
+//!   epoch, unsigned, as recordings have them), [`time_ns`] (signed, the
+//!   controller's clock), and the [`header`] of every message.
+//! - The node's messages of a control cycle: [`joint_setpoints`] of a
+//!   [`Tick`], [`spindle_command`] (rad/s), [`status`] of a [`Status`].
+//! - The messages a recording derives from samples and setpoints:
+//!   [`joint_state`] (with [`joint_velocities`]), [`sample_status`], the
+//!   tool's frame and pose ([`tool_position`], [`tool_tf`], [`tool_pose`])
+//!   and the tool path cloud ([`push_point`], [`toolpath_cloud`]).
+//!
+//! `record` builds its messages here; this module does not use `record`.
 
 use crate::controller::{Status, Tick};
-use cnc_msgs::{ControllerStatus, Float64, Header, JointState, RunProgramResponse, Time};
+use cnc_core::exec::Sample;
+use cnc_msgs::{
+    ControllerStatus, Float64, Header, JointState, Point, PointCloud2, PointField, Pose,
+    PoseStamped, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3,
+};
+
+/// Topics of a recording: the node's and the simulator's in their default
+/// namespaces (`/cnc`, `/sim`); an offline recording has them all.
+pub mod topics {
+    pub const JOINT_SETPOINTS: &str = "/cnc/joint_setpoints";
+    pub const JOINT_STATES: &str = "/sim/joint_states";
+    pub const SPINDLE_COMMAND: &str = "/cnc/spindle_command";
+    pub const STATUS: &str = "/cnc/status";
+    pub const TF: &str = "/tf";
+    pub const TOOL_POSE: &str = "/cnc/tool_pose";
+    pub const SPINDLE_ENCODER: &str = "/sim/spindle_encoder";
+    pub const TOOLPATH: &str = "/cnc/toolpath";
+    pub const PROGRAM: &str = "/cnc/program";
+    pub const MACHINE_FILE: &str = "/cnc/machine_file";
+}
+
+/// Frames of `/tf`, `/cnc/tool_pose` and `/cnc/toolpath`.
+pub const WORLD_FRAME: &str = "world";
+pub const TOOL_FRAME: &str = "tool";
+
+/// Records `/tf` and `/cnc/tool_pose` every this many samples.
+pub const POSE_EVERY: u64 = 10;
+
+/// The most points of the `/cnc/toolpath` cloud.
+pub const TOOLPATH_MAX_POINTS: u64 = 100_000;
+
+/// A stamp in nanoseconds of the controller's clock (signed: a stamp
+/// before the epoch stays before it).
+pub fn time_ns(t: &Time) -> i64 {
+    i64::from(t.sec) * 1_000_000_000 + i64::from(t.nanosec)
+}
+
+/// A stamp from ns since the Unix epoch (seconds past `i32::MAX` stay
+/// at `i32::MAX`).
+pub fn time_from_ns(ns: u64) -> Time {
+    Time {
+        sec: (ns / 1_000_000_000).min(i32::MAX as u64) as i32,
+        nanosec: (ns % 1_000_000_000) as u32,
+    }
+}
+
+/// ns since the Unix epoch of a stamp (unsigned: a stamp before the
+/// epoch counts its seconds as 0, unlike [`time_ns`]).
+pub fn stamp_ns(t: &Time) -> u64 {
+    (t.sec.max(0) as u64) * 1_000_000_000 + t.nanosec as u64
+}
+
+/// A header stamped `stamp` in `frame` (`""`: no frame, as the joint
+/// states and the status have).
+pub fn header(stamp: Time, frame: &str) -> Header {
+    Header {
+        stamp,
+        frame_id: frame.to_string(),
+    }
+}
+
+/// mm to m, value by value.
+fn metres(v: &[f64]) -> Vec<f64> {
+    v.iter().map(|p| p / 1000.0).collect()
+}
 
 /// The status topic's message of `s`, stamped `stamp`.
 pub fn status(s: &Status, stamp: Time) -> ControllerStatus {
     ControllerStatus {
-        header: header(stamp),
+        header: header(stamp, ""),
         state: s.state as u8,
         job_id: s.job_id,
         source_line: s.source_line,
@@ -29,15 +106,16 @@ pub fn status(s: &Status, stamp: Time) -> ControllerStatus {
 pub fn joint_setpoints(tick: &Tick, names: &[String], stamp: Time) -> JointState {
     let n = tick.n.min(tick.positions.len());
     JointState {
-        header: header(stamp),
+        header: header(stamp, ""),
         name: names.to_vec(),
-        position: tick.positions[..n].iter().map(|p| p / 1000.0).collect(),
+        position: metres(&tick.positions[..n]),
         velocity: Vec::new(),
         effort: Vec::new(),
     }
 }
 
-/// The spindle command of `rpm` (signed), in rad/s.
+/// `/cnc/spindle_command` of a speed of `rpm` (signed): rad/s. The node
+/// publishes it and both recorders record it.
 pub fn spindle_command(rpm: f64) -> Float64 {
     Float64 {
         data: rpm_to_rad_s(rpm),
@@ -49,79 +127,116 @@ pub fn rpm_to_rad_s(rpm: f64) -> f64 {
     rpm * std::f64::consts::TAU / 60.0
 }
 
-/// A stamp in nanoseconds of the controller's clock (signed: a stamp
-/// before the epoch stays before it).
-pub fn time_ns(t: &Time) -> i64 {
-    i64::from(t.sec) * 1_000_000_000 + i64::from(t.nanosec)
-}
-
-fn header(stamp: Time) -> Header {
-    Header {
-        stamp,
-        frame_id: String::new(),
+/// A joint state stamped `ns`: `names`, positions in mm (written in m),
+/// velocities as given (m/s; empty: none).
+pub fn joint_state(
+    ns: u64,
+    names: &[String],
+    position_mm: &[f64],
+    velocity: Vec<f64>,
+) -> JointState {
+    JointState {
+        header: header(time_from_ns(ns), ""),
+        name: names.to_vec(),
+        position: metres(position_mm),
+        velocity,
+        effort: Vec::new(),
     }
 }
 
-/// The most bytes of text (message and recording path) a reply carries.
-///
-/// A reply is kept in one DDS datagram: rustdds 0.15 writes a fragmented
-/// reply with inline QoS (every service reply: the request's identity)
-/// with one stray byte (`DataFrag` writes the `Option` of its parameter
-/// list), which a debug build's DDS thread dies on (a `debug_assert`: the
-/// node then neither publishes nor answers); a release build sends that
-/// byte too. Datagrams to a Fast DDS peer hold about 1,300 bytes of reply;
-/// 1,000 leaves room for the rest.
-pub const MAX_REPLY_TEXT: usize = 1000;
-
-/// `reply` with its message cut ([`fit_reply`]) so that message and
-/// recording path (counted up to 500 bytes) fit in [`MAX_REPLY_TEXT`].
-pub fn fit_run_reply(mut reply: RunProgramResponse) -> RunProgramResponse {
-    reply.message = fit_reply(
-        &reply.message,
-        MAX_REPLY_TEXT - reply.recording.len().min(500),
-    );
-    reply
+/// Velocities (m/s) as finite differences of positions `now` and `prev`
+/// (mm) `dt` s apart; zeros when there is no previous position.
+pub fn joint_velocities(now: &[f64], prev: &[f64], dt: f64) -> Vec<f64> {
+    if prev.len() == now.len() {
+        now.iter()
+            .zip(prev)
+            .map(|(a, p)| (a - p) / 1000.0 / dt)
+            .collect()
+    } else {
+        vec![0.0; now.len()]
+    }
 }
 
-/// `text` cut to at most `max` bytes: whole lines while they fit, then
-/// `... and N more errors` for the error lines left out (counting those a
-/// trailing `... and N more errors` already stood for); a single line
-/// that does not fit is cut at a character boundary and ends in `...`.
-pub fn fit_reply(text: &str, max: usize) -> String {
-    if text.len() <= max {
-        return text.to_string();
+/// `/cnc/status` of job 1 at sample `s` stamped `ns`: running, or idle at
+/// the last sample; `progress` 0 to 1.
+pub fn sample_status(ns: u64, s: &Sample, progress: f64) -> ControllerStatus {
+    ControllerStatus {
+        header: header(time_from_ns(ns), ""),
+        state: if s.last {
+            ControllerStatus::STATE_IDLE
+        } else {
+            ControllerStatus::STATE_RUNNING
+        },
+        job_id: 1,
+        source_line: s.src.line,
+        block_number: s.src.block_no.map_or(-1, |b| b as i64),
+        active_g_codes: Vec::new(),
+        active_tool: s.tool as i32,
+        spindle_speed_command: s.spindle_rpm,
+        feed_override: 1.0,
+        progress,
+        last_error: String::new(),
     }
-    let more_of = |l: &str| {
-        l.strip_prefix("... and ")
-            .and_then(|r| r.strip_suffix(" more errors"))
-            .and_then(|n| n.parse::<u64>().ok())
+}
+
+/// The tool position (m) of a sample: its commanded X, Y, Z.
+pub fn tool_position(s: &Sample) -> [f64; 3] {
+    [s.pos[0] / 1000.0, s.pos[1] / 1000.0, s.pos[2] / 1000.0]
+}
+
+/// `/tf`: `world` → `tool` at `[x, y, z]` (m), stamped `ns`.
+pub fn tool_tf(ns: u64, [x, y, z]: [f64; 3]) -> TFMessage {
+    TFMessage {
+        transforms: vec![TransformStamped {
+            header: header(time_from_ns(ns), WORLD_FRAME),
+            child_frame_id: TOOL_FRAME.to_string(),
+            transform: Transform {
+                translation: Vector3 { x, y, z },
+                rotation: Quaternion::IDENTITY,
+            },
+        }],
+    }
+}
+
+/// `/cnc/tool_pose` at `[x, y, z]` (m) in `world`, stamped `ns`.
+pub fn tool_pose(ns: u64, [x, y, z]: [f64; 3]) -> PoseStamped {
+    PoseStamped {
+        header: header(time_from_ns(ns), WORLD_FRAME),
+        pose: Pose {
+            position: Point { x, y, z },
+            orientation: Quaternion::IDENTITY,
+        },
+    }
+}
+
+/// Appends one x, y, z float32 point (m) to a tool path cloud's data.
+pub fn push_point(path: &mut Vec<u8>, p: [f64; 3]) {
+    for v in p {
+        path.extend_from_slice(&(v as f32).to_le_bytes());
+    }
+}
+
+/// The `/cnc/toolpath` cloud of the points pushed by [`push_point`],
+/// stamped `ns`.
+pub fn toolpath_cloud(data: Vec<u8>, ns: u64) -> PointCloud2 {
+    let n = (data.len() / 12) as u32;
+    let field = |name: &str, offset: u32| PointField {
+        name: name.to_string(),
+        offset,
+        datatype: PointField::FLOAT32,
+        count: 1,
     };
-    let mut out = String::new();
-    let mut left_out = 0u64;
-    // room for the summary line
-    let room = max.saturating_sub(40);
-    for l in text.split('\n') {
-        let sep = usize::from(!out.is_empty());
-        if left_out == 0 && out.len() + sep + l.len() <= room {
-            if sep == 1 {
-                out.push('\n');
-            }
-            out.push_str(l);
-            continue;
-        }
-        left_out += more_of(l).unwrap_or(1);
+    PointCloud2 {
+        header: header(time_from_ns(ns), WORLD_FRAME),
+        height: 1,
+        width: n,
+        fields: vec![field("x", 0), field("y", 4), field("z", 8)],
+        is_bigendian: false,
+        point_step: 12,
+        row_step: 12 * n,
+        data,
+        is_dense: true,
     }
-    if out.is_empty() {
-        // one line longer than the room: cut it
-        let mut end = room.min(text.len());
-        while !text.is_char_boundary(end) {
-            end -= 1;
-        }
-        let first = text.split('\n').next().unwrap_or_default();
-        return format!("{}...", &first[..end.min(first.len())]);
-    }
-    out.push_str(&format!("\n... and {left_out} more errors"));
-    out
 }
 
 #[cfg(test)]
@@ -224,62 +339,5 @@ mod tests {
             nanosec: 500_000_000,
         };
         assert_eq!(time_ns(&before), -500_000_000);
-    }
-
-    #[test]
-    fn replies_fit_in_one_datagram() {
-        let errors: Vec<String> = (1..=30)
-            .map(|l| format!("line {l}, column 1: unexpected character '`': expected an address letter and a number"))
-            .collect();
-        let text = errors.join("\n");
-        assert_eq!(fit_reply(&text, 10_000), text);
-        let short = fit_reply(&text, 1000);
-        assert!(short.len() <= 1000, "{}", short.len());
-        let lines: Vec<&str> = short.lines().collect();
-        let kept = lines.len() - 1;
-        assert_eq!(lines[..kept], errors[..kept]);
-        assert_eq!(lines[kept], format!("... and {} more errors", 30 - kept));
-        // a summary of errors not kept by the check counts too
-        let text = format!("{}\n... and 500 more errors", errors.join("\n"));
-        let short = fit_reply(&text, 1000);
-        assert!(
-            short.ends_with(&format!("... and {} more errors", 530 - kept)),
-            "{short}"
-        );
-        // one long line (a long program_path): cut at a character boundary
-        let long = format!("program_path '{}' may not contain '..'", "é".repeat(2000));
-        let cut = fit_reply(&long, 1000);
-        assert!(cut.len() <= 1000 && cut.ends_with("..."), "{}", cut.len());
-        assert!(cut.starts_with("program_path 'éé"));
-    }
-
-    #[test]
-    fn a_reply_with_a_recording_keeps_room_for_its_path() {
-        let errors: Vec<String> = (1..=30)
-            .map(|l| format!("line {l}, column 1: unexpected character '`': expected an address letter and a number"))
-            .collect();
-        let reply = RunProgramResponse {
-            accepted: false,
-            message: errors.join("\n"),
-            job_id: 0,
-            estimated_duration: 0.0,
-            recording: "r".repeat(300),
-        };
-        let r = fit_run_reply(reply.clone());
-        assert!(r.message.len() <= 700, "{}", r.message.len());
-        assert_eq!(r.message, fit_reply(&reply.message, 700));
-        assert_eq!(r.recording, reply.recording);
-        // a recording path counts up to 500 bytes
-        let r = fit_run_reply(RunProgramResponse {
-            recording: "r".repeat(5000),
-            ..reply.clone()
-        });
-        assert_eq!(r.message, fit_reply(&reply.message, 500));
-        // a short message is kept as it is
-        let r = fit_run_reply(RunProgramResponse {
-            message: "ok".into(),
-            ..reply
-        });
-        assert_eq!(r.message, "ok");
     }
 }

@@ -1,8 +1,7 @@
 //! The CDR codec of recorded messages: ROS 2 messages to and from CDR
-//! behind the encapsulation header, and the stamps of their headers.
+//! behind the encapsulation header.
 
 use byteorder::LittleEndian;
-use cnc_msgs::Time;
 use serde::Serialize;
 
 /// CDR little endian, plain (XCDR1) encapsulation, no options.
@@ -37,23 +36,10 @@ pub fn from_cdr<T: serde::de::DeserializeOwned>(data: &[u8]) -> Result<T, String
     r.map(|(v, _)| v).map_err(|e| format!("CDR: {e}"))
 }
 
-/// A stamp from ns since the Unix epoch.
-pub fn time_from_ns(ns: u64) -> Time {
-    Time {
-        sec: (ns / 1_000_000_000).min(i32::MAX as u64) as i32,
-        nanosec: (ns % 1_000_000_000) as u32,
-    }
-}
-
-/// ns since the Unix epoch of a stamp.
-pub fn stamp_ns(t: &Time) -> u64 {
-    (t.sec.max(0) as u64) * 1_000_000_000 + t.nanosec as u64
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use cnc_msgs::{Header, JointState, PointCloud2};
+    use cnc_msgs::{Header, JointState, PointCloud2, Time};
 
     #[test]
     fn joint_state_cdr_is_byte_exact() {

@@ -1,10 +1,10 @@
 //! The live job recorder of the node: [`JobRecorder`].
 
-use super::cdr::stamp_ns;
-use super::messages::{
-    push_point, tool_pose, tool_tf, toolpath_cloud, topics, POSE_EVERY, TOOLPATH_MAX_POINTS,
-};
 use super::writer::{ChannelId, RecordSummary, Recorder, RecordingInfo, LIVE_CHUNK_SPAN_NS};
+use crate::convert::{
+    push_point, stamp_ns, tool_pose, tool_tf, toolpath_cloud, topics, POSE_EVERY,
+    TOOLPATH_MAX_POINTS,
+};
 use cnc_core::Machine;
 use cnc_msgs::{ControllerStatus, Float64, JointState, PointCloud2, PoseStamped, TFMessage};
 use std::fs::File;

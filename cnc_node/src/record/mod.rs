@@ -36,11 +36,12 @@
 //! by size alone. Compression is single-threaded, so equal inputs give
 //! byte-identical files on every machine.
 //!
-//! The parts: `writer` ([`Recorder`]: the MCAP file), `cdr` (the codec
-//! and stamps), `rosbag2` (its metadata and QoS YAML), [`messages`] (the
-//! ROS messages built from samples and steps, their topics and frames),
-//! `sim` ([`SimRecorder`]: the recording of an offline run) and `job`
-//! ([`JobRecorder`]: the node's live recording of a job).
+//! The parts: `writer` ([`Recorder`]: the MCAP file), `cdr` (the codec),
+//! `rosbag2` (its metadata and QoS YAML), `sim` ([`SimRecorder`]: the
+//! recording of an offline run) and `job` ([`JobRecorder`]: the node's
+//! live recording of a job). The ROS messages they record, their topics,
+//! frames and stamps are built in [`crate::convert`] (re-exported here:
+//! [`topics`], [`time_from_ns`], [`stamp_ns`], ...).
 //!
 //! ```no_run
 //! use cnc_node::record::{Recorder, RecordingInfo};
@@ -52,14 +53,15 @@
 //! ```
 mod cdr;
 mod job;
-pub mod messages;
 mod rosbag2;
 mod sim;
 mod writer;
 
-pub use cdr::{from_cdr, stamp_ns, time_from_ns, to_cdr, to_cdr_into, CDR_LE_HEADER};
+pub use crate::convert::{
+    stamp_ns, time_from_ns, topics, POSE_EVERY, TOOLPATH_MAX_POINTS, TOOL_FRAME, WORLD_FRAME,
+};
+pub use cdr::{from_cdr, to_cdr, to_cdr_into, CDR_LE_HEADER};
 pub use job::JobRecorder;
-pub use messages::{topics, POSE_EVERY, TOOLPATH_MAX_POINTS, TOOL_FRAME, WORLD_FRAME};
 pub use rosbag2::{
     bag_metadata_yaml, qos_yaml, BagTopic, Qos, BAG_METADATA_VERSION, MESSAGE_ENCODING, ROS_DISTRO,
 };

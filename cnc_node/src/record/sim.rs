@@ -1,11 +1,11 @@
 //! Recordings of offline runs: [`SimRecorder`] is the [`Sink`] that
 //! records the steps of a run (`cnc simulate --mcap`, `cnc bag rerun`).
 
-use super::messages::{
+use super::writer::{ChannelId, RecordSummary, Recorder, RecordingInfo};
+use crate::convert::{
     joint_state, joint_velocities, push_point, sample_status, spindle_command, tool_pose,
     tool_position, tool_tf, toolpath_cloud, topics, POSE_EVERY, TOOLPATH_MAX_POINTS,
 };
-use super::writer::{ChannelId, RecordSummary, Recorder, RecordingInfo};
 use crate::offline::{check_text, run, run_with, SimSummary, Sink, Step};
 use cnc_core::source::StrSource;
 use cnc_core::{Dialect, Machine};
@@ -268,7 +268,7 @@ impl<W: Write + Seek> Sink for SimRecorder<W> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::record::cdr::time_from_ns;
+    use crate::convert::time_from_ns;
     use cnc_msgs::Time;
 
     #[test]
