@@ -231,6 +231,9 @@ pub(crate) struct Comp {
     queue: Vec<Queued>,
     /// the last output point (machine coordinates, after tip and offset)
     last: V3,
+    /// a new geometry offset is in force and no move has taken it up yet:
+    /// the next move starts with a line from where the tool stands
+    offset_due: bool,
 }
 
 /// A block's name in messages: its N number, else its line.
@@ -251,16 +254,30 @@ impl Comp {
             held: None,
             queue: Vec::new(),
             last: home,
+            offset_due: false,
         }
     }
 
-    /// Nothing to do: no compensation, nothing held, no geometry offset.
+    /// Nothing to do: no compensation, nothing held, no geometry offset
+    /// (in force, or changed and not yet taken up).
     #[inline]
     pub(crate) fn idle(&self) -> bool {
         self.active.is_none()
             && self.want.is_none()
             && self.held.is_none()
             && self.geo == V3::zeros()
+            && !self.offset_due
+    }
+
+    /// A command that went by while the stage was idle: where the tool
+    /// stands after it.
+    #[inline]
+    pub(crate) fn passed(&mut self, ev: &Event) {
+        match ev {
+            Event::Move { geom, .. } => self.last = geom.end(),
+            Event::Thread(m) => self.last = m.seg.end,
+            _ => {}
+        }
     }
 
     pub(crate) fn active(&self) -> bool {
@@ -272,8 +289,14 @@ impl Comp {
         self.want = m;
     }
 
-    /// The selected tool's geometry offset.
+    /// The selected tool's geometry offset, taken up by the next move
+    /// (`docs/compensation.md` §6): that move starts with a line, at its
+    /// own feed, from where the tool stands to its start with the new
+    /// offset, so the setpoints never jump.
     pub(crate) fn set_geometry_offset(&mut self, g: V3) {
+        if g != self.geo {
+            self.offset_due = true;
+        }
         self.geo = g;
     }
 
@@ -298,6 +321,22 @@ impl Comp {
         src: Src,
         out: &mut std::collections::VecDeque<Event>,
     ) {
+        if self.offset_due {
+            // a new geometry offset: from where the tool stands
+            self.offset_due = false;
+            let start = geom.start();
+            if start != self.last {
+                out.push_back(Event::Move {
+                    geom: Geom::Line {
+                        start: self.last,
+                        end: start,
+                    },
+                    feed,
+                    src,
+                });
+                self.last = start;
+            }
+        }
         if geom.length() > 0.0 {
             self.last = geom.end();
             out.push_back(Event::Move { geom, feed, src });
@@ -314,6 +353,22 @@ impl Comp {
         let Event::Move { geom, feed, src } = ev else {
             if let Event::End { .. } = ev {
                 self.release_nominal(out, errs);
+            }
+            let mut ev = ev;
+            if let Event::Thread(m) = &mut ev {
+                // a thread is cut where the tool's offset puts it; it starts
+                // where the move before it ended
+                if self.offset_due {
+                    self.offset_due = false;
+                    errs.push(format!(
+                        "the G33 block {} follows a tool change that changes the geometry offset: program a positioning move (G00/G01) to the thread's start before it",
+                        block_name(m.src)
+                    ));
+                }
+                for p in [&mut m.seg.start, &mut m.seg.prog_end, &mut m.seg.end] {
+                    *p -= self.geo;
+                }
+                self.last = m.seg.end;
             }
             if self.held.is_some() {
                 self.queue.push(Queued::Other(ev));

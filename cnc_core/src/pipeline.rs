@@ -76,6 +76,7 @@ impl Canon for Front {
     #[inline]
     fn command(&mut self, ev: Event, errors: &mut Vec<String>) {
         if self.comp.idle() {
+            self.comp.passed(&ev);
             self.pass(ev);
             return;
         }
@@ -83,10 +84,23 @@ impl Canon for Front {
         self.comp.push(ev, &mut comped, errors);
         // the commanded (compensated) path: travel limits and bounding box
         for ev in &comped {
-            let Event::Move { geom, src, .. } = *ev else {
-                continue;
+            let (geom, src) = match *ev {
+                Event::Move { geom, src, .. } => (geom, src),
+                // a thread moved by the geometry offset: its extent
+                Event::Thread(m) => (
+                    Geom::Line {
+                        start: m.seg.start,
+                        end: m.seg.prog_end,
+                    },
+                    m.src,
+                ),
+                _ => continue,
             };
-            let (lo, hi) = geom.bbox();
+            let (mut lo, mut hi) = geom.bbox();
+            if let Event::Thread(m) = *ev {
+                lo = lo.inf(&m.seg.end);
+                hi = hi.sup(&m.seg.end);
+            }
             for i in 0..3 {
                 if let Some((_, text)) = self.travel.exceeded(i, geom.start()[i], lo[i], hi[i]) {
                     errors.push(format!(

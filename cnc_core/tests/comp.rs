@@ -361,3 +361,81 @@ fn polar_arcs_and_a_helix_are_compensated_in_the_plane_only() {
         }
     }
 }
+
+/// Largest change of any axis between two samples, mm.
+fn largest_step(s: &[Sample]) -> f64 {
+    s.windows(2)
+        .map(|w| (w[1].pos - w[0].pos).abs().max())
+        .fold(0.0, f64::max)
+}
+
+/// A tool change whose geometry offset differs is taken up by the next
+/// move (a line at that move's feed from where the tool stands), never by a
+/// jump of the setpoints: before, T2 made Z step by its 10 mm length in one
+/// sample (smoothed over the filter's 4).
+#[test]
+fn a_new_geometry_offset_is_taken_up_by_the_next_move() {
+    let mut m = Machine::builtin_mill();
+    m.tools[1].z_mm = 10.0;
+    let number = m.tools[1].number;
+    let text = format!("N10 G90 G00 X10 Y10 Z50\nN20 T{number}\nN30 G01 X20 F600\nN40 M30\n");
+    let s = run(&text, &m);
+    let vmax = m.vmax().max();
+    let step = largest_step(&s);
+    assert!(
+        step <= vmax * m.dt() + 1e-9,
+        "a setpoint moved {step} mm in one sample (at most {} mm)",
+        vmax * m.dt()
+    );
+    // the offset point: Z50 programmed, the tool 10 mm longer
+    let end = s.last().unwrap().pos;
+    assert!(
+        (end - V3::new(20.0, 10.0, 40.0)).norm() < 1e-9,
+        "ends at {end:?}"
+    );
+    // the move from Z50 to Z40 runs at N30's feed (10 mm/s), within N30
+    let taking_up: Vec<&Sample> = s.iter().filter(|x| x.src.line == 3).collect();
+    let fastest = taking_up.iter().map(|x| x.path_speed).fold(0.0, f64::max);
+    assert!((fastest - 10.0).abs() < 1e-9, "N30 ran at {fastest} mm/s");
+    let z40 = taking_up
+        .iter()
+        .position(|x| (x.pos.z - 40.0).abs() < 1e-12)
+        .unwrap();
+    assert!(
+        (taking_up[z40].pos.x - 10.0).abs() < 1e-9,
+        "Z reached 40 at X{} (the offset first, then the line)",
+        taking_up[z40].pos.x
+    );
+}
+
+/// A thread is cut where the tool's geometry offset puts it, and a thread
+/// right after a tool change that changes the offset is refused.
+#[test]
+fn threads_follow_the_geometry_offset() {
+    let mut m = Machine::builtin_lathe();
+    m.tools[0].x_mm = 1.5; // radius
+    let t = m.tools[0].number;
+    let text = format!(
+        "N10 G18 G90 M03 S200 T01{t:02}\nN20 G00 X20 Z5\nN30 G33 Z-40 F1.5\nN40 G00 X30\nN50 M30\n"
+    );
+    let s = run(&text, &m);
+    let in_thread: Vec<&Sample> = s.iter().filter(|x| x.src.line == 3).collect();
+    assert!(!in_thread.is_empty());
+    for x in &in_thread {
+        // X20 is a radius of 10; the offset takes 1.5 off
+        assert!(
+            (x.pos.x - 8.5).abs() < 1e-12,
+            "thread at X radius {}",
+            x.pos.x
+        );
+    }
+    assert!(largest_step(&s) <= m.vmax().max() * m.dt() + 1e-9);
+    let late = format!(
+        "N10 G18 G90 M03 S200\nN20 G00 X20 Z5\nN30 T01{t:02}\nN40 G33 Z-40 F1.5\nN50 M30\n"
+    );
+    let r = check(StrSource::new(&late), Dialect::Cnc836, &exact(&m));
+    assert_eq!(
+        r.errors.iter().map(|e| e.to_string()).collect::<Vec<_>>(),
+        vec!["line 5, column 1: block N50: the G33 block N40 follows a tool change that changes the geometry offset: program a positioning move (G00/G01) to the thread's start before it".to_string()]
+    );
+}

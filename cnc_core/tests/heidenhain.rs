@@ -259,3 +259,41 @@ fn polar_rule_errors() {
         "line 1, column 4: block N1: unsupported G code G11 in the cnc836 dialect"
     );
 }
+
+/// A pole block's other words count: its feed, spindle and plane (the
+/// pole is read in the plane the block selects) and its end. Before, they
+/// were dropped: `I+50 J+50 F500` lost the F ("missing feed" at the next
+/// block) and `G18 I.. K..` read the pole in G17.
+#[test]
+fn a_pole_blocks_other_words_count() {
+    let m = Machine::builtin_mill();
+    assert_eq!(
+        errors("N1 I+50 J+50 F500 *\nN2 G11 R+10 H+0 *\nN3 M30 *\n"),
+        Vec::<String>::new()
+    );
+    let g = moves("N1 I+50 J+50 F500 *\nN2 G11 R+10 H+90 *\n", &m);
+    assert_eq!(g.len(), 1);
+    assert!(
+        near(g[0].end(), V3::new(50.0, 60.0, 0.0)),
+        "{:?}",
+        g[0].end()
+    );
+    // G18: the pole is K (Z) and I (X)
+    let g = moves(
+        "N1 G00 Z5 *\nN2 G18 I+10 K+5 F300 *\nN3 G11 R+4 H+0 *\n",
+        &m,
+    );
+    assert!(
+        near(g.last().unwrap().end(), V3::new(10.0, 0.0, 9.0)),
+        "{:?}",
+        g.last().unwrap().end()
+    );
+    // the pole block ends the program
+    let r = check(
+        StrSource::new("N1 I+50 J+50 M30 *\nN2 G11 R+10 H+0 F100 *\n"),
+        Dialect::Heidenhain,
+        &m,
+    );
+    assert!(r.ok(), "{}", r.message());
+    assert_eq!(r.moves, 0);
+}

@@ -33,7 +33,13 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
     /// a dialect whose centre words alone set it, or G29 (the pole where
     /// the tool stands). False: the block is done.
     pub(super) fn pole_block(&mut self, w: &Words) -> bool {
-        let (p, q, n) = self.modal.plane.axes();
+        // (in the plane the block itself selects, if it does)
+        let plane = if w.has(slot::PLANE) {
+            w.plane
+        } else {
+            self.modal.plane
+        };
+        let (p, q, n) = plane.axes();
         if w.has(slot::POLE_HERE) {
             self.pole = Some(self.pos);
             return true;
@@ -55,7 +61,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                 format!(
                     "{} is no pole coordinate in {}: the pole is {} and {}",
                     c.letter as char,
-                    self.modal.plane.gcode(),
+                    plane.gcode(),
                     CENTER_LETTERS[p] as char,
                     CENTER_LETTERS[q] as char
                 ),

@@ -133,9 +133,12 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
         // a thread block held back learns whether this block goes on with it
         let g33 = w.get(slot::THREAD);
         let chained = self.release_thread(g33.is_some());
-        if !self.helix_block(w) || !self.pole_block(w) {
+        if !self.helix_block(w) {
             return;
         }
+        // a pole block sets the pole and moves nothing; its other words
+        // (feed, speed, tool, spindle, modal codes, end) still count
+        let pole_only = !self.pole_block(w);
         // --- feed, speed, tool -------------------------------------------------
         if w.has(slot::FEED_MODE) {
             self.modal.per_rev = w.per_rev;
@@ -252,40 +255,43 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
         if w.has(slot::DISTANCE) {
             self.modal.absolute = w.absolute;
         }
-        // --- dwell -------------------------------------------------------------
-        if let Some(g4) = w.dwell() {
-            self.exec_dwell(w, &g4, src);
-        } else {
-            if let Some(p) = w.p().filter(|_| !(w.has(slot::PATH) && w.path == 64)) {
-                self.error(
-                    Some(&p),
-                    "address P is only used with G04 (dwell) and G64 (path tolerance)".into(),
-                );
-            }
-            if w.has(slot::LAST_DIR) {
-                match self.last_ccw {
-                    Some(ccw) => {
-                        self.modal.motion = if ccw {
-                            Motion::PolarCcw
-                        } else {
-                            Motion::PolarCw
+        if !pole_only {
+            // --- dwell -------------------------------------------------------------
+            if let Some(g4) = w.dwell() {
+                self.exec_dwell(w, &g4, src);
+            } else {
+                if let Some(p) = w.p().filter(|_| !(w.has(slot::PATH) && w.path == 64)) {
+                    self.error(
+                        Some(&p),
+                        "address P is only used with G04 (dwell) and G64 (path tolerance)".into(),
+                    );
+                }
+                if w.has(slot::LAST_DIR) {
+                    match self.last_ccw {
+                        Some(ccw) => {
+                            self.modal.motion = if ccw {
+                                Motion::PolarCcw
+                            } else {
+                                Motion::PolarCw
+                            }
+                        }
+                        None => {
+                            let g15 = w.get(slot::LAST_DIR);
+                            self.error(
+                                g15.as_ref(),
+                                "G15 (polar arc, last direction) needs a G12 or G13 before it"
+                                    .into(),
+                            );
+                            return;
                         }
                     }
-                    None => {
-                        let g15 = w.get(slot::LAST_DIR);
-                        self.error(
-                            g15.as_ref(),
-                            "G15 (polar arc, last direction) needs a G12 or G13 before it".into(),
-                        );
-                        return;
-                    }
+                } else if w.has(slot::MOTION) {
+                    self.modal.motion = w.motion;
                 }
-            } else if w.has(slot::MOTION) {
-                self.modal.motion = w.motion;
-            }
-            match g33 {
-                Some(g) => self.exec_thread(w, &g, src, chained),
-                None => self.exec_motion(w, src),
+                match g33 {
+                    Some(g) => self.exec_thread(w, &g, src, chained),
+                    None => self.exec_motion(w, src),
+                }
             }
         }
         if w.end().is_some() {
