@@ -2,7 +2,7 @@
 
 use clap::{Parser, Subcommand};
 use cnc_core::{check, CheckReport, Dialect, Machine, V3};
-use cnc_node::files::{load_machine, open_program};
+use cnc_node::files::{dialect_for, dialect_of_name, load_machine, machine_hint_for, open_program};
 use cnc_node::offline::{run, CsvSink, SimSummary, Sink, Step};
 use cnc_node::record::{RecordingInfo, SimRecorder};
 use std::io::{IsTerminal, Write};
@@ -111,6 +111,59 @@ enum Cmd {
         #[arg(long, default_value_t = 30.0)]
         wait: f64,
     },
+    /// Abort the running job (<namespace>/abort): it decelerates along its
+    /// path and ends.
+    Abort {
+        #[command(flatten)]
+        at: Controller,
+    },
+    /// Feed hold (<namespace>/feed_hold): the job decelerates along its path
+    /// and waits.
+    Hold {
+        #[command(flatten)]
+        at: Controller,
+    },
+    /// Resume a held job.
+    Resume {
+        #[command(flatten)]
+        at: Controller,
+    },
+    /// Set the feed override, percent (0..200), on <namespace>/feed_override,
+    /// and wait until the controller shows it.
+    Override {
+        percent: f64,
+        #[command(flatten)]
+        at: Controller,
+    },
+    /// Print the controller's status (state, job, line, modal codes, tool,
+    /// spindle, override, progress, last error).
+    Status {
+        #[command(flatten)]
+        at: Controller,
+    },
+}
+
+/// Which running controller a command talks to.
+#[derive(clap::Args)]
+struct Controller {
+    #[arg(long, default_value = "/cnc")]
+    namespace: String,
+    /// DDS domain (default: ROS_DOMAIN_ID, else 0)
+    #[arg(long)]
+    domain: Option<u16>,
+    /// seconds to wait for the node
+    #[arg(long, default_value_t = 10.0)]
+    wait: f64,
+}
+
+impl Controller {
+    fn target(self) -> cnc_node::client::Target {
+        cnc_node::client::Target {
+            namespace: self.namespace,
+            domain: self.domain.unwrap_or_else(cnc_msgs::ros::domain_from_env),
+            wait: std::time::Duration::from_secs_f64(self.wait.clamp(0.1, 3600.0)),
+        }
+    }
 }
 
 #[derive(Subcommand)]
@@ -223,6 +276,22 @@ fn main() -> ExitCode {
             (dry_run, record),
             wait,
         ),
+        Cmd::Abort { at } => cmd_service(cnc_node::client::abort(&at.target())),
+        Cmd::Hold { at } => cmd_service(cnc_node::client::hold(&at.target(), true)),
+        Cmd::Resume { at } => cmd_service(cnc_node::client::hold(&at.target(), false)),
+        Cmd::Override { percent, at } => {
+            cnc_node::client::set_override(&at.target(), percent).map(|s| {
+                println!(
+                    "feed override {} %",
+                    cnc_core::diag::num(s.feed_override * 100.0)
+                );
+                ExitCode::SUCCESS
+            })
+        }
+        Cmd::Status { at } => cnc_node::client::status(&at.target()).map(|s| {
+            println!("{}", fmt_status(&s));
+            ExitCode::SUCCESS
+        }),
     };
     match r {
         Ok(code) => code,
@@ -231,6 +300,42 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+/// A service's answer: its message, exit 0 if it succeeded, 1 if refused.
+fn cmd_service(answer: Result<(bool, String), String>) -> Result<ExitCode, String> {
+    let (ok, message) = answer?;
+    if ok {
+        println!("{}", if message.is_empty() { "ok" } else { &message });
+        Ok(ExitCode::SUCCESS)
+    } else {
+        eprintln!("refused: {message}");
+        Ok(ExitCode::from(1))
+    }
+}
+
+/// The status in one line.
+fn fmt_status(s: &cnc_msgs::ControllerStatus) -> String {
+    let mut line = format!(
+        "{} job {} line {}{} {} T{} S{} override {} % progress {:.1} %",
+        cnc_node::client::state_name(s.state),
+        s.job_id,
+        s.source_line,
+        if s.block_number >= 0 {
+            format!(" (N{})", s.block_number)
+        } else {
+            String::new()
+        },
+        s.active_g_codes.join(" "),
+        s.active_tool,
+        cnc_core::diag::num(s.spindle_speed_command),
+        cnc_core::diag::num(s.feed_override * 100.0),
+        s.progress * 100.0
+    );
+    if !s.last_error.is_empty() {
+        line.push_str(&format!(": {}", s.last_error));
+    }
+    line
 }
 
 fn load(machine: &str, rate: Option<f64>) -> Result<Machine, String> {
@@ -249,8 +354,9 @@ fn run_check(file: &Path, dialect: Dialect, m: &Machine) -> Result<CheckReport, 
     Ok(check(src, dialect, m))
 }
 
-/// Prints every error with a snippet; true when the program is good.
-fn report_errors(file: &Path, r: &CheckReport) -> bool {
+/// Prints every error with a snippet (and a hint when the machine does not
+/// seem to fit the program); true when the program is good.
+fn report_errors(file: &Path, r: &CheckReport, m: &Machine) -> bool {
     if r.ok() {
         return true;
     }
@@ -270,6 +376,9 @@ fn report_errors(file: &Path, r: &CheckReport) -> bool {
         r.error_count,
         if r.error_count == 1 { "" } else { "s" }
     );
+    if let Some(hint) = machine_hint_for(file, m, r) {
+        let _ = writeln!(err, "{hint}");
+    }
     false
 }
 
@@ -309,9 +418,9 @@ fn fmt_bbox(m: &Machine, bbox: Option<(V3, V3)>) -> String {
 
 fn cmd_check(file: &Path, dialect: Option<Dialect>, machine: &str) -> Result<ExitCode, String> {
     let m = load(machine, None)?;
-    let d = dialect.unwrap_or(m.dialect);
+    let d = dialect_for(Some(file), dialect, &m);
     let r = run_check(file, d, &m)?;
-    if !report_errors(file, &r) {
+    if !report_errors(file, &r, &m) {
         return Ok(ExitCode::from(1));
     }
     println!(
@@ -336,10 +445,10 @@ fn cmd_simulate(
     mcap: Option<&Path>,
 ) -> Result<ExitCode, String> {
     let m = load(machine, rate)?;
-    let d = dialect.unwrap_or(m.dialect);
+    let d = dialect_for(Some(file), dialect, &m);
     // checked once; every output is a sink of the one run
     let r = run_check(file, d, &m)?;
-    if !report_errors(file, &r) {
+    if !report_errors(file, &r, &m) {
         return Ok(ExitCode::from(1));
     }
     let mut recording = match mcap {
@@ -450,16 +559,45 @@ fn cmd_run(
         .map(|f| f.display().to_string())
         .or(path.clone())
         .unwrap_or_default();
-    let outcome = run(RunRequest {
-        namespace,
-        domain: domain.unwrap_or_else(cnc_msgs::ros::domain_from_env),
-        program,
-        program_path: path.unwrap_or_default(),
-        dialect: dialect.map(|d| d.to_string()).unwrap_or_default(),
-        dry_run,
-        record,
-        connect_timeout: std::time::Duration::from_secs_f64(wait.clamp(0.1, 3600.0)),
-    })?;
+    // the dialect: given, else the file name's, else the node's machine's
+    let dialect = dialect
+        .or_else(|| file.and_then(dialect_of_name))
+        .or_else(|| path.as_deref().map(Path::new).and_then(dialect_of_name));
+    // a progress bar on a terminal
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let b = indicatif::ProgressBar::new(1000);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{bar:40} {percent:>3}% {msg}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    });
+    let outcome = run(
+        RunRequest {
+            namespace,
+            domain: domain.unwrap_or_else(cnc_msgs::ros::domain_from_env),
+            program,
+            program_path: path.unwrap_or_default(),
+            dialect: dialect.map(|d| d.to_string()).unwrap_or_default(),
+            dry_run,
+            record,
+            connect_timeout: std::time::Duration::from_secs_f64(wait.clamp(0.1, 3600.0)),
+        },
+        |s| {
+            if let Some(b) = &bar {
+                b.set_position((s.progress.clamp(0.0, 1.0) * 1000.0) as u64);
+                b.set_message(format!(
+                    "line {} {}",
+                    s.source_line,
+                    cnc_node::client::state_name(s.state)
+                ));
+            }
+        },
+    );
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let outcome = outcome?;
     match outcome {
         RunOutcome::Refused(m) => {
             eprintln!("{what}: refused by the controller:\n{m}");
@@ -491,6 +629,10 @@ fn cmd_run(
             eprintln!("{what}: job {job_id} failed: {error}");
             Ok(ExitCode::from(1))
         }
+        RunOutcome::Aborted { job_id, lines } => {
+            eprintln!("{what}: job {job_id} aborted (Ctrl-C) at line {lines}; the axes stopped on the path");
+            Ok(ExitCode::from(130))
+        }
     }
 }
 
@@ -519,7 +661,7 @@ fn cmd_plot(
         return Ok(ExitCode::SUCCESS);
     }
     let m = load(machine, None)?;
-    let d = dialect.unwrap_or(m.dialect);
+    let d = dialect_for(Some(file), dialect, &m);
     let text = std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
     let name = file
         .file_name()
