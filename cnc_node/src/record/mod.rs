@@ -58,7 +58,7 @@ mod sim;
 mod writer;
 
 pub use cdr::{from_cdr, stamp_ns, time_from_ns, to_cdr, to_cdr_into, CDR_LE_HEADER};
-pub use job::JobRecorder;
+pub use job::{JobRecorder, LivePath};
 pub use messages::{topics, POSE_EVERY, TOOLPATH_MAX_POINTS, TOOL_FRAME, WORLD_FRAME};
 pub use rosbag2::{
     bag_metadata_yaml, qos_yaml, BagTopic, Qos, BAG_METADATA_VERSION, MESSAGE_ENCODING, ROS_DISTRO,
