@@ -114,6 +114,27 @@ class Cdr:
         return v
 
 
+def joint_states(raw):
+    """(names, positions m: N x joints) of sensor_msgs/JointState payloads.
+    Messages laid out alike (same names, same frame) are read as one array
+    at the offset of the first one's positions; any other one by itself."""
+    if not raw:
+        return None, np.zeros((0, 0))
+    names, pos, _ = joint_state(raw[0])
+    c = Cdr(raw[0])
+    c.o += 8
+    c.string()
+    [c.string() for _ in range(c.u32())]
+    c.u32()
+    c.align(8)
+    off, n, size = c.o, len(pos), len(raw[0])
+    head = raw[0][8:off]  # after the stamp, up to the positions
+    if all(len(d) == size and d[8:off] == head for d in raw):
+        block = np.frombuffer(b"".join(raw), dtype=np.uint8).reshape(len(raw), size)
+        return names, block[:, off : off + 8 * n].copy().view("<f8")
+    return names, np.array([joint_state(d)[1] for d in raw])
+
+
 def joint_state(data):
     """(names, positions m, velocities m/s) of a sensor_msgs/JointState."""
     c = Cdr(data)
@@ -142,17 +163,17 @@ class Recording:
             for m in reader.iter_metadata():
                 self.meta[m.name] = dict(m.metadata)
             f.seek(0)
-            for schema, channel, msg in make_reader(f).iter_messages(log_time_order=True):
+            raw_set, raw_act = [], []
+            # file order (each topic is written in time order; sorted below)
+            for schema, channel, msg in make_reader(f).iter_messages(log_time_order=False):
                 topic = channel.topic
-                if topic in (SETPOINTS, STATES):
-                    names, pos, _ = joint_state(msg.data)
-                    if topic == SETPOINTS:
-                        self.names = self.names or names
-                        self.t_set.append(msg.log_time)
-                        self.p_set.append(pos)
-                    else:
-                        self.t_act.append(msg.log_time)
-                        self.p_act.append(pos)
+                if topic == SETPOINTS:
+                    self.t_set.append(msg.log_time)
+                    raw_set.append(msg.data)
+                    continue
+                if topic == STATES:
+                    self.t_act.append(msg.log_time)
+                    raw_act.append(msg.data)
                     continue
                 if topic not in (SPINDLE, STATUS, ENCODER, PROGRAM, MACHINE) or schema is None:
                     continue
@@ -172,13 +193,21 @@ class Recording:
                     self.machine = m.data
         if not self.t_set:
             die(f"{path}: no {SETPOINTS} messages")
-        self.t_set = np.array(self.t_set, dtype=np.int64)
-        self.p_set = np.array(self.p_set) * 1000.0
+        self.names, p_set = joint_states(raw_set)
+        self.t_set, self.p_set = by_time(self.t_set, p_set * 1000.0)
         if self.t_act:
-            self.t_act = np.array(self.t_act, dtype=np.int64)
-            self.p_act = np.array(self.p_act) * 1000.0
+            _, p_act = joint_states(raw_act)
+            self.t_act, self.p_act = by_time(self.t_act, p_act * 1000.0)
         else:
             self.t_act, self.p_act = self.t_set, self.p_set
+        for lst in (self.spindle, self.encoder, self.status):
+            lst.sort(key=lambda e: e[0])
+
+
+def by_time(t, p):
+    t = np.array(t, dtype=np.int64)
+    order = np.argsort(t, kind="stable")
+    return t[order], p[order]
 
 
 def read_programmed(src):
@@ -292,7 +321,7 @@ def build(rec, programmed, out, app_id):
         rr.log(ent, rr.LineStrips3D.from_fields(colors=[col], radii=[rr.Radius.ui_points(w)]), static=True)
         if len(pts) > 1:
             segs = np.stack([pts[:-1], pts[1:]], axis=1)
-            rr.send_columns(ent, indexes=time(t_k[1:]), columns=rr.LineStrips3D.columns(strips=list(segs)))
+            rr.send_columns(ent, indexes=time(t_k[1:]), columns=rr.LineStrips3D.columns(strips=segs))
     rr.send_columns("world/tool", indexes=time(t_k), columns=rr.Transform3D.columns(translation=act_xyz))
     tool_shape(machine, lathe, rec)
 

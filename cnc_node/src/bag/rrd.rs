@@ -252,7 +252,7 @@ mod tests {
     fn programmed_moves_of_a_pocket_and_a_thread() {
         let m = Machine::builtin_mill();
         let text =
-            "G90 G17 M03 S1000\nG00 X10 Y0 Z5\nG01 Z-1 F300\nG02 X0 Y10 I-10 J0\nG00 Z5\nM30\n";
+            "G90 G17 M03 S1000\nG00 X10 Y0 Z5\nG01 Z-1 F300\nG03 X0 Y10 I-10 J0\nG00 Z5\nM30\n";
         let moves = programmed_moves(&m, Dialect::Cnc836, text);
         assert_eq!(moves.len(), 4);
         assert_eq!(
