@@ -30,15 +30,20 @@
 //! [`rerun`] runs the controller again on the program and the machine file
 //! a recording carries and writes a new recording.
 //!
+//! [`write_rrd`] (`cnc bag rrd`) writes a recording as a Rerun file with
+//! its layout, through the converter `cnc_node/rerun/cnc_rrd.py`.
+//!
 //! Every recording is read by one reader, [`Bag`] (`cnc bag compare`,
 //! `cnc bag replay`, `cnc bag rerun`, `cnc plot` of a recording); only
 //! `cnc bag recover` ([`crate::recover`]) reads cut files record by record.
 
 mod compare;
 mod reader;
+mod rrd;
 
 pub use compare::{compare, compare_bags, At, CompareReport, TopicDiff, ValueDiff};
 pub use reader::{Bag, Extent, Job, MessageView, TopicData};
+pub use rrd::{programmed_moves, programmed_text, write_rrd, ProgrammedMove, CONVERTER};
 
 use crate::record::{self, RecordSummary};
 use std::path::Path;

@@ -209,6 +209,21 @@ enum BagCmd {
         #[arg(short, long)]
         out: PathBuf,
     },
+    /// Write a recording as a Rerun file (.rrd) that opens on its own
+    /// layout: the path growing as the tool moves (programmed, commanded,
+    /// actual), the tool, every joint's setpoint and actual in mm with the
+    /// following error, path and spindle speed, the program at its current
+    /// line, time in seconds from the start. Runs the converter
+    /// (cnc_node/rerun/cnc_rrd.py, built in) with Python and rerun-sdk.
+    Rrd {
+        file: PathBuf,
+        #[arg(short, long)]
+        out: PathBuf,
+        /// Python 3 with rerun-sdk 0.41, mcap and mcap-ros2-support
+        /// (default: $CNC_PYTHON, else python3)
+        #[arg(long)]
+        python: Option<String>,
+    },
     /// Make a complete recording from one that was cut short (a killed
     /// recorder: no summary, an unfinished last chunk): every whole chunk's
     /// messages, the schemas, channels, metadata and attachments, written
@@ -764,6 +779,14 @@ fn cmd_bag(cmd: BagCmd) -> Result<ExitCode, String> {
                 out.display(),
                 s.messages
             );
+            Ok(ExitCode::SUCCESS)
+        }
+        BagCmd::Rrd { file, out, python } => {
+            let python = python
+                .or_else(|| std::env::var("CNC_PYTHON").ok())
+                .unwrap_or_else(|| "python3".into());
+            let printed = cnc_node::bag::write_rrd(&file, &out, &python)?;
+            print!("{printed}");
             Ok(ExitCode::SUCCESS)
         }
         BagCmd::Recover { file, out } => {

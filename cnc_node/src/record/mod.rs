@@ -61,7 +61,7 @@ pub use crate::convert::{
     stamp_ns, time_from_ns, topics, POSE_EVERY, TOOLPATH_MAX_POINTS, TOOL_FRAME, WORLD_FRAME,
 };
 pub use cdr::{from_cdr, to_cdr, to_cdr_into, CDR_LE_HEADER};
-pub use job::JobRecorder;
+pub use job::{JobRecorder, LivePath};
 pub use rosbag2::{
     bag_metadata_yaml, qos_yaml, BagTopic, Qos, BAG_METADATA_VERSION, MESSAGE_ENCODING, ROS_DISTRO,
 };
