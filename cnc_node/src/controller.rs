@@ -83,13 +83,17 @@ pub struct ActualSample {
 }
 
 /// A thread stops when its lead axis, as the machine reports it, trails
-/// or leads the thread line by more than this on average, degrees of the
-/// spindle: the drives apply the setpoints later (or earlier) than the
-/// setpoint delay the thread leads by, and the groove moves.
+/// or leads the thread line by more than this, degrees of the spindle:
+/// the drives apply the setpoints later (or earlier) than the setpoint
+/// delay the thread leads by, and the groove moves.
 pub const THREAD_PHASE_LIMIT_DEG: f64 = 2.0;
-/// ... averaged over this many joint states (the first as many of a
-/// thread only fill the average).
-const PHASE_AVERAGE: u32 = 20;
+/// ... in the median of the last this many joint states (so a few late
+/// setpoints, which the axis makes up within milliseconds, do not stop it).
+const PHASE_MEDIAN: usize = 50;
+/// ... from this many time constants of the lead axis's servo (1/kp and
+/// the velocity lag) after the thread reached its line, when the
+/// following error of the run-in's acceleration has died away.
+const SETTLE_TIME_CONSTANTS: f64 = 5.0;
 /// Setpoints kept for comparing the joint states with: at 1 kHz, 1 s.
 const HISTORY: usize = 1024;
 
@@ -122,12 +126,14 @@ struct Running {
     /// the last [`HISTORY`] samples' positions (mm, machine coordinates)
     /// and, on a thread's line, what they follow; by tick, k % HISTORY
     hist: Vec<(cnc_core::geom::V3, Option<ThreadSync>)>,
-    /// the lead axis's mean phase against its setpoints, degrees, and
-    /// how many joint states it averages
-    phase: f64,
-    phase_n: u32,
+    /// the lead axis's last phases against its setpoints, degrees (ring),
+    /// and how many there are since the thread settled on its line
+    phase: [f64; PHASE_MEDIAN],
+    phase_n: usize,
     /// stopping after a fault the controller found
     stopping: bool,
+    /// the tick since which the samples are on a thread's line
+    line_since: Option<u64>,
 }
 
 pub struct Controller {
@@ -249,9 +255,10 @@ impl Controller {
             aborting: false,
             t0_ns: None,
             hist: Vec::with_capacity(HISTORY),
-            phase: 0.0,
+            phase: [0.0; PHASE_MEDIAN],
             phase_n: 0,
             stopping: false,
+            line_since: None,
         });
         self.last_job = job.id;
         self.last_error.clear();
@@ -278,7 +285,7 @@ impl Controller {
     /// During a thread the lead axis is compared with the setpoint of
     /// `ahead` earlier (the setpoint delay and the servo lag it leads by,
     /// interpolated between the cycles around it): a mean over
-    /// [`PHASE_AVERAGE`] joint states beyond [`THREAD_PHASE_LIMIT_DEG`]
+    /// [`PHASE_MEDIAN`] joint states beyond [`THREAD_PHASE_LIMIT_DEG`]
     /// stops the thread under control and ends the job in error.
     pub fn actual(&mut self, a: ActualSample) {
         let dt = self.machine.dt();
@@ -303,6 +310,15 @@ impl Controller {
             return;
         }
         let k0 = kf.floor() as u64;
+        // the axis settles onto the line after the run-in's acceleration
+        let settle = self.machine.axis(sync.lead).map_or(0.0, |ax| {
+            SETTLE_TIME_CONSTANTS * (1.0 / ax.servo_kp + ax.servo_lag_s)
+        });
+        if r.line_since
+            .is_none_or(|k| (k0 as f64) < k as f64 + settle / dt)
+        {
+            return;
+        }
         if k0 + 1 > newest || newest - k0 >= HISTORY as u64 - 1 {
             return;
         }
@@ -322,18 +338,24 @@ impl Controller {
         if !deg.is_finite() || j >= a.n {
             return;
         }
+        r.phase[r.phase_n % PHASE_MEDIAN] = deg;
         r.phase_n += 1;
-        r.phase += (deg - r.phase) / f64::from(r.phase_n.min(PHASE_AVERAGE));
-        if r.phase_n >= PHASE_AVERAGE && r.phase.abs() > THREAD_PHASE_LIMIT_DEG {
+        if r.phase_n < PHASE_MEDIAN {
+            return;
+        }
+        let mut sorted = r.phase;
+        sorted.sort_unstable_by(f64::total_cmp);
+        let median = sorted[PHASE_MEDIAN / 2];
+        if median.abs() > THREAD_PHASE_LIMIT_DEG {
             // how late the axis follows its setpoints
             let v = sync.lead_sign * (p1[sync.lead] - p0[sync.lead]) / dt;
-            let late = sync.ahead - off / v;
+            let late = sync.ahead - median / 360.0 * sync.pitch / v;
             let why = format!(
                 "line {}: the {} axis is {:.1}° {} the thread line: the machine follows its setpoints {:.1} ms after their instant, not the {:.1} ms the thread leads by (interpolation.setpoint_delay_ms and the servo's lag); the thread stopped",
                 line,
                 ["X", "Y", "Z"][sync.lead.min(2)],
-                r.phase.abs(),
-                if r.phase < 0.0 { "behind" } else { "ahead of" },
+                median.abs(),
+                if median < 0.0 { "behind" } else { "ahead of" },
                 late * 1e3,
                 sync.ahead * 1e3,
             );
@@ -432,6 +454,11 @@ impl Controller {
                     self.gcodes = Some(r.exec.modal().gcodes());
                     let slot = (r.k % HISTORY as u64) as usize;
                     let entry = (s.pos, s.sync.filter(|y| y.on_line));
+                    if entry.1.is_none() {
+                        r.line_since = None;
+                    } else if r.line_since.is_none() {
+                        r.line_since = Some(r.k);
+                    }
                     if slot < r.hist.len() {
                         r.hist[slot] = entry;
                     } else {

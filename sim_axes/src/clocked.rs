@@ -3,9 +3,11 @@
 //! setpoint, stamped with the instant it is meant for, is applied `delay`
 //! after that stamp, on the simulator's own step grid (interpolated
 //! between the two setpoints around the step's instant minus the delay).
-//! Transport latency below the delay then no longer moves the axes. A
-//! setpoint that arrives after its instant is applied at once (held) and
-//! counted.
+//! Transport latency below the delay then no longer moves the axes. While
+//! a setpoint is late (not there at its instant) the axes go on at the
+//! speed of the last two, as drives do over a missed frame, for at most
+//! [`MAX_EXTRAPOLATION_NS`] (then they hold the newest); the late setpoint
+//! is applied as soon as it arrives and counted.
 //!
 //! With a delay of 0 every setpoint is applied on arrival (the newest
 //! one), as before clocked application existed.
@@ -15,12 +17,16 @@ use std::collections::VecDeque;
 /// Setpoints kept waiting at most: at 20 kHz, 3.3 s (a controller whose
 /// clock runs ahead fills it; the oldest are dropped).
 pub const MAX_QUEUED: usize = 65_536;
+/// How long the axes go on at their last speed while setpoints are late, ns.
+pub const MAX_EXTRAPOLATION_NS: i64 = 10_000_000;
 
 /// Setpoints waiting for their instant.
 #[derive(Debug, Clone)]
 pub struct SetpointQueue {
     delay_ns: i64,
     queue: VecDeque<(i64, Vec<f64>)>,
+    /// the setpoint before the queue's first (for the speed while late)
+    prev: Option<(i64, Vec<f64>)>,
     /// what the last step applied (and what a new setpoint's missing
     /// joints keep)
     applied: Vec<f64>,
@@ -36,6 +42,7 @@ impl SetpointQueue {
         SetpointQueue {
             delay_ns: delay_ns.max(0),
             queue: VecDeque::new(),
+            prev: None,
             applied: initial,
             applied_at: None,
             late: 0,
@@ -102,7 +109,7 @@ impl SetpointQueue {
         let due = now_ns.saturating_sub(self.delay_ns);
         // keep one setpoint at or before `due`
         while self.queue.len() >= 2 && self.queue[1].0 <= due {
-            self.queue.pop_front();
+            self.prev = self.queue.pop_front();
         }
         match (self.queue.front(), self.queue.get(1)) {
             (Some((s0, p0)), Some((s1, p1))) if *s0 <= due => {
@@ -112,8 +119,17 @@ impl SetpointQueue {
                 }
             }
             (Some((s0, p0)), None) if *s0 <= due => {
-                // the next one is late: the newest is applied
-                self.applied.clone_from(p0);
+                // the next one is late: on at the last speed for a while,
+                // then the newest is held
+                match &self.prev {
+                    Some((sp, pp)) if due - s0 <= MAX_EXTRAPOLATION_NS && sp < s0 => {
+                        let f = (due - s0) as f64 / (s0 - sp) as f64;
+                        for ((a, x0), xp) in self.applied.iter_mut().zip(p0).zip(pp) {
+                            *a = x0 + f * (x0 - xp);
+                        }
+                    }
+                    _ => self.applied.clone_from(p0),
+                }
             }
             _ => {}
         }
@@ -138,11 +154,13 @@ mod tests {
         assert_eq!(q.at(3 * MS + MS / 2), [0.5, 5.0]);
         assert_eq!(q.at(7 * MS + MS / 4), [4.25, 5.0]);
         assert_eq!(q.late(), 0);
-        // past the newest: held at it, and what comes after its instant is late
-        assert_eq!(q.at(20 * MS), [9.0, 5.0]);
+        // past the newest: on at the last speed for 10 ms, then held
+        assert_eq!(q.at(14 * MS), [11.0, 5.0]);
+        assert_eq!(q.at(25 * MS), [9.0, 5.0]);
+        // what comes after its instant is late
         q.push(10 * MS, [(0, 10.0), (1, f64::NAN)]);
         assert_eq!(q.late(), 1);
-        assert_eq!(q.at(21 * MS), [10.0, 5.0]);
+        assert_eq!(q.at(26 * MS), [10.0, 5.0]);
         // a longer delay from now on
         q.set_delay_ns(5 * MS);
         for k in 22..30 {
