@@ -219,7 +219,7 @@ fn run(args: Args) -> Result<(), String> {
                         eprintln!("cnc_node: control loop stays at normal priority (SCHED_FIFO {rt}: {e})");
                     }
                 }
-                control_loop(m, cmd_rx, enc_rx, act_rx, out_tx, here, state, stats)
+                control_loop(m, cmd_rx, (enc_rx, act_rx), out_tx, here, state, stats)
             })
             .map_err(|e| e.to_string())?;
     }
@@ -440,8 +440,7 @@ struct Loop {
 fn control_loop(
     machine: Machine,
     cmds: Receiver<Cmd>,
-    encoder: Receiver<EncoderSample>,
-    actual: Receiver<ActualSample>,
+    (encoder, actual): (Receiver<EncoderSample>, Receiver<ActualSample>),
     out: SyncSender<Out>,
     here: Arc<[AtomicU64; 3]>,
     state: Arc<AtomicU32>,
