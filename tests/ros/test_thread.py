@@ -206,7 +206,8 @@ class Peer(SpinningPeer):
         """The simulator's stall reports since `since` (a log size)."""
         with open(self.sim_log, "rb") as f:
             f.seek(since)
-            return [l for l in f.read().decode(errors="replace").splitlines() if "stalled" in l]
+            return [l for l in f.read().decode(errors="replace").splitlines()
+                    if "stalled" in l or "arrived after their instant" in l]
 
     def attempts(self, what, n=3):
         """Runs of a job: the next one only when the last ended with the
@@ -214,13 +215,17 @@ class Peer(SpinningPeer):
         that holds up the simulator's real-time loop for 10 ms and more
         (a busy VM without a real-time kernel) the readings really were
         missing that long, and the controller is right to stop; any other
-        loss of the encoder fails the test."""
+        loss of the encoder fails the test. The same for a thread the
+        controller stopped because the axis fell behind the line while the
+        simulator reported a stall or setpoints that came after their
+        instant (the setpoint delay did not cover the transport then)."""
         for i in range(n):
             since = self.log_size()
             self.last_end = None
             yield i
             st = self.last_end
-            if st is None or st.state != ERROR or "encoder signal lost" not in st.last_error:
+            if st is None or st.state != ERROR or not (
+                    "encoder signal lost" in st.last_error or "behind the thread line" in st.last_error):
                 return
             stalls = self.sim_stalls(since)
             if not stalls:
