@@ -25,7 +25,9 @@
 //! ([`Executor::attach_encoder`] not called) the spindle is ideal: it turns
 //! exactly as commanded, which is what the check's estimate assumes. With
 //! one, a [`SpindleTracker`] predicts the angle at each sample's instant
-//! from the readings given to [`Executor::encoder`]; readings that stop
+//! from the readings given to [`Executor::encoder`], led by the drives'
+//! delay ([`Executor::set_setpoint_delay`] plus the lead axis's servo lag),
+//! so that the axis, not its setpoint, is on the thread line; readings that stop
 //! during synchronized motion, or a spindle that does not come up to speed
 //! for a thread, stop the axes under control and end the run with
 //! [`Executor::fault`] set.
@@ -71,8 +73,11 @@ pub struct Sample {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sync {
     /// the spindle angle this setpoint is for, revolutions, counted in the
-    /// direction of rotation
+    /// direction of rotation: the angle predicted at t + `ahead`
     pub theta: f64,
+    /// how far ahead of its instant the setpoint leads, s: the drives'
+    /// setpoint delay plus the lead axis's servo lag (0: the ideal spindle)
+    pub ahead: f64,
     /// θ₀ of the block: the angle at which the ideal thread line passes its start
     pub theta0: f64,
     /// lead axis and pitch along it, mm/rev
@@ -164,6 +169,10 @@ pub struct Executor<S> {
     sp_last: f64,
     /// the largest path acceleration any move may have (|a_max|), mm/s²
     a_top: f64,
+    /// the drives apply a setpoint this long after its instant, s, and
+    /// each axis trails it by its servo lag, s: G33 leads by both
+    delay: f64,
+    servo_lag: V3,
 }
 
 /// A moving average of the last M setpoints (and path speeds).
@@ -247,7 +256,21 @@ impl<S: ProgramSource> Executor<S> {
             s_last: 0.0,
             sp_last: 1.0,
             a_top: lim.max_path_acceleration(),
+            delay: 0.0,
+            servo_lag: machine.servo_lag_s(),
         }
+    }
+
+    /// The drives apply each setpoint `seconds` after its instant (0 by
+    /// default; not finite or negative: 0). With a measured spindle a G33
+    /// setpoint is for the angle predicted that much ahead plus the lead
+    /// axis's servo lag, and G95 follows the speed predicted `seconds` ahead.
+    pub fn set_setpoint_delay(&mut self, seconds: f64) {
+        self.delay = if seconds.is_finite() {
+            seconds.max(0.0)
+        } else {
+            0.0
+        };
     }
 
     /// Held still (feed scale 0) and the filtered setpoint too.
@@ -282,6 +305,13 @@ impl<S: ProgramSource> Executor<S> {
     pub fn abort(&mut self) {
         self.halt = true;
         self.set_feed_target(0.0);
+    }
+
+    /// Stops as [`Executor::abort`] does, and ends the run with `why` as
+    /// its fault (the first fault stands).
+    pub fn stop(&mut self, why: String) {
+        self.fault.get_or_insert(why);
+        self.abort();
     }
 
     /// Interpolation period, s.
@@ -441,9 +471,10 @@ impl<S: ProgramSource> Executor<S> {
         Some(self.sample(pos, 0.0, true))
     }
 
-    /// The spindle angle for this tick's setpoint and the index position,
-    /// revolutions counted in direction `dir`; `None` index: none seen yet.
-    fn spindle_angle(&self, dir: f64) -> Result<(f64, Option<f64>, f64), String> {
+    /// The spindle angle for this tick's setpoint (measured: predicted
+    /// `ahead` s after its instant) and the index position, revolutions
+    /// counted in direction `dir`; `None` index: none seen yet.
+    fn spindle_angle(&self, dir: f64, ahead: f64) -> Result<(f64, Option<f64>, f64), String> {
         let Some(tr) = &self.tracker else {
             let rev_s = dir * self.pipe.timeline.spin_rpm / 60.0;
             return Ok((
@@ -453,7 +484,7 @@ impl<S: ProgramSource> Executor<S> {
             ));
         };
         let t = self.k as f64 * self.dt;
-        let (Some(last), Some((c, cps))) = (tr.last, tr.predict(t)) else {
+        let (Some(last), Some((c, cps))) = (tr.last, tr.predict(t + ahead)) else {
             return Err("no spindle encoder reading".into());
         };
         let late = t - last.t;
@@ -486,7 +517,12 @@ impl<S: ProgramSource> Executor<S> {
     fn thread_sample(&mut self, mut run: ThreadRun) -> Option<Sample> {
         let m = run.m;
         let dir = m.dir();
-        let (theta, index, rev_s) = match self.spindle_angle(dir) {
+        let ahead = if self.tracker.is_some() {
+            self.delay + self.servo_lag[m.seg.lead]
+        } else {
+            0.0
+        };
+        let (theta, index, rev_s) = match self.spindle_angle(dir, ahead) {
             Ok(a) => a,
             Err(why) => {
                 let why = format!("line {}: {why}", m.src.line);
@@ -582,6 +618,7 @@ impl<S: ProgramSource> Executor<S> {
         );
         s.sync = Some(Sync {
             theta,
+            ahead,
             theta0,
             lead: m.seg.lead,
             pitch: m.seg.pitch,
@@ -768,7 +805,7 @@ impl<S: ProgramSource> Executor<S> {
             return self.sp_scale;
         }
         let dir = if rpm < 0.0 { -1.0 } else { 1.0 };
-        match self.spindle_angle(dir) {
+        match self.spindle_angle(dir, self.delay) {
             Ok((_, _, rev_s)) => {
                 self.sp_scale = (rev_s * 60.0 / rpm.abs()).clamp(0.0, 2.0);
             }

@@ -45,6 +45,9 @@ pub struct AxisConfig {
     pub servo_lag_s: f64,
 }
 
+/// Longest setpoint delay a machine file may set, ms.
+pub const MAX_SETPOINT_DELAY_MS: f64 = 100.0;
+
 /// Longest jerk filter, samples.
 pub const MAX_SMOOTHING_SAMPLES: usize = 1000;
 
@@ -121,6 +124,11 @@ pub struct InterpolationConfig {
     /// samples per second (default 1000)
     #[serde(default = "default_rate")]
     pub rate_hz: f64,
+    /// the drives apply each setpoint this long after its stamp, ms (a
+    /// fixed transport delay on a shared clock, as in cyclic synchronous
+    /// position mode; 0: on arrival). G33 leads by it.
+    #[serde(default)]
+    pub setpoint_delay_ms: f64,
 }
 
 fn default_rate() -> f64 {
@@ -131,6 +139,7 @@ impl Default for InterpolationConfig {
     fn default() -> Self {
         InterpolationConfig {
             rate_hz: default_rate(),
+            setpoint_delay_ms: 0.0,
         }
     }
 }
@@ -450,6 +459,13 @@ impl Machine {
                 format!("must be between 10 and 100000 (got {r})"),
             );
         }
+        let d = self.interpolation.setpoint_delay_ms;
+        if !(d.is_finite() && (0.0..=MAX_SETPOINT_DELAY_MS).contains(&d)) {
+            return bad(
+                "interpolation.setpoint_delay_ms".into(),
+                format!("must be between 0 and {MAX_SETPOINT_DELAY_MS} (got {d})"),
+            );
+        }
         let p = &self.planner;
         if !(p.exact_stop_angle_deg.is_finite() && (0.0..=90.0).contains(&p.exact_stop_angle_deg)) {
             return bad(
@@ -577,6 +593,23 @@ impl Machine {
     /// Interpolation period, s.
     pub fn dt(&self) -> f64 {
         1.0 / self.interpolation.rate_hz
+    }
+
+    /// The drives' setpoint delay, s (`interpolation.setpoint_delay_ms`).
+    pub fn setpoint_delay_s(&self) -> f64 {
+        self.interpolation.setpoint_delay_ms * 1e-3
+    }
+
+    /// How long each axis's servo trails its setpoints at constant speed,
+    /// s, per machine coordinate (absent axes 0): the following error of a
+    /// P loop with velocity feed-forward is (1 − ff)·v/kp, i.e. a time lag
+    /// of (1 − ff)/kp whatever the speed (0 with full feed-forward).
+    pub fn servo_lag_s(&self) -> V3 {
+        V3::from_fn(|i, _| {
+            self.axis(i).map_or(0.0, |a| {
+                ((1.0 - a.servo_feed_forward) / a.servo_kp).max(0.0)
+            })
+        })
     }
 
     /// The configured axis for machine coordinate index 0..3 (X, Y, Z).

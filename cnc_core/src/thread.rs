@@ -158,8 +158,10 @@ impl ThreadMove {
     }
 }
 
-/// How many of the most recent readings the tracker keeps.
-const HISTORY: usize = 32;
+/// How many of the most recent readings the tracker keeps: the whole
+/// [`WINDOW_S`] up to 10 kHz (32 before G33 led by the setpoint delay: at
+/// 10 kHz they spanned 3.2 ms, too short to predict the angle 3 ms ahead).
+const HISTORY: usize = 256;
 /// Degree of the polynomial fitted to the readings: a parabola follows
 /// the speed ripple of a real spindle; a cubic (or a longer window) trades
 /// that for more of the counts' quantization noise. Measured with the

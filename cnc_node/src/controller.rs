@@ -5,7 +5,8 @@
 //! [`Controller::encoder`], and tests call both directly.
 //!
 //! Times are nanoseconds of one clock, the one the node stamps its
-//! setpoints with and the encoder stamps its readings with (the system
+//! setpoints with, the encoder stamps its readings with and the machine
+//! stamps its joint states with ([`Controller::actual`]; the system
 //! clock of the host both nodes run on). A job's executor counts time from
 //! its sample 0: a reading stamped `s` is given to it at
 //! `t = (s − stamp of the job's sample 0) s`, and sample k is meant for
@@ -14,7 +15,7 @@
 //! and catches up after a late wake-up).
 
 use crate::program::OwnedSource;
-use cnc_core::exec::Executor;
+use cnc_core::exec::{Executor, Sync as ThreadSync};
 use cnc_core::thread::EncoderReading;
 use cnc_core::{Dialect, Machine};
 
@@ -70,6 +71,32 @@ pub struct EncoderSample {
     pub count_at_index: i64,
 }
 
+/// The actual joint positions (`/sim/joint_states`), stamped in the
+/// controller's clock.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ActualSample {
+    /// the instant the positions are for, ns
+    pub stamp_ns: i64,
+    /// mm, in joint order (the first `n` entries)
+    pub positions: [f64; 3],
+    pub n: usize,
+}
+
+/// A thread stops when its lead axis, as the machine reports it, trails
+/// or leads the thread line by more than this, degrees of the spindle:
+/// the drives apply the setpoints later (or earlier) than the setpoint
+/// delay the thread leads by, and the groove moves.
+pub const THREAD_PHASE_LIMIT_DEG: f64 = 2.0;
+/// ... in the median of the last this many joint states (so a few late
+/// setpoints, which the axis makes up within milliseconds, do not stop it).
+const PHASE_MEDIAN: usize = 50;
+/// ... from this many time constants of the lead axis's servo (1/kp and
+/// the velocity lag) after the thread reached its line, when the
+/// following error of the run-in's acceleration has died away.
+const SETTLE_TIME_CONSTANTS: f64 = 5.0;
+/// Setpoints kept for comparing the joint states with: at 1 kHz, 1 s.
+const HISTORY: usize = 1024;
+
 /// How many recent readings the controller keeps for a job's start (a G95
 /// or G33 right at the start has the spindle's history at once): more
 /// than the executor's tracker fits.
@@ -96,6 +123,17 @@ struct Running {
     aborting: bool,
     /// the time of the job's sample 0, ns (set by its first tick)
     t0_ns: Option<i64>,
+    /// the last [`HISTORY`] samples' positions (mm, machine coordinates)
+    /// and, on a thread's line, what they follow; by tick, k % HISTORY
+    hist: Vec<(cnc_core::geom::V3, Option<ThreadSync>)>,
+    /// the lead axis's last phases against its setpoints, degrees (ring),
+    /// and how many there are since the thread settled on its line
+    phase: [f64; PHASE_MEDIAN],
+    phase_n: usize,
+    /// stopping after a fault the controller found
+    stopping: bool,
+    /// the tick since which the samples are on a thread's line
+    line_since: Option<u64>,
 }
 
 pub struct Controller {
@@ -200,6 +238,9 @@ impl Controller {
             .starting_at(&self.positions[..self.joints.len()]);
         let src = OwnedSource::owned(job.text).with_max_line(m.limits.max_line_bytes);
         let mut exec = Executor::new(src, job.dialect, &m);
+        // the drives apply each setpoint this long after its instant: G33
+        // leads by it (and by the servo's lag)
+        exec.set_setpoint_delay(m.setpoint_delay_s());
         // G33 and G95 follow the measured spindle (readings from
         // `encoder`); a machine without a spindle has nothing to follow
         if self.machine.spindle.is_some() {
@@ -213,6 +254,11 @@ impl Controller {
             k: 0,
             aborting: false,
             t0_ns: None,
+            hist: Vec::with_capacity(HISTORY),
+            phase: [0.0; PHASE_MEDIAN],
+            phase_n: 0,
+            stopping: false,
+            line_since: None,
         });
         self.last_job = job.id;
         self.last_error.clear();
@@ -232,6 +278,89 @@ impl Controller {
             if let Some(t0) = r.t0_ns {
                 r.exec.encoder(reading(e, t0));
             }
+        }
+    }
+
+    /// The machine's actual positions at an instant (the joint states).
+    /// During a thread the lead axis is compared with the setpoint of
+    /// `ahead` earlier (the setpoint delay and the servo lag it leads by,
+    /// interpolated between the cycles around it): a mean over
+    /// [`PHASE_MEDIAN`] joint states beyond [`THREAD_PHASE_LIMIT_DEG`]
+    /// stops the thread under control and ends the job in error.
+    pub fn actual(&mut self, a: ActualSample) {
+        let dt = self.machine.dt();
+        let line = self.line;
+        let Some(r) = self.job.as_mut() else {
+            return;
+        };
+        let (Some(t0), false) = (r.t0_ns, r.stopping) else {
+            return;
+        };
+        let at = |k: u64| r.hist.get((k % HISTORY as u64) as usize).copied();
+        // the newest sample's instant, and the one the actual stands for
+        let Some(newest) = r.k.checked_sub(1) else {
+            return;
+        };
+        let Some((_, Some(sync))) = at(newest) else {
+            r.phase_n = 0;
+            return;
+        };
+        let kf = ((a.stamp_ns - t0) as f64 * 1e-9 - sync.ahead) / dt;
+        if !(kf.is_finite() && kf >= 0.0) {
+            return;
+        }
+        let k0 = kf.floor() as u64;
+        // the axis settles onto the line after the run-in's acceleration
+        let settle = self.machine.axis(sync.lead).map_or(0.0, |ax| {
+            SETTLE_TIME_CONSTANTS * (1.0 / ax.servo_kp + ax.servo_lag_s)
+        });
+        if r.line_since
+            .is_none_or(|k| (k0 as f64) < k as f64 + settle / dt)
+        {
+            return;
+        }
+        if k0 + 1 > newest || newest - k0 >= HISTORY as u64 - 1 {
+            return;
+        }
+        let (Some((p0, Some(s0))), Some((p1, Some(s1)))) = (at(k0), at(k0 + 1)) else {
+            return;
+        };
+        let Some(j) = self.joints.iter().position(|&i| i == sync.lead) else {
+            return;
+        };
+        if !(s0.on_line && s1.on_line) || s0.lead != sync.lead || s1.lead != sync.lead {
+            return;
+        }
+        let f = kf - k0 as f64;
+        let want = p0[sync.lead] + f * (p1[sync.lead] - p0[sync.lead]);
+        let off = sync.lead_sign * (a.positions[j] - want);
+        let deg = off / sync.pitch * 360.0;
+        if !deg.is_finite() || j >= a.n {
+            return;
+        }
+        r.phase[r.phase_n % PHASE_MEDIAN] = deg;
+        r.phase_n += 1;
+        if r.phase_n < PHASE_MEDIAN {
+            return;
+        }
+        let mut sorted = r.phase;
+        sorted.sort_unstable_by(f64::total_cmp);
+        let median = sorted[PHASE_MEDIAN / 2];
+        if median.abs() > THREAD_PHASE_LIMIT_DEG {
+            // how late the axis follows its setpoints
+            let v = sync.lead_sign * (p1[sync.lead] - p0[sync.lead]) / dt;
+            let late = sync.ahead - median / 360.0 * sync.pitch / v;
+            let why = format!(
+                "line {}: the {} axis is {:.1}° {} the thread line: the machine follows its setpoints {:.1} ms after their instant, not the {:.1} ms the thread leads by (interpolation.setpoint_delay_ms and the servo's lag); the thread stopped",
+                line,
+                ["X", "Y", "Z"][sync.lead.min(2)],
+                median.abs(),
+                if median < 0.0 { "behind" } else { "ahead of" },
+                late * 1e3,
+                sync.ahead * 1e3,
+            );
+            r.stopping = true;
+            r.exec.stop(why);
         }
     }
 
@@ -323,10 +452,22 @@ impl Controller {
                     self.line = s.src.line;
                     self.block = s.src.block_no;
                     self.gcodes = Some(r.exec.modal().gcodes());
+                    let slot = (r.k % HISTORY as u64) as usize;
+                    let entry = (s.pos, s.sync.filter(|y| y.on_line));
+                    if entry.1.is_none() {
+                        r.line_since = None;
+                    } else if r.line_since.is_none() {
+                        r.line_since = Some(r.k);
+                    }
+                    if slot < r.hist.len() {
+                        r.hist[slot] = entry;
+                    } else {
+                        r.hist.push(entry);
+                    }
                     r.k += 1;
                     self.progress = (r.k as f64 / r.ticks as f64).min(1.0);
                     let stopped = r.exec.at_rest();
-                    if let (true, Some(why)) = (s.last, r.exec.fault()) {
+                    if let (true, Some(why)) = (s.last || (r.stopping && stopped), r.exec.fault()) {
                         // the executor stopped the axes under control
                         let why = why.to_string();
                         self.fail(why);

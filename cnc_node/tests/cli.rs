@@ -135,7 +135,7 @@ fn simulate_with_mcap_and_csv_writes_the_golden_and_the_csv() {
     let lines: Vec<&str> = out.lines().collect();
     assert_eq!(lines.len(), 2, "{out}");
     assert!(
-        lines[0].contains("recorded 43743 messages on 9 topics to"),
+        lines[0].contains("recorded 63527 messages on 10 topics to"),
         "{out}"
     );
     assert!(lines[1].contains("cycle time 19.783s"), "{out}");

@@ -93,6 +93,7 @@ fn mill_pocket_recording_reads_back() {
     schemas.sort();
     let want: Vec<(String, String)> = [
         "cnc_msgs/msg/ControllerStatus",
+        "cnc_msgs/msg/SpindleEncoder",
         "geometry_msgs/msg/PoseStamped",
         "sensor_msgs/msg/JointState",
         "sensor_msgs/msg/PointCloud2",
@@ -110,7 +111,7 @@ fn mill_pocket_recording_reads_back() {
             cnc_msgs::schema::full_text(&s.name).unwrap()
         );
     }
-    assert_eq!(sum.channels.len(), 9);
+    assert_eq!(sum.channels.len(), 10);
     let mut by_topic = BTreeMap::new();
     for c in sum.channels.values() {
         assert_eq!(c.message_encoding, "cdr");
@@ -134,6 +135,8 @@ fn mill_pocket_recording_reads_back() {
     };
     assert_eq!(count(topics::JOINT_SETPOINTS), samples);
     assert_eq!(count(topics::JOINT_STATES), samples);
+    // the mill's spindle: its encoder at every sample
+    assert_eq!(count(topics::SPINDLE_ENCODER), samples);
     let k_last = samples - 1;
     assert_eq!(
         count(topics::TF),

@@ -116,6 +116,18 @@ ros_message!(
 );
 
 ros_message!(
+    /// `cnc_msgs/srv/SetDelay` request
+    SetDelayRequest = "cnc_msgs/srv/SetDelay_Request" { delay_ms: f64 = "float64" }
+);
+ros_message!(
+    /// `cnc_msgs/srv/SetDelay` response
+    SetDelayResponse = "cnc_msgs/srv/SetDelay_Response" {
+        success: bool = "bool",
+        message: String = "string",
+    }
+);
+
+ros_message!(
     /// `cnc_msgs/msg/SpindleEncoder`: an incremental encoder with an index channel
     SpindleEncoder = "cnc_msgs/msg/SpindleEncoder" {
         stamp: Time = "builtin_interfaces/Time",
@@ -162,6 +174,7 @@ impl ControllerStatus {
 /// store as schema text).
 pub mod definitions {
     pub const RUN_PROGRAM_SRV: &str = include_str!("../srv/RunProgram.srv");
+    pub const SET_DELAY_SRV: &str = include_str!("../srv/SetDelay.srv");
     pub const SPINDLE_ENCODER_MSG: &str = include_str!("../msg/SpindleEncoder.msg");
     pub const CONTROLLER_STATUS_MSG: &str = include_str!("../msg/ControllerStatus.msg");
 }

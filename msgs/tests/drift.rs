@@ -19,6 +19,15 @@ fn run_program_srv_matches() {
 }
 
 #[test]
+fn set_delay_srv_matches() {
+    let text = file("srv/SetDelay.srv");
+    let (req, resp) = text.split_once("\n---").expect("a service has a --- line");
+    assert_eq!(parse(req).0, fields_of::<SetDelayRequest>());
+    assert_eq!(parse(resp).0, fields_of::<SetDelayResponse>());
+    assert_eq!(definitions::SET_DELAY_SRV, text);
+}
+
+#[test]
 fn spindle_encoder_msg_matches() {
     let text = file("msg/SpindleEncoder.msg");
     assert_eq!(parse(&text).0, fields_of::<SpindleEncoder>());
@@ -43,6 +52,7 @@ fn the_package_builds_every_interface_file() {
     let cmake = file("CMakeLists.txt");
     for f in [
         "srv/RunProgram.srv",
+        "srv/SetDelay.srv",
         "msg/SpindleEncoder.msg",
         "msg/ControllerStatus.msg",
     ] {
@@ -65,7 +75,8 @@ fn the_package_builds_every_interface_file() {
         [
             "msg/ControllerStatus.msg",
             "msg/SpindleEncoder.msg",
-            "srv/RunProgram.srv"
+            "srv/RunProgram.srv",
+            "srv/SetDelay.srv"
         ]
     );
 }

@@ -66,12 +66,14 @@
 #![warn(missing_docs)]
 
 pub mod axis;
+pub mod clocked;
 pub mod machine;
 pub mod model;
 pub mod rng;
 pub mod spindle;
 
 pub use axis::{Axis, AxisParams};
+pub use clocked::SetpointQueue;
 pub use model::MachineModel;
 pub use rng::SplitMix64;
 pub use spindle::{

@@ -30,7 +30,7 @@ use cnc_core::Machine;
 use cnc_msgs::ros::{self, Grid, WallClock};
 use cnc_msgs::*;
 use cnc_node::admit::{admit, fit_run_reply, recorder, RecordOpts, Refusal};
-use cnc_node::controller::{Controller, EncoderSample, Job, State, Status, Tick};
+use cnc_node::controller::{ActualSample, Controller, EncoderSample, Job, State, Status, Tick};
 use cnc_node::convert::{self, stamp_ns, time_ns};
 use cnc_node::files::load_machine;
 use cnc_node::record::JobRecorder;
@@ -174,6 +174,9 @@ fn run(args: Args) -> Result<(), String> {
     // bounded, never blocking
     let (enc_tx, enc_rx) = mpsc::sync_channel::<EncoderSample>(256);
     let (enc_rec_tx, enc_rec_rx) = mpsc::sync_channel::<SpindleEncoder>(256);
+    // the machine's joint states to the control loop (a thread's phase
+    // is watched against them): bounded, never blocking
+    let (act_tx, act_rx) = mpsc::sync_channel::<ActualSample>(256);
     std::thread::Builder::new()
         .name("encoder".into())
         .spawn(move || {
@@ -216,7 +219,7 @@ fn run(args: Args) -> Result<(), String> {
                         eprintln!("cnc_node: control loop stays at normal priority (SCHED_FIFO {rt}: {e})");
                     }
                 }
-                control_loop(m, cmd_rx, enc_rx, out_tx, here, state, stats)
+                control_loop(m, cmd_rx, (enc_rx, act_rx), out_tx, here, state, stats)
             })
             .map_err(|e| e.to_string())?;
     }
@@ -274,6 +277,26 @@ fn run(args: Args) -> Result<(), String> {
             }
         }
         while let Ok(Some((m, _))) = sub_js.take() {
+            let mut a = ActualSample {
+                stamp_ns: time_ns(&m.header.stamp),
+                n: names.len().min(3),
+                ..ActualSample::default()
+            };
+            let mut all = true;
+            for (j, name) in names.iter().take(3).enumerate() {
+                match m
+                    .name
+                    .iter()
+                    .position(|x| x == name)
+                    .and_then(|i| m.position.get(i))
+                {
+                    Some(p) if p.is_finite() => a.positions[j] = p * 1000.0,
+                    _ => all = false,
+                }
+            }
+            if all {
+                let _ = act_tx.try_send(a);
+            }
             if let Some((_, rec)) = recording.as_mut() {
                 let _ = rec.joint_states(&m);
             }
@@ -401,6 +424,7 @@ struct Loop {
     ctl: Controller,
     cmds: Receiver<Cmd>,
     encoder: Receiver<EncoderSample>,
+    actual: Receiver<ActualSample>,
     out: SyncSender<Out>,
     here: Arc<[AtomicU64; 3]>,
     state: Arc<AtomicU32>,
@@ -416,7 +440,7 @@ struct Loop {
 fn control_loop(
     machine: Machine,
     cmds: Receiver<Cmd>,
-    encoder: Receiver<EncoderSample>,
+    (encoder, actual): (Receiver<EncoderSample>, Receiver<ActualSample>),
     out: SyncSender<Out>,
     here: Arc<[AtomicU64; 3]>,
     state: Arc<AtomicU32>,
@@ -432,6 +456,7 @@ fn control_loop(
         ctl: Controller::new(machine),
         cmds,
         encoder,
+        actual,
         out,
         here,
         state,
@@ -516,6 +541,9 @@ impl Loop {
         while let Ok(e) = self.encoder.try_recv() {
             self.newest_enc = self.newest_enc.max(e.stamp_ns);
             self.ctl.encoder(e);
+        }
+        while let Ok(a) = self.actual.try_recv() {
+            self.ctl.actual(a);
         }
         if let Some(a) = self.enc_age.as_mut() {
             if self.newest_enc > 0 {

@@ -3,13 +3,15 @@
 
 use super::writer::{ChannelId, RecordSummary, Recorder, RecordingInfo};
 use crate::convert::{
-    joint_state, joint_velocities, push_point, sample_status, spindle_command, tool_pose,
-    tool_position, tool_tf, toolpath_cloud, topics, POSE_EVERY, TOOLPATH_MAX_POINTS,
+    joint_state, joint_velocities, push_point, sample_status, spindle_command, time_from_ns,
+    tool_pose, tool_position, tool_tf, toolpath_cloud, topics, POSE_EVERY, TOOLPATH_MAX_POINTS,
 };
 use crate::offline::{check_text, run, run_with, SimSummary, Sink, Step};
 use cnc_core::source::StrSource;
 use cnc_core::{Dialect, Machine};
-use cnc_msgs::{ControllerStatus, Float64, JointState, PointCloud2, PoseStamped, TFMessage};
+use cnc_msgs::{
+    ControllerStatus, Float64, JointState, PointCloud2, PoseStamped, SpindleEncoder, TFMessage,
+};
 use std::fs::File;
 use std::io::{BufWriter, Seek, Write};
 use std::path::Path;
@@ -25,6 +27,7 @@ pub const EPOCH_NS: u64 = 1_700_000_000_000_000_000;
 /// |---|---|---|
 /// | `/cnc/joint_setpoints` | sensor_msgs/JointState | every sample, m |
 /// | `/sim/joint_states` | sensor_msgs/JointState | every sample, m and m/s (finite differences) |
+/// | `/sim/spindle_encoder` | cnc_msgs/SpindleEncoder | every sample, a machine with a spindle: the simulated encoder after the step (what the executor was given) |
 /// | `/cnc/spindle_command` | std_msgs/Float64 | first sample and on change, rad/s |
 /// | `/cnc/status` | cnc_msgs/ControllerStatus | 10 Hz, on a line change, last sample (idle) |
 /// | `/tf` | tf2_msgs/TFMessage | `world` → `tool` every 10th and the last sample |
@@ -107,6 +110,8 @@ pub struct SimRecorder<W: Write + Seek> {
     names: Vec<String>,
     setpoints: ChannelId<JointState>,
     joint_states: ChannelId<JointState>,
+    /// a machine with a spindle
+    encoder: Option<ChannelId<SpindleEncoder>>,
     spindle: ChannelId<Float64>,
     status: ChannelId<ControllerStatus>,
     tf: ChannelId<TFMessage>,
@@ -156,6 +161,10 @@ impl<W: Write + Seek> SimRecorder<W> {
         Ok(SimRecorder {
             setpoints: rec.channel(topics::JOINT_SETPOINTS)?,
             joint_states: rec.channel(topics::JOINT_STATES)?,
+            encoder: match machine.spindle {
+                Some(_) => Some(rec.channel(topics::SPINDLE_ENCODER)?),
+                None => None,
+            },
             spindle: rec.channel(topics::SPINDLE_COMMAND)?,
             status: rec.channel(topics::STATUS)?,
             tf: rec.channel(topics::TF)?,
@@ -219,6 +228,18 @@ impl<W: Write + Seek> SimRecorder<W> {
             ns,
             &joint_state(ns, &self.names, st.actual, velocity),
         )?;
+        if let (Some(ch), Some(sp)) = (self.encoder, st.spindle) {
+            let e = sp.encoder();
+            let m = SpindleEncoder {
+                stamp: time_from_ns(ns),
+                count: e.count,
+                counts_per_rev: e.counts_per_rev,
+                index_count: e.index_count,
+                count_at_index: e.count_at_index,
+                velocity: e.velocity,
+            };
+            rec.write(ch, ns, &m)?;
+        }
         if self.last_spindle != Some(s.spindle_rpm) {
             self.last_spindle = Some(s.spindle_rpm);
             rec.write(self.spindle, ns, &spindle_command(s.spindle_rpm))?;

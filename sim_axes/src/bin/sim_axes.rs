@@ -13,15 +13,28 @@
 //! real time whatever the scheduling (a reading is latched when it is
 //! simulated, like a hardware time stamp).
 //!
+//! Setpoints are applied at their stamp plus the machine's setpoint delay
+//! (`interpolation.setpoint_delay_ms`, or `--setpoint-delay-ms`), on this
+//! node's step grid, interpolated between the two around the step's
+//! instant ([`sim_axes::clocked`]): DDS latency below the delay does not
+//! move the axes. With delay 0 they are applied on arrival.
+//!
 //! Fault injection (std_srvs/SetBool): `<ns>/encoder_enabled` false stops
 //! publishing encoder readings (the spindle turns on; true resumes);
 //! `<ns>/spindle_stalled` true makes the spindle stand still whatever its
-//! command (false releases it: it ramps up to the command again).
+//! command (false releases it: it ramps up to the command again);
+//! (cnc_msgs/SetDelay) `<ns>/setpoint_delay` changes the setpoint delay
+//! from the next step on.
 
 use clap::Parser;
+use cnc_core::machine::MAX_SETPOINT_DELAY_MS;
 use cnc_msgs::ros::{self, Grid, WallClock};
-use cnc_msgs::{Float64, Header, JointState, SetBoolRequest, SetBoolResponse, SpindleEncoder};
+use cnc_msgs::{
+    Float64, Header, JointState, SetBoolRequest, SetBoolResponse, SetDelayRequest,
+    SetDelayResponse, SpindleEncoder, Time,
+};
 use sim_axes::machine::{load_machine, model_for};
+use sim_axes::SetpointQueue;
 use std::time::Instant;
 
 #[derive(Parser)]
@@ -52,6 +65,10 @@ struct Args {
     /// spindle speed noise, rpm (default: machine file)
     #[arg(long)]
     noise_rpm: Option<f64>,
+    /// apply each setpoint this long after its stamp, ms; 0: on arrival
+    /// (default: the machine file's interpolation.setpoint_delay_ms)
+    #[arg(long)]
+    setpoint_delay_ms: Option<f64>,
     /// seed of the spindle noise
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -87,6 +104,10 @@ fn run(a: Args) -> Result<(), String> {
             s.sim_noise_rpm = n;
         }
     }
+    let delay_ms = a
+        .setpoint_delay_ms
+        .unwrap_or(machine.interpolation.setpoint_delay_ms);
+    check_delay(delay_ms).map_err(|e| format!("--setpoint-delay-ms {e}"))?;
     let rate = a.rate.unwrap_or(machine.interpolation.rate_hz);
     if !(rate.is_finite() && (10.0..=20_000.0).contains(&rate)) {
         return Err(format!("--rate {rate}: must be between 10 and 20000 Hz"));
@@ -126,11 +147,18 @@ fn run(a: Args) -> Result<(), String> {
         ros::server::<SetBoolRequest, SetBoolResponse>(&mut node, &a.namespace, "encoder_enabled")?;
     let srv_stall =
         ros::server::<SetBoolRequest, SetBoolResponse>(&mut node, &a.namespace, "spindle_stalled")?;
+    let srv_delay = ros::server::<SetDelayRequest, SetDelayResponse>(
+        &mut node,
+        &a.namespace,
+        "setpoint_delay",
+    )?;
 
     let names: Vec<String> = machine.axes.iter().map(|x| x.name.clone()).collect();
     let mut model = model_for(&machine, a.seed);
-    let mut set: Vec<f64> = machine.axes.iter().map(|x| x.home_mm).collect();
-    let mut act = vec![0.0; set.len()];
+    let home: Vec<f64> = machine.axes.iter().map(|x| x.home_mm).collect();
+    let mut act = vec![0.0; home.len()];
+    let mut queue = SetpointQueue::new(home, ms_to_ns(delay_ms));
+    let mut late_reported = 0;
     let mut spindle_rpm = 0.0;
     let mut encoder_on = true;
     if a.rt_priority > 0 {
@@ -148,23 +176,47 @@ fn run(a: Args) -> Result<(), String> {
     let mut grid = Grid::new(start, dt);
     let mut clock = WallClock::new();
     let mut last_warn: Option<Instant> = None;
+    let mut last_late: Option<Instant> = None;
     let mut states: Vec<JointState> = Vec::new();
     eprintln!(
-        "sim_axes: {} ({}), {} Hz, domain {domain}, {ns}/joint_states, {ns}/spindle_encoder, {ns}/encoder_enabled, {ns}/spindle_stalled",
+        "sim_axes: {} ({}), {} Hz, setpoints applied {}, domain {domain}, {ns}/joint_states, {ns}/spindle_encoder, {ns}/encoder_enabled, {ns}/spindle_stalled, {ns}/setpoint_delay",
         machine.name,
         names.join(" "),
         rate,
+        applied(delay_ms),
         ns = a.namespace.trim_end_matches('/'),
     );
     loop {
         while let Ok(Some((m, _))) = sub_set.take() {
-            for (n, p) in m.name.iter().zip(&m.position) {
-                if let Some(j) = names.iter().position(|x| x == n) {
-                    if p.is_finite() {
-                        set[j] = p * 1000.0;
+            let joints =
+                m.name.iter().zip(&m.position).filter_map(|(n, p)| {
+                    names.iter().position(|x| x == n).map(|j| (j, p * 1000.0))
+                });
+            queue.push(time_ns(&m.header.stamp), joints);
+        }
+        while let Ok(Some((id, req))) = srv_delay.receive_request() {
+            let resp = match check_delay(req.delay_ms) {
+                Ok(()) => {
+                    let was = queue.delay_ns() as f64 * 1e-6;
+                    queue.set_delay_ns(ms_to_ns(req.delay_ms));
+                    eprintln!(
+                        "sim_axes: setpoint delay {was} ms -> {} ms (fault injection)",
+                        req.delay_ms
+                    );
+                    SetDelayResponse {
+                        success: true,
+                        message: format!(
+                            "setpoints applied {} (was {was} ms)",
+                            applied(req.delay_ms)
+                        ),
                     }
                 }
-            }
+                Err(e) => SetDelayResponse {
+                    success: false,
+                    message: format!("delay_ms {e}; nothing changed"),
+                },
+            };
+            let _ = srv_delay.send_response(id, resp);
         }
         while let Ok(Some((m, _))) = sub_spin.take() {
             if m.data.is_finite() {
@@ -227,7 +279,8 @@ fn run(a: Args) -> Result<(), String> {
         for _ in 0..due {
             let n = grid.advance();
             let stamp = clock.stamp(grid.at(n));
-            model.step(&set, spindle_rpm, dt);
+            let t_ns = time_ns(&stamp);
+            model.step(queue.at(t_ns), spindle_rpm, dt);
             if let (Some(sp), true) = (model.spindle.as_ref(), encoder_on) {
                 let e = sp.encoder();
                 let _ = pub_enc.publish(SpindleEncoder {
@@ -254,6 +307,15 @@ fn run(a: Args) -> Result<(), String> {
         for js in states.drain(..) {
             let _ = pub_js.publish(js);
         }
+        if queue.late() > late_reported && last_late.is_none_or(|w| w.elapsed().as_secs() >= 1) {
+            eprintln!(
+                "sim_axes: {} setpoints arrived after their instant (stamp + {} ms) and were applied at once",
+                queue.late() - late_reported,
+                queue.delay_ns() as f64 * 1e-6
+            );
+            late_reported = queue.late();
+            last_late = Some(Instant::now());
+        }
         if a.duration
             .is_some_and(|d| start.elapsed().as_secs_f64() >= d)
         {
@@ -261,4 +323,31 @@ fn run(a: Args) -> Result<(), String> {
         }
         grid.wait();
     }
+}
+
+/// A setpoint delay is 0 to [`MAX_SETPOINT_DELAY_MS`] ms.
+fn check_delay(ms: f64) -> Result<(), String> {
+    if ms.is_finite() && (0.0..=MAX_SETPOINT_DELAY_MS).contains(&ms) {
+        Ok(())
+    } else {
+        Err(format!(
+            "{ms}: must be between 0 and {MAX_SETPOINT_DELAY_MS} ms"
+        ))
+    }
+}
+
+fn ms_to_ns(ms: f64) -> i64 {
+    (ms * 1e6).round() as i64
+}
+
+fn applied(ms: f64) -> String {
+    if ms > 0.0 {
+        format!("{ms} ms after their stamps")
+    } else {
+        "on arrival".to_string()
+    }
+}
+
+fn time_ns(t: &Time) -> i64 {
+    i64::from(t.sec) * 1_000_000_000 + i64::from(t.nanosec)
 }
