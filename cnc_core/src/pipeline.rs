@@ -154,6 +154,72 @@ impl Canon for Front {
     }
 }
 
+/// What a [`Watched`] front shows: every command as the interpreter hands
+/// it on (before compensation) and the settings, as they come. For tools
+/// that read a program's commands as programmed beside the commanded path
+/// (plots, recordings' programmed path).
+pub trait Watcher {
+    /// A command, before compensation and blending.
+    fn command(&mut self, _cmd: &Event) {}
+    /// G40 (`None`), G41/G42, programmed by block `at`.
+    fn compensation(&mut self, _mode: Option<CompMode>, _at: Src) {}
+    /// The selected tool's geometry offset.
+    fn tool_offset(&mut self, _offset: V3) {}
+}
+
+/// The pipeline's front stages with a [`Watcher`] looking at what goes in.
+pub struct Watched<W> {
+    pub front: Front,
+    pub watcher: W,
+}
+
+impl<W: Watcher> Canon for Watched<W> {
+    fn command(&mut self, cmd: Event, errors: &mut Vec<String>) {
+        self.watcher.command(&cmd);
+        self.front.command(cmd, errors);
+    }
+    fn set_compensation(&mut self, mode: Option<CompMode>, at: Src) {
+        self.watcher.compensation(mode, at);
+        self.front.set_compensation(mode, at);
+    }
+    fn set_tool_offset(&mut self, offset: V3) {
+        self.watcher.tool_offset(offset);
+        self.front.set_tool_offset(offset);
+    }
+    fn set_path_tolerance(&mut self, mm: f64) {
+        self.front.set_path_tolerance(mm);
+    }
+    fn compensating(&self) -> bool {
+        self.front.compensating()
+    }
+    fn passes_through(&self) -> bool {
+        self.front.passes_through()
+    }
+    fn ready(&self) -> usize {
+        self.front.ready()
+    }
+    fn pop(&mut self) -> Option<Event> {
+        self.front.pop()
+    }
+    fn take(&mut self, batch: &mut VecDeque<Event>) {
+        self.front.take(batch)
+    }
+}
+
+impl<S: ProgramSource, W: Watcher> Interpreter<S, Watched<W>> {
+    /// An interpreter whose commands pass compensation and blending, with
+    /// `watcher` shown each as it goes in.
+    pub fn watched(src: S, dialect: Dialect, machine: &Machine, watcher: W) -> Self {
+        let front = Front::new(machine);
+        Interpreter::with_canon(src, dialect, machine, Watched { front, watcher })
+    }
+
+    /// The watcher.
+    pub fn watcher(&self) -> &W {
+        &self.canon().watcher
+    }
+}
+
 impl<S: ProgramSource> Interpreter<S, Front> {
     /// An interpreter whose commands pass compensation and blending: what
     /// the planner is fed. Iterate it for the planner's events.

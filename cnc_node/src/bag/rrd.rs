@@ -12,14 +12,13 @@
 
 use super::reader::{Bag, Extent};
 use crate::record::{from_cdr, topics};
-use cnc_core::canon::{Canon, CompMode, Event, Feed, Src};
+use cnc_core::canon::{Event, Feed, Src};
 use cnc_core::geom::Geom;
 use cnc_core::interp::Interpreter;
-use cnc_core::pipeline::Front;
+use cnc_core::pipeline::Watcher;
 use cnc_core::source::StrSource;
 use cnc_core::{Dialect, Machine, V3};
 use cnc_msgs::JointState;
-use std::collections::VecDeque;
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::Path;
@@ -50,10 +49,9 @@ pub struct ProgrammedMove {
     pub points: Vec<V3>,
 }
 
-/// The pipeline's front, watched: every move as programmed, on its way
-/// into compensation.
+/// The watcher of the pipeline's front: every move as programmed, on its
+/// way into compensation.
 struct Watch {
-    front: Front,
     offset: V3,
     moves: Vec<ProgrammedMove>,
     points: usize,
@@ -84,9 +82,9 @@ fn geom_points(geom: &Geom, fine: bool) -> Vec<V3> {
         .collect()
 }
 
-impl Canon for Watch {
-    fn command(&mut self, cmd: Event, errors: &mut Vec<String>) {
-        match &cmd {
+impl Watcher for Watch {
+    fn command(&mut self, cmd: &Event) {
+        match cmd {
             Event::Move { geom, feed, src } => {
                 let pts = geom_points(geom, self.points < MAX_PROGRAMMED_POINTS);
                 self.push(*src, matches!(feed, Feed::Rapid), false, pts);
@@ -105,32 +103,9 @@ impl Canon for Watch {
             }
             _ => {}
         }
-        self.front.command(cmd, errors);
     }
-    fn set_compensation(&mut self, mode: Option<CompMode>, at: Src) {
-        self.front.set_compensation(mode, at);
-    }
-    fn set_tool_offset(&mut self, offset: V3) {
+    fn tool_offset(&mut self, offset: V3) {
         self.offset = offset;
-        self.front.set_tool_offset(offset);
-    }
-    fn set_path_tolerance(&mut self, mm: f64) {
-        self.front.set_path_tolerance(mm);
-    }
-    fn compensating(&self) -> bool {
-        self.front.compensating()
-    }
-    fn passes_through(&self) -> bool {
-        self.front.passes_through()
-    }
-    fn ready(&self) -> usize {
-        self.front.ready()
-    }
-    fn pop(&mut self) -> Option<Event> {
-        self.front.pop()
-    }
-    fn take(&mut self, batch: &mut VecDeque<Event>) {
-        self.front.take(batch)
     }
 }
 
@@ -140,19 +115,17 @@ impl Canon for Watch {
 /// start of the runout and their end.
 pub fn programmed_moves(machine: &Machine, dialect: Dialect, text: &str) -> Vec<ProgrammedMove> {
     let watch = Watch {
-        front: Front::new(machine),
         offset: V3::zeros(),
         moves: Vec::new(),
         points: 0,
     };
-    let mut interp = Interpreter::with_canon(StrSource::new(text), dialect, machine, watch);
+    let mut interp = Interpreter::watched(StrSource::new(text), dialect, machine, watch);
     for ev in interp.by_ref() {
         if matches!(ev, Event::End { .. }) {
             break;
         }
     }
-    let watch = interp.canon();
-    watch.moves.clone()
+    interp.watcher().moves.clone()
 }
 
 /// The moves as the converter reads them: one a line, `LINE KIND x,y,z

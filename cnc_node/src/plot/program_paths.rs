@@ -2,17 +2,17 @@
 //! programmed contour, the nose- or cutter-centre path and the tip's path,
 //! from one run of the interpreter whose canonical commands are watched
 //! on their way into the pipeline's compensation stage and out of it
-//! ([`Watch`], a [`Canon`] around the pipeline's [`Front`]).
+//! ([`Watch`], the [`Watcher`] of the pipeline's front stages).
 
 use super::decimate::{one_run, Decimator, MAX_SERIES_POINTS};
-use cnc_core::canon::{Canon, CompMode, Event, Feed, Src};
+use cnc_core::canon::{CompMode, Event, Feed, Src};
 use cnc_core::geom::{Geom, Plane};
 use cnc_core::interp::Interpreter;
 use cnc_core::machine::{tip_vector, MachineKind};
-use cnc_core::pipeline::Front;
+use cnc_core::pipeline::Watcher;
 use cnc_core::source::StrSource;
 use cnc_core::{Dialect, Machine, V3};
-use std::collections::{HashMap, VecDeque};
+use std::collections::HashMap;
 
 /// Tags of the programmed path's runs.
 pub(crate) const RAPID: u8 = 1;
@@ -53,11 +53,10 @@ enum CompMove {
     On(CompMode),
 }
 
-/// The pipeline's front stages, watched: every command as programmed on
-/// its way in (the contour, and each move's compensation state by its
-/// block), and the compensation mode and tool offset handed on.
+/// Every command as programmed on its way into the compensation (the
+/// contour, and each move's compensation state by its line), and the
+/// compensation mode and tool offset handed on.
 struct Watch {
-    front: Front,
     /// G41/G42 in force (as programmed), and the block that programmed it
     mode: Option<(CompMode, Src)>,
     /// the tool's geometry offset
@@ -71,53 +70,33 @@ struct Watch {
     comp_box: Option<Box3>,
 }
 
-impl Canon for Watch {
-    fn command(&mut self, cmd: Event, errors: &mut Vec<String>) {
-        if let Event::Move { geom, feed, src } = cmd {
-            let state = match self.mode {
-                None => CompMove::Off,
-                Some((m, at)) if at == src => CompMove::Entry(m),
-                Some((m, _)) => CompMove::On(m),
-            };
-            self.state.insert(src.line, state);
-            let t = tag(feed);
-            let off = self.offset;
-            geom_points(&geom, |p| {
-                let p = p - off;
-                self.contour.push(t, p);
-                if matches!(state, CompMove::On(_)) {
-                    grow(&mut self.comp_box, p);
-                }
-            });
-        }
-        self.front.command(cmd, errors);
+impl Watcher for Watch {
+    fn command(&mut self, cmd: &Event) {
+        let Event::Move { geom, feed, src } = *cmd else {
+            return;
+        };
+        let state = match self.mode {
+            None => CompMove::Off,
+            Some((m, at)) if at == src => CompMove::Entry(m),
+            Some((m, _)) => CompMove::On(m),
+        };
+        self.state.insert(src.line, state);
+        let t = tag(feed);
+        let off = self.offset;
+        geom_points(&geom, |p| {
+            let p = p - off;
+            self.contour.push(t, p);
+            if matches!(state, CompMove::On(_)) {
+                grow(&mut self.comp_box, p);
+            }
+        });
     }
-    fn set_compensation(&mut self, mode: Option<CompMode>, at: Src) {
+    fn compensation(&mut self, mode: Option<CompMode>, at: Src) {
         self.used |= mode.is_some();
         self.mode = mode.map(|m| (m, at));
-        self.front.set_compensation(mode, at);
     }
-    fn set_tool_offset(&mut self, offset: V3) {
+    fn tool_offset(&mut self, offset: V3) {
         self.offset = offset;
-        self.front.set_tool_offset(offset);
-    }
-    fn set_path_tolerance(&mut self, mm: f64) {
-        self.front.set_path_tolerance(mm);
-    }
-    fn compensating(&self) -> bool {
-        self.front.compensating()
-    }
-    fn passes_through(&self) -> bool {
-        self.front.passes_through()
-    }
-    fn ready(&self) -> usize {
-        self.front.ready()
-    }
-    fn pop(&mut self) -> Option<Event> {
-        self.front.pop()
-    }
-    fn take(&mut self, batch: &mut VecDeque<Event>) {
-        self.front.take(batch)
     }
 }
 
@@ -134,7 +113,6 @@ pub(crate) struct ProgramPaths {
 pub(crate) fn program_paths(machine: &Machine, dialect: Dialect, text: &str) -> ProgramPaths {
     let lathe = machine.kind == MachineKind::Lathe;
     let watch = Watch {
-        front: Front::new(machine),
         mode: None,
         offset: V3::zeros(),
         used: false,
@@ -142,7 +120,7 @@ pub(crate) fn program_paths(machine: &Machine, dialect: Dialect, text: &str) -> 
         contour: Decimator::new(MAX_SERIES_POINTS),
         comp_box: None,
     };
-    let mut interp = Interpreter::with_canon(StrSource::new(text), dialect, machine, watch);
+    let mut interp = Interpreter::watched(StrSource::new(text), dialect, machine, watch);
     let mut programmed = Decimator::new(MAX_SERIES_POINTS);
     let mut tip = Decimator::new(MAX_SERIES_POINTS);
     let mut centre = Decimator::new(MAX_SERIES_POINTS);
@@ -170,7 +148,7 @@ pub(crate) fn program_paths(machine: &Machine, dialect: Dialect, text: &str) -> 
         let t = tag(feed);
         geom_points(&geom, |p| programmed.push(t, p));
         let state = interp
-            .canon()
+            .watcher()
             .state
             .get(&src.line)
             .copied()
@@ -203,7 +181,7 @@ pub(crate) fn program_paths(machine: &Machine, dialect: Dialect, text: &str) -> 
             );
         }
     }
-    let watch = interp.canon();
+    let watch = interp.watcher();
     let comp = watch.used.then(|| {
         if let Some((lo, hi)) = watch.comp_box {
             grow(&mut comp_box, lo);
