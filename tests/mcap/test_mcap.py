@@ -45,6 +45,8 @@ TOPICS = {
     "/cnc/toolpath": "sensor_msgs/msg/PointCloud2",
     "/cnc/program": "std_msgs/msg/String",
     "/cnc/machine_file": "std_msgs/msg/String",
+    # the simulated encoder: offline recordings of a machine with a spindle
+    "/sim/spindle_encoder": "cnc_msgs/msg/SpindleEncoder",
 }
 
 
@@ -359,7 +361,7 @@ def test_a_cut_recording_is_recovered_for_independent_readers(recording, tmp_pat
     out = tmp_path / "recovered.mcap"
     r = subprocess.run(cnc_cmd() + ["bag", "recover", str(cut), "-o", str(out)],
                        cwd=ROOT, check=True, capture_output=True, text=True)
-    m = re.search(r"recovered (\d+) messages on 8 channels \(9 defined\) from 3 complete chunks", r.stdout)
+    m = re.search(r"recovered (\d+) messages on 9 channels \(10 defined\) from 3 complete chunks", r.stdout)
     assert m, r.stdout
     assert f"dropped {c.chunk_length // 2} bytes of an unfinished chunk" in r.stdout, r.stdout
 
