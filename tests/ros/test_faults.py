@@ -33,6 +33,9 @@ from ros_nodes import ROOT, TARGET, build, read_mcap, start, start_node, start_s
 
 DOMAIN = str(30 + os.getpid() % 60)
 NS, SIM = "/cnc", "/sim"
+# the bundled mill's interpolation.setpoint_delay_ms (the simulator applies
+# each setpoint this long after its stamp)
+DELAY_MS = 3
 IDLE, RUNNING, ERROR = ControllerStatus.STATE_IDLE, ControllerStatus.STATE_RUNNING, ControllerStatus.STATE_ERROR
 HERE = os.path.dirname(os.path.abspath(__file__))
 # the module's machine: the bundled mill with a 50 MiB program limit
@@ -50,6 +53,7 @@ class Rig:
         with open(os.path.join(ROOT, "config", "mill.toml")) as f:
             toml = f.read()
         assert "max_program_bytes = 67108864" in toml
+        assert "\nsetpoint_delay_ms = %.1f\n" % DELAY_MS in toml
         self.machine = os.path.join(tmp, "mill_50mib.toml")
         with open(self.machine, "w") as f:
             f.write(toml.replace("max_program_bytes = 67108864", "max_program_bytes = %d" % LIMIT))
@@ -615,7 +619,10 @@ def test_simulator_killed_mid_job_the_open_loop_job_goes_on_and_it_follows_again
     # discovery), ramps to them at its limits overshooting a few mm, and
     # follows: its joint states against the setpoint of the same instant,
     # from half a second after its error was last 1 mm or more
-    by_ms = {round(t / 1e6): p for t, p in sps}
+    # (the simulator applies each setpoint at its stamp + the machine's
+    # setpoint delay, interpolation.setpoint_delay_ms: a joint state
+    # stamped t is compared with the setpoint stamped t - that delay)
+    by_ms = {round(t / 1e6) + DELAY_MS: p for t, p in sps}
     errs = [(t, max(abs(a - b) for a, b in zip(p, by_ms[round(t / 1e6)])))
             for t, p in rjs if t > restart_ns and round(t / 1e6) in by_ms and t <= end_ns - 300_000_000]
     first_ns = min(t for t, _ in rjs if t > restart_ns)
