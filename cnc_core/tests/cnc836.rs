@@ -391,3 +391,26 @@ fn loops_that_would_run_too_many_blocks_are_refused_before_they_run() {
     assert!(r.ok(), "{}", r.message());
     assert_eq!(r.moves, 1 + 4000);
 }
+
+/// A new S while the spindle turns changes the commanded speed (alone or
+/// with M03): before, the command was compared after S was applied, so a
+/// new speed with the spindle already on was never commanded.
+#[test]
+fn a_new_speed_while_the_spindle_turns_is_commanded() {
+    let m = mill();
+    let text = "N10 G90 M03 S1200\nN20 G01 X10 F600\nN30 S800\nN40 G01 X20\nN50 M03 S500\nN60 G01 X30\nN70 M30\n";
+    let r = check(StrSource::new(text), Dialect::Cnc836, &m);
+    assert!(r.ok(), "{}", r.message());
+    let s: Vec<Sample> = Executor::new(StrSource::new(text), Dialect::Cnc836, &m).collect();
+    let rpm_at = |line: u32| s.iter().find(|x| x.src.line == line).map(|x| x.spindle_rpm);
+    assert_eq!(rpm_at(2), Some(1200.0));
+    assert_eq!(rpm_at(4), Some(800.0));
+    assert_eq!(rpm_at(6), Some(500.0));
+    let spindle: Vec<f64> = Interpreter::new(StrSource::new(text), Dialect::Cnc836, &m)
+        .filter_map(|e| match e {
+            Event::Spindle { rpm, .. } => Some(rpm),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(spindle, vec![1200.0, 800.0, 500.0]);
+}

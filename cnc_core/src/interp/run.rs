@@ -155,6 +155,9 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                 }
             }
         }
+        // the spindle command before this block's S and M03/M04/M05: a new S
+        // while the spindle turns is a new command too
+        let before = self.modal.spindle_rpm();
         if let Some(s) = w.s() {
             if s.value < 0.0 {
                 self.error(
@@ -201,7 +204,6 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
             }
         }
         // --- spindle ---------------------------------------------------------------
-        let before = self.modal.spindle_rpm();
         if let Some(m) = w.get(slot::SPINDLE) {
             let dir = w.spindle;
             if dir != SpindleDir::Off && self.max_rpm.is_none() {
