@@ -34,7 +34,10 @@ done
 mkdir -p "$OUT/ab_a" "$OUT/ab_b"
 "$A" simulate "$SIM" --machine mill --mcap "$OUT/ab_a/run.mcap" >/dev/null 2>&1
 "$B" simulate "$SIM" --machine mill --mcap "$OUT/ab_b/run.mcap" >/dev/null 2>&1
-cmp -s "$OUT/ab_a/run.mcap" "$OUT/ab_b/run.mcap" || { echo "the builds' recordings differ" >&2; exit 1; }
+cmp -s "$OUT/ab_a/run.mcap" "$OUT/ab_b/run.mcap" || {
+    echo "the builds' recordings differ (compare them with cnc bag compare; builds that record different topics cannot be timed side by side here)" >&2
+    exit 1
+}
 
 one() {  # one CNC ARGS... -> "wall cpu rss_kib"
     /usr/bin/time -f '%e %U %S %M' "$@" 2>&1 >/dev/null | tail -1 |
