@@ -83,8 +83,14 @@ pub struct Sync {
     /// lead axis and pitch along it, mm/rev
     pub lead: usize,
     pub pitch: f64,
-    /// lead travel from the block's start, mm
+    /// lead travel from the block's start, mm (on the thread line: the
+    /// setpoint's is `u + accel_lead`)
     pub u: f64,
+    /// how far the setpoint leads the line to take up the lead axis's
+    /// servo lag under the spindle's acceleration, mm of lead travel
+    /// ([`Machine::servo_accel_lag_s2`] × pitch × the spindle's
+    /// acceleration; 0 off the line)
+    pub accel_lead: f64,
     /// the lead axis's coordinate at the block's start, and the sign of its travel
     pub lead_start: f64,
     pub lead_sign: f64,
@@ -173,6 +179,21 @@ pub struct Executor<S> {
     /// each axis trails it by its servo lag, s: G33 leads by both
     delay: f64,
     servo_lag: V3,
+    /// each axis's servo lag under acceleration, s²
+    /// ([`Machine::servo_accel_lag_s2`])
+    accel_lag: V3,
+}
+
+/// The spindle at a setpoint's instant, revolutions counted in the
+/// direction of rotation.
+#[derive(Clone, Copy, Debug)]
+struct SpindleNow {
+    theta: f64,
+    /// the angle of the last index pulse (`None`: none seen yet)
+    index: Option<f64>,
+    /// speed, rev/s, and acceleration, rev/s²
+    rev_s: f64,
+    rev_s2: f64,
 }
 
 /// A moving average of the last M setpoints (and path speeds).
@@ -258,6 +279,7 @@ impl<S: ProgramSource> Executor<S> {
             a_top: lim.max_path_acceleration(),
             delay: 0.0,
             servo_lag: machine.servo_lag_s(),
+            accel_lag: machine.servo_accel_lag_s2(),
         }
     }
 
@@ -471,20 +493,19 @@ impl<S: ProgramSource> Executor<S> {
         Some(self.sample(pos, 0.0, true))
     }
 
-    /// The spindle angle for this tick's setpoint (measured: predicted
-    /// `ahead` s after its instant) and the index position, revolutions
-    /// counted in direction `dir`; `None` index: none seen yet.
-    fn spindle_angle(&self, dir: f64, ahead: f64) -> Result<(f64, Option<f64>, f64), String> {
+    /// The spindle for this tick's setpoint (measured: predicted `ahead`
+    /// s after its instant), counted in direction `dir`.
+    fn spindle_angle(&self, dir: f64, ahead: f64) -> Result<SpindleNow, String> {
         let Some(tr) = &self.tracker else {
-            let rev_s = dir * self.pipe.timeline.spin_rpm / 60.0;
-            return Ok((
-                dir * self.pipe.timeline.ideal_rev(self.vk),
-                Some(0.0),
-                rev_s,
-            ));
+            return Ok(SpindleNow {
+                theta: dir * self.pipe.timeline.ideal_rev(self.vk),
+                index: Some(0.0),
+                rev_s: dir * self.pipe.timeline.spin_rpm / 60.0,
+                rev_s2: 0.0,
+            });
         };
         let t = self.k as f64 * self.dt;
-        let (Some(last), Some((c, cps))) = (tr.last, tr.predict(t + ahead)) else {
+        let (Some(last), Some(p)) = (tr.last, tr.predict_motion(t + ahead)) else {
             return Err("no spindle encoder reading".into());
         };
         let late = t - last.t;
@@ -495,8 +516,12 @@ impl<S: ProgramSource> Executor<S> {
             ));
         }
         let cpr = tr.cpr();
-        let index = (last.index_count > 0).then(|| dir * last.count_at_index as f64 / cpr);
-        Ok((dir * c / cpr, index, dir * cps / cpr))
+        Ok(SpindleNow {
+            theta: dir * p.counts / cpr,
+            index: (last.index_count > 0).then(|| dir * last.count_at_index as f64 / cpr),
+            rev_s: dir * p.per_s / cpr,
+            rev_s2: dir * p.per_s2 / cpr,
+        })
     }
 
     /// Ends the run after a controlled stop of a thread at lead travel `u`
@@ -522,7 +547,12 @@ impl<S: ProgramSource> Executor<S> {
         } else {
             0.0
         };
-        let (theta, index, rev_s) = match self.spindle_angle(dir, ahead) {
+        let SpindleNow {
+            theta,
+            index,
+            rev_s,
+            rev_s2,
+        } = match self.spindle_angle(dir, ahead) {
             Ok(a) => a,
             Err(why) => {
                 let why = format!("line {}: {why}", m.src.line);
@@ -611,8 +641,16 @@ impl<S: ProgramSource> Executor<S> {
         run.u = u;
         run.v = v;
         self.src = m.src;
+        let on_line = du == m.seg.pitch;
+        // on the line the lead axis accelerates with the spindle: lead it
+        // by its servo's lag under acceleration too
+        let accel_lead = if on_line {
+            self.accel_lag[m.seg.lead] * m.seg.pitch * rev_s2
+        } else {
+            0.0
+        };
         let mut s = self.sample(
-            m.seg.pos(u),
+            m.seg.pos(u + accel_lead),
             v * (m.seg.prog_end - m.seg.start).norm() / m.seg.len,
             false,
         );
@@ -623,9 +661,10 @@ impl<S: ProgramSource> Executor<S> {
             lead: m.seg.lead,
             pitch: m.seg.pitch,
             u,
+            accel_lead,
             lead_start: m.seg.start[m.seg.lead],
             lead_sign: (m.seg.prog_end[m.seg.lead] - m.seg.start[m.seg.lead]).signum(),
-            on_line: du == m.seg.pitch,
+            on_line,
         });
         self.cur = Some(Cur::Thread(run));
         self.advance(1.0);
@@ -806,7 +845,7 @@ impl<S: ProgramSource> Executor<S> {
         }
         let dir = if rpm < 0.0 { -1.0 } else { 1.0 };
         match self.spindle_angle(dir, self.delay) {
-            Ok((_, _, rev_s)) => {
+            Ok(SpindleNow { rev_s, .. }) => {
                 self.sp_scale = (rev_s * 60.0 / rpm.abs()).clamp(0.0, 2.0);
             }
             Err(why) => {

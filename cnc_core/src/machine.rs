@@ -612,6 +612,23 @@ impl Machine {
         })
     }
 
+    /// How far each axis's servo trails its setpoints under acceleration,
+    /// beyond [`servo_lag_s`](Self::servo_lag_s), s² (per machine
+    /// coordinate, absent axes 0): a P loop with velocity feed-forward
+    /// `ff` and a velocity loop of time constant τ, commanded `L` =
+    /// (1 − ff)/kp ahead, stands `a·((τ − L)/kp + L²/2)` behind at a
+    /// constant acceleration `a` (τ/kp with full feed-forward). G33 adds
+    /// it times the lead axis's acceleration, so the tool stays on the
+    /// thread line while the spindle's speed ripples.
+    pub fn servo_accel_lag_s2(&self) -> V3 {
+        V3::from_fn(|i, _| {
+            self.axis(i).map_or(0.0, |a| {
+                let l = ((1.0 - a.servo_feed_forward) / a.servo_kp).max(0.0);
+                ((a.servo_lag_s - l) / a.servo_kp + 0.5 * l * l).max(0.0)
+            })
+        })
+    }
+
     /// The configured axis for machine coordinate index 0..3 (X, Y, Z).
     pub fn axis(&self, idx: usize) -> Option<&AxisConfig> {
         self.axes.iter().find(|a| axis_index(&a.name) == Some(idx))

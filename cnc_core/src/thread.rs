@@ -189,6 +189,17 @@ pub struct EncoderReading {
     pub count_at_index: i64,
 }
 
+/// The spindle's predicted motion at an instant, in encoder counts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Predicted {
+    /// angle, counts (the centre of the count)
+    pub counts: f64,
+    /// speed, counts/s
+    pub per_s: f64,
+    /// acceleration, counts/s²
+    pub per_s2: f64,
+}
+
 /// Follows the measured spindle: a least-squares parabola through the
 /// readings of the last [`WINDOW_S`] predicts the angle at the instant a
 /// setpoint is meant for. A count stands for the interval
@@ -279,12 +290,20 @@ impl SpindleTracker {
     /// The predicted angle at time `t`, in counts (the centre of the
     /// count), and the speed then, counts per second: one fit for both.
     pub fn predict(&self, t: f64) -> Option<(f64, f64)> {
+        self.predict_motion(t).map(|p| (p.counts, p.per_s))
+    }
+
+    /// [`predict`](Self::predict) with the acceleration too (the fitted
+    /// parabola's, constant over the window).
+    pub fn predict_motion(&self, t: f64) -> Option<Predicted> {
         let last = self.last?;
         let c = self.fit()?;
         let x = (t - last.t) * 1000.0;
-        let counts = last.count as f64 + 0.5 + c[0] + x * (c[1] + x * c[2]);
-        let per_s = (c[1] + x * 2.0 * c[2]) * 1000.0;
-        Some((counts, per_s))
+        Some(Predicted {
+            counts: last.count as f64 + 0.5 + c[0] + x * (c[1] + x * c[2]),
+            per_s: (c[1] + x * 2.0 * c[2]) * 1000.0,
+            per_s2: 2.0 * c[2] * 1.0e6,
+        })
     }
 }
 
