@@ -179,8 +179,8 @@ pub struct Executor<S> {
     /// each axis trails it by its servo lag, s: G33 leads by both
     delay: f64,
     servo_lag: V3,
-    /// each axis's servo lag under acceleration, s²
-    /// ([`Machine::servo_accel_lag_s2`])
+    /// each axis's servo lag under acceleration that G33 leads by, s²
+    /// ([`Machine::servo_accel_lag_s2`] × `thread_accel_lead`)
     accel_lag: V3,
 }
 
@@ -279,7 +279,7 @@ impl<S: ProgramSource> Executor<S> {
             a_top: lim.max_path_acceleration(),
             delay: 0.0,
             servo_lag: machine.servo_lag_s(),
-            accel_lag: machine.servo_accel_lag_s2(),
+            accel_lag: machine.servo_accel_lag_s2() * machine.interpolation.thread_accel_lead,
         }
     }
 

@@ -129,6 +129,19 @@ pub struct InterpolationConfig {
     /// position mode; 0: on arrival). G33 leads by it.
     #[serde(default)]
     pub setpoint_delay_ms: f64,
+    /// how much of the lead axis's servo lag under the spindle's
+    /// acceleration G33 leads by, 0..=1 (0, the default: none). The
+    /// acceleration comes from the encoder tracker's fit, about 12 ms
+    /// late: it takes up speed changes slower than about 10 Hz (a 5 Hz
+    /// ripple's wander at S2000 from ±0.2° to ±0.07°) and adds to faster
+    /// ones (a 33 Hz ripple's by 40 %): set it for a spindle whose speed
+    /// varies slowly.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub thread_accel_lead: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 fn default_rate() -> f64 {
@@ -140,6 +153,7 @@ impl Default for InterpolationConfig {
         InterpolationConfig {
             rate_hz: default_rate(),
             setpoint_delay_ms: 0.0,
+            thread_accel_lead: 0.0,
         }
     }
 }
@@ -466,6 +480,13 @@ impl Machine {
                 format!("must be between 0 and {MAX_SETPOINT_DELAY_MS} (got {d})"),
             );
         }
+        let w = self.interpolation.thread_accel_lead;
+        if !(w.is_finite() && (0.0..=1.0).contains(&w)) {
+            return bad(
+                "interpolation.thread_accel_lead".into(),
+                format!("must be between 0 and 1 (got {w})"),
+            );
+        }
         let p = &self.planner;
         if !(p.exact_stop_angle_deg.is_finite() && (0.0..=90.0).contains(&p.exact_stop_angle_deg)) {
             return bad(
@@ -618,8 +639,9 @@ impl Machine {
     /// `ff` and a velocity loop of time constant τ, commanded `L` =
     /// (1 − ff)/kp ahead, stands `a·((τ − L)/kp + L²/2)` behind at a
     /// constant acceleration `a` (τ/kp with full feed-forward). G33 adds
-    /// it times the lead axis's acceleration, so the tool stays on the
-    /// thread line while the spindle's speed ripples.
+    /// it times the lead axis's acceleration (weighted by
+    /// `interpolation.thread_accel_lead`), so the tool stays on the
+    /// thread line while the spindle's speed changes.
     pub fn servo_accel_lag_s2(&self) -> V3 {
         V3::from_fn(|i, _| {
             self.axis(i).map_or(0.0, |a| {
@@ -865,5 +887,26 @@ mod tests {
         assert!(e.0.contains("axis[1].name"), "{}", e.0);
         let e = with("max_mm = 500.0", "max_mm = -50.0").unwrap_err();
         assert!(e.0.contains("axis[0].max_mm"), "{}", e.0);
+        let e = with("thread_accel_lead = 1.0", "thread_accel_lead = 1.5").unwrap_err();
+        assert_eq!(
+            e.0,
+            "machine file: key `interpolation.thread_accel_lead`: must be between 0 and 1 (got 1.5)"
+        );
+    }
+
+    #[test]
+    fn the_servo_lag_under_acceleration_follows_the_servo_model() {
+        let mut m = Machine::builtin_lathe();
+        assert_eq!(m.interpolation.thread_accel_lead, 1.0);
+        // full feed-forward: τ/kp = 0.002/60
+        assert!((m.servo_accel_lag_s2()[2] - 0.002 / 60.0).abs() < 1e-15);
+        // 80 %: L = 0.2/60; (τ − L)/kp + L²/2 < 0, so none
+        m.axes[1].servo_feed_forward = 0.8;
+        assert_eq!(m.servo_accel_lag_s2()[2], 0.0);
+        // 95 %: L = 0.05/60 = 0.833 ms
+        m.axes[1].servo_feed_forward = 0.95;
+        let l = 0.05 / 60.0;
+        let want = (0.002 - l) / 60.0 + 0.5 * l * l;
+        assert!((m.servo_accel_lag_s2()[2] - want).abs() < 1e-15);
     }
 }

@@ -652,7 +652,10 @@ fn a_lost_encoder_in_a_g95_move_stops_along_the_path_and_ends_the_run() {
 /// |e| and spread of each; the setpoints less their lead for the servo's
 /// lag under acceleration).
 fn groove_stats(rate: f64, rpm: f64, ff: f64) -> [(f64, f64, f64); 2] {
-    let mut m = lathe(0.02);
+    groove_stats_on(lathe(0.02), rate, rpm, ff)
+}
+
+fn groove_stats_on(mut m: Machine, rate: f64, rpm: f64, ff: f64) -> [(f64, f64, f64); 2] {
     m.interpolation.rate_hz = rate;
     m.axes[1].servo_feed_forward = ff;
     let lag = m.servo_lag_s()[2];
@@ -720,7 +723,8 @@ fn with_a_servo_lag_the_simulated_groove_stays_on_the_programmed_angle() {
 /// kp 60) trails by a·τ/kp under acceleration a: with the ripple the axis
 /// would wander ±0.2° about the groove at S2000 (spread 0.40° at 1 kHz,
 /// 0.45° at 10 kHz, measured before G33 led by it). G33 adds τ/kp times
-/// the lead axis's acceleration (the spindle's, from the tracker's fit):
+/// the lead axis's acceleration (the spindle's, from the tracker's fit;
+/// the bundled lathe's `interpolation.thread_accel_lead = 1`):
 /// spreads measured 0.25° (1 kHz) and 0.10° (10 kHz) at S2000, 0.16° and
 /// 0.07° at S800. The setpoints then stand off the line by that lead
 /// (up to ±0.25° at S2000 with this ripple), by design.
@@ -744,4 +748,9 @@ fn g33_leads_the_servo_lag_under_the_spindle_s_acceleration() {
             "{rate} Hz S{rpm}: {a_spread} > {spread}"
         );
     }
+    // without it (`interpolation.thread_accel_lead = 0`) the axis wanders
+    let mut off = lathe(0.02);
+    off.interpolation.thread_accel_lead = 0.0;
+    let [_, (_, _, a_spread)] = groove_stats_on(off, 10_000.0, 2000.0, 1.0);
+    assert!(a_spread > 0.4, "{a_spread}");
 }

