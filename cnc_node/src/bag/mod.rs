@@ -40,10 +40,15 @@
 mod compare;
 mod reader;
 mod rrd;
+mod thread_phase;
 
 pub use compare::{compare, compare_bags, At, CompareReport, TopicDiff, ValueDiff};
 pub use reader::{Bag, Extent, Job, MessageView, TopicData};
 pub use rrd::{programmed_moves, programmed_text, write_rrd, ProgrammedMove, CONVERTER};
+pub use thread_phase::{
+    measure_bag, measure_recording, NotMeasured, PassPhase, PassWindow, RecordingThreads,
+    MAX_GAP_NS,
+};
 
 use crate::record::{self, RecordSummary};
 use std::path::Path;
