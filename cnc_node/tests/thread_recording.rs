@@ -8,7 +8,7 @@
 
 use cnc_core::{Dialect, Machine};
 use cnc_msgs::SpindleEncoder;
-use cnc_node::bag::{measure_bag, measure_recording, Bag, NotMeasured};
+use cnc_node::bag::{compare_bags, measure_bag, measure_recording, Bag, NotMeasured};
 use cnc_node::plot::thread_error_series;
 use cnc_node::record::{from_cdr, record_simulation, to_cdr, topics};
 use std::path::{Path, PathBuf};
@@ -185,7 +185,7 @@ fn the_recorded_setpoint_delay_is_part_of_the_lead() {
 
 /// The index 1024 counts of 4096 later in every encoder message: the
 /// spindle angle from the index is a quarter turn less, the groove 90°
-/// further on.
+/// further on; `cnc bag compare` reports it.
 #[test]
 fn a_shifted_index_moves_the_groove_by_90_degrees() {
     let m = Machine::builtin_lathe();
@@ -209,6 +209,27 @@ fn a_shifted_index_moves_the_groove_by_90_degrees() {
     }
     // the lead error: a quarter of the pitch, 375 µm, where it was 0
     assert!((pb.max_set_um - 375.0).abs() < 1.0, "{}", pb.max_set_um);
+    let r = compare_bags(&a, &b, 0.0);
+    let t = r.thread.as_ref().unwrap();
+    let (ta, tb) = (t.a.as_ref().unwrap(), t.b.as_ref().unwrap());
+    assert!((tb[0].set.mean_deg - ta[0].set.mean_deg - 90.0).abs() < 1e-6);
+    let text = r.to_string();
+    eprintln!("{text}");
+    assert!(
+        text.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean +0.0000° worst 0.0532° (2239 samples), B mean +90.0000°"),
+        "{text}"
+    );
+    assert!(
+        text.contains(", B - A mean +90.0000° worst +89.9"),
+        "{text}"
+    );
+    assert!(
+        text.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0408°"),
+        "{text}"
+    );
+    // the encoder payloads differ: not within, as before
+    assert!(!r.within());
+    assert!(text.ends_with("result: NOT within tolerance"), "{text}");
 }
 
 /// Readings missing for 10 ms in the middle of the pass: the 10 setpoints
@@ -267,6 +288,19 @@ fn no_encoder_no_thread_no_job_are_errors() {
     // a recording without its job
     let e = measure_bag(&Bag::default()).unwrap_err();
     assert!(matches!(e, NotMeasured::NoJob(_)), "{e:?}");
+    // nothing to say in a comparison of recordings without G33; a thread
+    // against one without is reported
+    let p = Bag::read(&plain).unwrap();
+    assert_eq!(compare_bags(&p, &p, 0.0).thread, None);
+    let text = compare_bags(&p, &Bag::read(&rec).unwrap(), 1e9).to_string();
+    assert!(
+        text.contains("thread phase of A: ") && text.contains("cuts no G33 thread"),
+        "{text}"
+    );
+    assert!(
+        text.contains("groove phase, setpoints: A none, B mean +0.0000°"),
+        "{text}"
+    );
 }
 
 fn cnc(args: &[&str]) -> (i32, String, String) {
@@ -282,7 +316,7 @@ fn cnc(args: &[&str]) -> (i32, String, String) {
 }
 
 #[test]
-fn cli_plots_a_recordings_thread() {
+fn cli_plots_a_recordings_thread_and_compares_phases() {
     let m = Machine::builtin_lathe();
     let dir = tempfile::tempdir().unwrap();
     let rec = record(&m, dir.path(), "groove.mcap", GROOVE);
@@ -353,4 +387,20 @@ fn cli_plots_a_recordings_thread() {
     assert_eq!(code, 2);
     assert!(err.contains("cuts no G33 thread"), "{err}");
     assert!(!none.exists());
+
+    // `cnc bag compare`: the phase of both files, exit code as before
+    let (code, out, err) = cnc(&["bag", "compare", rec_s, rec_s]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean +0.0000° worst 0.0532° (2239 samples), B mean +0.0000° worst 0.0532° (2239 samples), B - A mean +0.0000° worst +0.0000°"),
+        "{out}"
+    );
+    assert!(
+        out.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0408° worst 5.2938° (2238 samples)"),
+        "{out}"
+    );
+    assert!(
+        out.trim_end().ends_with("result: within tolerance"),
+        "{out}"
+    );
 }

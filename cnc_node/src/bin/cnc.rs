@@ -186,7 +186,10 @@ enum BagCmd {
     },
     /// Compare two recordings: per topic and joint the largest deviation,
     /// where it first exceeds the tolerance (time, source line), missing or
-    /// extra messages. Exit 0 only when within tolerance.
+    /// extra messages; for a program with G33, each pass's groove phase in
+    /// both files (against each file's recorded encoder) and the
+    /// difference. Exit 0 only when within tolerance (the phase does not
+    /// count).
     Compare {
         a: PathBuf,
         b: PathBuf,
