@@ -1,11 +1,16 @@
 //! The lead error of G33 passes against the spindle angle, collected from
-//! the steps of an offline run ([`ThreadErrors`], a [`Sink`]).
+//! the steps of an offline run ([`ThreadErrors`], a [`Sink`]) or measured
+//! from a recording (`crate::bag::measure_recording`); either way one
+//! `PassBuilder` makes each [`ThreadPass`].
 
 use super::decimate::{Decimator, MAX_SERIES_POINTS};
 use crate::offline::{SimSummary, Sink, Step};
 use cnc_core::Machine;
 
 /// One sample of a thread pass: the lead error against the spindle angle.
+/// (Of a recording: the angle is the recorded encoder's at the setpoint's
+/// stamp plus the controller's lead, the actual position the joint states'
+/// at that instant.)
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ThreadErrorPoint {
     /// spindle angle the setpoint is for, degrees from the pass's θ₀
@@ -14,7 +19,7 @@ pub struct ThreadErrorPoint {
     /// setpoint lead travel minus the ideal thread line
     /// `pitch × (true spindle angle − θ₀)`, µm
     pub set_um: f64,
-    /// the same for the simulated actual position, µm
+    /// the same for the simulated actual position, µm (NaN: none there)
     pub act_um: f64,
     /// in the synchronized part (not run-in or deceleration)
     pub on_line: bool,
@@ -108,7 +113,8 @@ pub struct ThreadPass {
     /// lead axis (0 X, 1 Y, 2 Z) and the first block's pitch, mm/rev
     pub lead: usize,
     pub pitch: f64,
-    /// θ₀ of the first block, revolutions (the x axis's zero)
+    /// θ₀ of the first block, revolutions (the x axis's zero; of a
+    /// recording, from the index the pass's first encoder reading saw)
     pub theta0: f64,
     /// one encoder count along the lead at `pitch`, µm
     pub count_um: f64,
