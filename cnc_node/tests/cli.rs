@@ -259,11 +259,11 @@ fn plot_thread_and_compare_of_a_recording() {
         "{out}"
     );
     assert!(
-        out.contains("  pass 1 (N20, line 3): F1.5 synchronized 30.0..10772.4° (2239 samples); largest error there: setpoint 0.2216 µm (0.605 counts)"),
+        out.contains("  pass 1 (N20, line 3): F1.5 synchronized 30.0..10772.4° (2239 samples); largest error there: setpoint 0.2457 µm (0.671 counts)"),
         "{out}"
     );
     assert!(
-        out.contains("    groove phase there (0 = the programmed start angle): setpoint mean +0.0000°, worst 0.0532°, spread 0.1025° (2239 samples); actual mean -0.0408°"),
+        out.contains("    groove phase there (0 = the programmed start angle): setpoint mean +0.0000°, worst 0.0590°, spread 0.1148° (2239 samples); actual mean -0.0408°"),
         "{out}"
     );
     let text = std::fs::read_to_string(&svg).unwrap();
@@ -329,11 +329,11 @@ fn plot_thread_and_compare_of_a_recording() {
     let (code, out, err) = cnc(&["bag", "compare", rec_s, rec_s]);
     assert_eq!(code, 0, "{err}");
     assert!(
-        out.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean +0.0000° worst 0.0532° (2239 samples), B mean +0.0000° worst 0.0532° (2239 samples), B - A mean +0.0000° worst +0.0000°"),
+        out.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean +0.0000° worst 0.0590° (2239 samples), B mean +0.0000° worst 0.0590° (2239 samples), B - A mean +0.0000° worst +0.0000°"),
         "{out}"
     );
     assert!(
-        out.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0408° worst 5.2938° (2238 samples)"),
+        out.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0408° worst 5.2923° (2238 samples)"),
         "{out}"
     );
     assert!(
