@@ -224,6 +224,9 @@ pub fn recorder(
         machine_toml: opts.machine_toml.clone(),
         machine_name: machine.name.clone(),
         rate_hz: machine.interpolation.rate_hz,
+        // G33 leads by it (the controller's executor), so the recording
+        // says by how much (`cnc plot --thread` of the recording)
+        setpoint_delay_ms: Some(machine.interpolation.setpoint_delay_ms),
     };
     std::fs::create_dir_all(&opts.dir)
         .map_err(|e| format!("{}: {e}", opts.dir.display()))

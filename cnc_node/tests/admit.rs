@@ -305,7 +305,17 @@ fn recordings_are_made_when_asked_for_named_after_the_job_and_program() {
     assert!(r.accepted);
     assert_eq!(r.job_id, 7);
     assert_eq!(r.recording, rec.file.display().to_string());
+    let file = rec.file.clone();
     rec.finish().unwrap();
+    // the recording says how far G33 led the setpoints: the machine's
+    // setpoint delay (`cnc plot --thread` of the recording pairs them so)
+    let bag = cnc_node::bag::Bag::read(&file).unwrap();
+    assert_eq!(
+        bag.metadata["cnc"]
+            .get("setpoint_delay_ms")
+            .map(String::as_str),
+        Some(m.interpolation.setpoint_delay_ms.to_string().as_str())
+    );
     // every job with the node's --record-all
     let all = RecordOpts {
         all: true,

@@ -224,3 +224,120 @@ fn program_over_the_size_limit_is_refused_unread() {
         "{err}"
     );
 }
+
+/// `cnc plot REC.mcap --thread` and `cnc bag compare` on a recording of a
+/// G33 thread (the measurement itself: `tests/thread_recording.rs`).
+#[test]
+fn plot_thread_and_compare_of_a_recording() {
+    // the thread, recorded offline
+    let prog = tmp(
+        "groove.nc",
+        "N5 G00 X20 Z5\nN10 M03 S800\nN20 G33 Z-40 F1.5 I90\nN30 G00 X30\nN40 Z5\nN50 M30\n",
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("groove.mcap");
+    let rec_s = rec.to_str().unwrap();
+    let (code, _, err) = cnc(&[
+        "simulate",
+        prog.to_str().unwrap(),
+        "--machine",
+        "lathe",
+        "--mcap",
+        rec_s,
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let svg = dir.path().join("thread.svg");
+    let (code, out, err) = cnc(&["plot", rec_s, "--thread", svg.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    eprintln!("{out}");
+    assert!(
+        out.contains("thread pass 1 of 1 plotted to") && out.contains("the program cuts 1"),
+        "{out}"
+    );
+    assert!(
+        out.contains("  pass 1: I90 against the recorded encoder, setpoints at their stamp + 0.000 ms (2267 paired), joint states at their own (2267 paired); synchronized Z 4.889750..-39.889750 mm"),
+        "{out}"
+    );
+    assert!(
+        out.contains("  pass 1 (N20, line 3): F1.5 synchronized 30.0..10772.4° (2239 samples); largest error there: setpoint 0.2457 µm (0.671 counts)"),
+        "{out}"
+    );
+    assert!(
+        out.contains("    groove phase there (0 = the programmed start angle): setpoint mean +0.0000°, worst 0.0590°, spread 0.1148° (2239 samples); actual mean -0.0408°"),
+        "{out}"
+    );
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.starts_with("<svg") && text.trim_end().ends_with("</svg>"));
+    assert!(text.contains(
+        "groove.nc on lathe: G33 Z lead error, pass 1 of 1, recording groove.mcap against its encoder"
+    ));
+    // both figures of a recording at once
+    let path_svg = dir.path().join("path.svg");
+    let (code, out, err) = cnc(&[
+        "plot",
+        rec_s,
+        "-o",
+        path_svg.to_str().unwrap(),
+        "--thread",
+        svg.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        path_svg.exists() && out.contains("groove phase there"),
+        "{out}"
+    );
+    // a pass it does not have, a recording without G33: errors, nothing written
+    let none = dir.path().join("none.svg");
+    let (code, _, err) = cnc(&[
+        "plot",
+        rec_s,
+        "--thread",
+        none.to_str().unwrap(),
+        "--pass",
+        "2",
+    ]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("thread pass 2 asked for, the program cuts 1"),
+        "{err}"
+    );
+    let plain = dir.path().join("plain.mcap");
+    let plain_nc = tmp("plain.nc", "N5 G00 X20 Z5\nN10 M30\n");
+    let (code, _, err) = cnc(&[
+        "simulate",
+        plain_nc.to_str().unwrap(),
+        "--machine",
+        "lathe",
+        "--mcap",
+        plain.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    std::fs::remove_file(&path_svg).unwrap();
+    let (code, _, err) = cnc(&[
+        "plot",
+        plain.to_str().unwrap(),
+        "--thread",
+        none.to_str().unwrap(),
+        "-o",
+        path_svg.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 2);
+    assert!(err.contains("cuts no G33 thread"), "{err}");
+    assert!(!none.exists() && !path_svg.exists());
+
+    // `cnc bag compare`: the phase of both files, exit code as before
+    let (code, out, err) = cnc(&["bag", "compare", rec_s, rec_s]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean +0.0000° worst 0.0590° (2239 samples), B mean +0.0000° worst 0.0590° (2239 samples), B - A mean +0.0000° worst +0.0000°"),
+        "{out}"
+    );
+    assert!(
+        out.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0408° worst 5.2923° (2238 samples)"),
+        "{out}"
+    );
+    assert!(
+        out.trim_end().ends_with("result: within tolerance"),
+        "{out}"
+    );
+}

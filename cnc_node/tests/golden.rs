@@ -377,6 +377,8 @@ fn a_one_micrometre_interpolator_error_fails_the_golden_comparison_at_its_first_
         machine_toml: machine_toml(&m).unwrap(),
         machine_name: m.name.clone(),
         rate_hz: m.interpolation.rate_hz,
+        // an offline run: no drive delay, no key (as the golden)
+        setpoint_delay_ms: None,
     };
     let mut first = None;
     record_run_with(

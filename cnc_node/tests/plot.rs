@@ -462,6 +462,19 @@ fn thread_error_series_numbers() {
         assert!(q.set_um.abs() <= count, "{q:?}");
         assert!(q.deg >= a && q.deg <= b, "{q:?}");
     }
+    // the groove's phase on the line: one count of 4096 is 0.088° of the
+    // spindle, so the setpoints' is within it
+    let g = p.groove_set;
+    assert_eq!(g.n, p.on_line_samples);
+    assert!(
+        g.worst_deg <= 360.0 / 4096.0 && g.mean_deg.abs() <= 0.01,
+        "{g:?}"
+    );
+    assert!(
+        (g.worst_deg - p.max_set_um / 1500.0 * 360.0).abs() < 1e-9,
+        "{g:?}"
+    );
+    assert_eq!(p.groove_act.n, p.on_line_samples);
     // the simulated axis lags after the run-in and settles within a count
     // in the first two revolutions
     assert!(p.max_act_counts > 1.0, "{}", p.max_act_counts);
@@ -659,6 +672,13 @@ fn cli_thread_flag() {
     assert!(out.contains("thread pass 2 of 2 plotted to"), "{out}");
     assert!(
         out.contains("pass 1 (N30, line 7): F1.5 synchronized"),
+        "{out}"
+    );
+    // and each pass's groove phase, as for a recording
+    assert_eq!(
+        out.matches("    groove phase there (0 = the programmed start angle): setpoint mean ")
+            .count(),
+        2,
         "{out}"
     );
     assert!(t.exists() && !o.exists());

@@ -2,6 +2,8 @@
 //! for what is compared).
 
 use super::reader::{Bag, TopicData};
+use super::thread_phase::{measure_bag, NotMeasured, PassPhase, RecordingThreads};
+use crate::plot::PhaseStats;
 use crate::record::{self, from_cdr, topics};
 use cnc_msgs::schema::RosSchema;
 use cnc_msgs::{ControllerStatus, JointState, PointCloud2, PointField, PoseStamped, TFMessage};
@@ -97,6 +99,77 @@ pub struct CompareReport {
     /// differences of the `cnc` metadata and of the attachments (notes:
     /// they do not count against [`within`](Self::within))
     pub notes: Vec<String>,
+    /// the groove phase of the G33 passes of both files (None: neither
+    /// program cuts a thread, or neither file carries its job); it does
+    /// not count against [`within`](Self::within)
+    pub thread: Option<ThreadPhases>,
+}
+
+/// The groove phase of every G33 pass of two recordings, each measured
+/// against its own recorded encoder ([`super::measure_bag`]), or why it
+/// could not be.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ThreadPhases {
+    pub a: Result<Vec<PassPhase>, String>,
+    pub b: Result<Vec<PassPhase>, String>,
+}
+
+impl ThreadPhases {
+    fn fmt_lines(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (name, r) in [("A", &self.a), ("B", &self.b)] {
+            if let Err(e) = r {
+                writeln!(f, "thread phase of {name}: {e}")?;
+            }
+        }
+        let none = Vec::new();
+        let (pa, pb) = (
+            self.a.as_ref().unwrap_or(&none),
+            self.b.as_ref().unwrap_or(&none),
+        );
+        if self.a.is_ok() && self.b.is_ok() && pa.len() != pb.len() {
+            writeln!(f, "thread passes: A {}, B {}", pa.len(), pb.len())?;
+        }
+        let side = |g: Option<&PhaseStats>| match g {
+            Some(g) if g.n > 0 => format!(
+                "mean {:+.4}° worst {:.4}° ({} samples)",
+                g.mean_deg, g.worst_deg, g.n
+            ),
+            _ => "none".to_string(),
+        };
+        for i in 0..pa.len().max(pb.len()) {
+            let (a, b) = (pa.get(i), pb.get(i));
+            let Some(p) = b.or(a) else { continue };
+            let block = p.block_no.map(|n| format!("N{n}, ")).unwrap_or_default();
+            for (what, get) in [
+                (
+                    "setpoints",
+                    (|p: &PassPhase| p.set) as fn(&PassPhase) -> PhaseStats,
+                ),
+                ("actual", |p: &PassPhase| p.act),
+            ] {
+                let (ga, gb) = (a.map(get), b.map(get));
+                write!(
+                    f,
+                    "thread pass {} ({block}line {}, I{}) groove phase, {what}: A {}, B {}",
+                    i + 1,
+                    p.line,
+                    cnc_core::diag::num(p.start_angle_deg),
+                    side(ga.as_ref()),
+                    side(gb.as_ref())
+                )?;
+                if let (Some(x), Some(y)) = (ga.filter(|g| g.n > 0), gb.filter(|g| g.n > 0)) {
+                    write!(
+                        f,
+                        ", B - A mean {:+.4}° worst {:+.4}°",
+                        y.mean_deg - x.mean_deg,
+                        y.worst_deg - x.worst_deg
+                    )?;
+                }
+                writeln!(f)?;
+            }
+        }
+        Ok(())
+    }
 }
 
 impl CompareReport {
@@ -218,6 +291,9 @@ impl fmt::Display for CompareReport {
                         .map_or(String::new(), |a| a.to_string())
                 )?;
             }
+        }
+        if let Some(t) = &self.thread {
+            t.fmt_lines(f)?;
         }
         for n in &self.notes {
             writeln!(f, "note: {n}")?;
@@ -573,7 +649,26 @@ pub fn compare_bags(a: &Bag, b: &Bag, tolerance_mm: f64) -> CompareReport {
         tolerance_mm,
         topics,
         notes,
+        thread: thread_phases(a, b),
     }
+}
+
+/// The groove phases of both files; None when neither has a G33 thread
+/// to measure (or the job to tell).
+fn thread_phases(a: &Bag, b: &Bag) -> Option<ThreadPhases> {
+    let (ma, mb) = (measure_bag(a), measure_bag(b));
+    let quiet = |r: &Result<_, NotMeasured>| {
+        matches!(r, Err(NotMeasured::NoJob(_) | NotMeasured::NoThread(_)))
+    };
+    if quiet(&ma) && quiet(&mb) {
+        return None;
+    }
+    let phases =
+        |r: Result<RecordingThreads, NotMeasured>| r.map(|t| t.phases()).map_err(String::from);
+    Some(ThreadPhases {
+        a: phases(ma),
+        b: phases(mb),
+    })
 }
 
 #[cfg(test)]

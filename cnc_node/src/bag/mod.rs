@@ -33,6 +33,12 @@
 //! [`write_rrd`] (`cnc bag rrd`) writes a recording as a Rerun file with
 //! its layout, through the converter `cnc_node/rerun/cnc_rrd.py`.
 //!
+//! For a program with G33, [`compare`] also reports the groove's phase of
+//! every thread pass in both files (setpoints and actual positions against
+//! each file's recorded encoder, and the difference), measured as
+//! `cnc plot --thread` measures a recording ([`measure_recording`]); it
+//! does not count against the tolerance.
+//!
 //! Every recording is read by one reader, [`Bag`] (`cnc bag compare`,
 //! `cnc bag replay`, `cnc bag rerun`, `cnc plot` of a recording); only
 //! `cnc bag recover` ([`crate::recover`]) reads cut files record by record.
@@ -40,10 +46,15 @@
 mod compare;
 mod reader;
 mod rrd;
+mod thread_phase;
 
-pub use compare::{compare, compare_bags, At, CompareReport, TopicDiff, ValueDiff};
+pub use compare::{compare, compare_bags, At, CompareReport, ThreadPhases, TopicDiff, ValueDiff};
 pub use reader::{Bag, Extent, Job, MessageView, TopicData};
 pub use rrd::{programmed_moves, programmed_text, write_rrd, ProgrammedMove, CONVERTER};
+pub use thread_phase::{
+    measure_bag, measure_recording, NotMeasured, PassPhase, PassWindow, RecordingThreads,
+    MAX_GAP_NS,
+};
 
 use crate::record::{self, RecordSummary};
 use std::path::Path;

@@ -66,9 +66,10 @@ enum Cmd {
         /// part zoomed when it is small in the whole view
         #[arg(short, long, required_unless_present = "thread")]
         out: Option<PathBuf>,
-        /// (programs with G33) output file, .svg or .png, of the lead error
-        /// of a thread pass against the spindle angle (offline run against
-        /// the simulated spindle and encoder)
+        /// (G33) output file, .svg or .png, of the lead error of a thread
+        /// pass against the spindle angle: of a program, its offline run
+        /// against the simulated spindle; of a recording, its setpoints and
+        /// joint states against its recorded spindle encoder
         #[arg(long)]
         thread: Option<PathBuf>,
         /// which G33 pass --thread plots, 1 = the first
@@ -185,7 +186,10 @@ enum BagCmd {
     },
     /// Compare two recordings: per topic and joint the largest deviation,
     /// where it first exceeds the tolerance (time, source line), missing or
-    /// extra messages. Exit 0 only when within tolerance.
+    /// extra messages; for a program with G33, each pass's groove phase in
+    /// both files (against each file's recorded encoder) and the
+    /// difference. Exit 0 only when within tolerance (the phase does not
+    /// count).
     Compare {
         a: PathBuf,
         b: PathBuf,
@@ -663,15 +667,29 @@ fn cmd_plot(
         cnc_node::plot::Format::from_path(o)?;
     }
     if file.extension().is_some_and(|e| e == "mcap") {
-        if thread.is_some() {
-            return Err(format!(
-                "{}: --thread plots a program's offline run (a recording has no true spindle angle); plot the program with --machine",
-                file.display()
-            ));
-        }
+        // the thread first: a recording it cannot measure writes nothing
+        let measured = match thread {
+            Some((tout, pass)) => Some((
+                cnc_node::plot::plot_recording_thread(file, pass, tout)?,
+                tout,
+                pass,
+            )),
+            None => None,
+        };
         if let Some(out) = out {
             cnc_node::plot::plot_recording(file, out)?;
             println!("{}: plotted to {}", file.display(), out.display());
+        }
+        if let Some((r, tout, pass)) = measured {
+            println!(
+                "{}: thread pass {pass} of {} plotted to {} (measured against the recorded spindle encoder; the program cuts {})",
+                file.display(),
+                r.series.passes.len(),
+                tout.display(),
+                r.programmed_passes
+            );
+            print!("{}", r.describe());
+            print_thread_summary(file, &r.series);
         }
         return Ok(ExitCode::SUCCESS);
     }
@@ -697,34 +715,17 @@ fn cmd_plot(
             s.passes.len(),
             tout.display()
         );
-        for (i, p) in s.passes.iter().enumerate() {
-            let block = p.block_no.map(|n| format!("N{n}, ")).unwrap_or_default();
-            let span = match (p.sync_deg.first(), p.sync_deg.last()) {
-                (Some(a), Some(b)) => format!("{:.1}..{:.1}°", a.0, b.1),
-                _ => "none".into(),
-            };
-            let settled = p
-                .act_within_count_from_deg
-                .map(|d| format!(", within 1 count from {d:.0}°"))
-                .unwrap_or_default();
-            println!(
-                "  pass {} ({block}line {}): F{} synchronized {span} ({} samples); largest error there: setpoint {:.4} µm ({:.3} counts), actual {:.3} µm ({:.2} counts){settled}; 1 count = {:.4} µm",
-                i + 1,
-                p.line,
-                p.pitch,
-                p.on_line_samples,
-                p.max_set_um,
-                p.max_set_counts,
-                p.max_act_um,
-                p.max_act_counts,
-                p.count_um
-            );
-        }
-        if let Some(f) = &s.fault {
-            eprintln!("{}: the run stopped: {f}", file.display());
-        }
+        print_thread_summary(file, s);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The numbers of every thread pass, and the fault that stopped the run.
+fn print_thread_summary(file: &Path, s: &cnc_node::plot::ThreadErrorSeries) {
+    print!("{}", cnc_node::plot::thread_summary(s));
+    if let Some(f) = &s.fault {
+        eprintln!("{}: the run stopped: {f}", file.display());
+    }
 }
 
 fn cmd_bag(cmd: BagCmd) -> Result<ExitCode, String> {

@@ -16,7 +16,9 @@
 //!   [`plot_recording`] (the same from an MCAP
 //!   recording, read with [`crate::bag::Bag`]) and [`plot_thread_error`]
 //!   (a G33 pass's lead error against the spindle angle, from
-//!   [`thread_error_series`]). A program is checked once and run once
+//!   [`thread_error_series`]; of a recording, [`plot_recording_thread`]
+//!   against its recorded encoder, measured by
+//!   [`crate::bag::measure_recording`]). A program is checked once and run once
 //!   ([`ProgramRun`]) for both its figures.
 //!
 //! The files: `figure` (the model), `render`, `legend`, `scale` and
@@ -48,5 +50,11 @@ pub use path_figure::{labels, plot_program, plot_recording, program_figure, run_
 pub use program_paths::{comp_paths, CompPaths, ToolOutline, MAX_OUTLINES};
 pub use render::{render, render_png, render_svg};
 pub use run::ProgramRun;
-pub use thread_errors::{ThreadErrorPoint, ThreadErrorSeries, ThreadErrors, ThreadPass};
-pub use thread_figure::{plot_run_thread, plot_thread_error, thread_error_series, thread_labels};
+pub(crate) use thread_errors::PassBuilder;
+pub use thread_errors::{
+    phase_deg, wrap_deg, PhaseStats, ThreadErrorPoint, ThreadErrorSeries, ThreadErrors, ThreadPass,
+};
+pub use thread_figure::{
+    plot_recording_thread, plot_run_thread, plot_thread_error, thread_error_series, thread_labels,
+    thread_summary,
+};

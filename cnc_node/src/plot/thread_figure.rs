@@ -5,7 +5,8 @@ use super::figure::{Band, Dash, Figure, Format, Panel, Rgb, Series};
 use super::render::render;
 use super::run::ProgramRun;
 use super::scale::tick;
-use super::thread_errors::{ThreadErrorSeries, ThreadPass};
+use super::thread_errors::{PhaseStats, ThreadErrorSeries, ThreadPass};
+use crate::bag::{measure_recording, RecordingThreads};
 use cnc_core::{Dialect, Machine};
 use std::path::Path;
 
@@ -126,8 +127,21 @@ pub fn plot_run_thread<'r>(
     pass: usize,
     out: &Path,
 ) -> Result<&'r ThreadErrorSeries, String> {
-    let (program_name, machine) = (run.program_name, run.machine);
     let series = run.thread_errors()?;
+    plot_series(run.program_name, &run.machine.name, "", series, pass, out)?;
+    Ok(series)
+}
+
+/// Plots pass `pass` of `series` (as [`plot_thread_error`]); `source`
+/// ends the title (what was measured).
+fn plot_series(
+    program_name: &str,
+    machine_name: &str,
+    source: &str,
+    series: &ThreadErrorSeries,
+    pass: usize,
+    out: &Path,
+) -> Result<(), String> {
     let n = series.passes.len();
     if n == 0 {
         return Err(format!(
@@ -145,10 +159,82 @@ pub fn plot_run_thread<'r>(
         ));
     };
     let title = format!(
-        "{program_name} on {}: G33 {} lead error, pass {pass} of {n}",
-        machine.name,
+        "{program_name} on {machine_name}: G33 {} lead error, pass {pass} of {n}{source}",
         axis_name(p.lead)
     );
-    render(&thread_figure(title, series, p), out)?;
-    Ok(series)
+    render(&thread_figure(title, series, p), out)
+}
+
+/// Plots the lead error of one G33 pass (1 = the first) of a recording
+/// against its recorded spindle encoder (see [`crate::bag::measure_recording`]
+/// for how it is measured): the figure of [`plot_thread_error`]. A
+/// recording without G33, without encoder messages or without the pass
+/// is an error, and nothing is written. Returns the measurement of every
+/// pass.
+pub fn plot_recording_thread(
+    recording: &Path,
+    pass: usize,
+    out: &Path,
+) -> Result<RecordingThreads, String> {
+    Format::from_path(out)?;
+    let r = measure_recording(recording)?;
+    let file = recording
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    plot_series(
+        &r.program_name,
+        &r.machine_name,
+        &format!(", recording {file} against its encoder"),
+        &r.series,
+        pass,
+        out,
+    )?;
+    Ok(r)
+}
+
+/// The numbers of every pass, one line each and one for its groove's
+/// phase (what `cnc plot --thread` prints, for a program and for a
+/// recording alike).
+pub fn thread_summary(series: &ThreadErrorSeries) -> String {
+    let mut s = String::new();
+    let phase = |g: &PhaseStats| {
+        if g.n == 0 {
+            "none".to_string()
+        } else {
+            format!(
+                "mean {:+.4}°, worst {:.4}°, spread {:.4}° ({} samples)",
+                g.mean_deg, g.worst_deg, g.spread_deg, g.n
+            )
+        }
+    };
+    for (i, p) in series.passes.iter().enumerate() {
+        let block = p.block_no.map(|n| format!("N{n}, ")).unwrap_or_default();
+        let span = match (p.sync_deg.first(), p.sync_deg.last()) {
+            (Some(a), Some(b)) => format!("{:.1}..{:.1}°", a.0, b.1),
+            _ => "none".into(),
+        };
+        let settled = p
+            .act_within_count_from_deg
+            .map(|d| format!(", within 1 count from {d:.0}°"))
+            .unwrap_or_default();
+        s.push_str(&format!(
+            "  pass {} ({block}line {}): F{} synchronized {span} ({} samples); largest error there: setpoint {:.4} µm ({:.3} counts), actual {:.3} µm ({:.2} counts){settled}; 1 count = {:.4} µm\n",
+            i + 1,
+            p.line,
+            p.pitch,
+            p.on_line_samples,
+            p.max_set_um,
+            p.max_set_counts,
+            p.max_act_um,
+            p.max_act_counts,
+            p.count_um
+        ));
+        s.push_str(&format!(
+            "    groove phase there (0 = the programmed start angle): setpoint {}; actual {}\n",
+            phase(&p.groove_set),
+            phase(&p.groove_act)
+        ));
+    }
+    s
 }

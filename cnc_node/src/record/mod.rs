@@ -5,7 +5,9 @@
 //! What a file holds:
 //! - Header: profile `ros2`, library [`LIBRARY`].
 //! - Metadata `cnc` (first, before any message): program_name, dialect,
-//!   machine_name, rate_hz, controller_version.
+//!   machine_name, rate_hz, controller_version; in the node's recordings
+//!   also setpoint_delay_ms (the drives' delay G33 leads by; offline runs
+//!   have none).
 //! - One Schema per message type: name `pkg/msg/Type`, encoding `ros2msg`,
 //!   data the complete definition as rosbag2 concatenates it
 //!   ([`cnc_msgs::schema`]).

@@ -58,6 +58,12 @@ pub struct RecordingInfo {
     pub machine_name: String,
     /// interpolation rate, Hz
     pub rate_hz: f64,
+    /// the drives' setpoint delay the controller led G33 by, ms (the
+    /// node's jobs: `interpolation.setpoint_delay_ms`); None: none, as in
+    /// an offline run, where each setpoint drives the model in its own
+    /// step (the key is then not written, so offline recordings stay as
+    /// they were)
+    pub setpoint_delay_ms: Option<f64>,
 }
 
 impl RecordingInfo {
@@ -76,6 +82,7 @@ impl RecordingInfo {
             machine_toml: machine_toml(machine)?,
             machine_name: machine.name.clone(),
             rate_hz: machine.interpolation.rate_hz,
+            setpoint_delay_ms: None,
         })
     }
 }
@@ -205,6 +212,9 @@ impl<W: Write + Seek> Recorder<W> {
         cnc.insert("dialect".into(), info.dialect.clone());
         cnc.insert("machine_name".into(), info.machine_name.clone());
         cnc.insert("rate_hz".into(), format!("{}", info.rate_hz));
+        if let Some(d) = info.setpoint_delay_ms {
+            cnc.insert("setpoint_delay_ms".into(), format!("{d}"));
+        }
         cnc.insert(
             "controller_version".into(),
             env!("CARGO_PKG_VERSION").to_string(),
