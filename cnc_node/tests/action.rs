@@ -415,3 +415,23 @@ fn results_are_kept_for_the_last_goals() {
     r.goals.result_request(req(101), key(1), &mut r.wire);
     assert_eq!(r.results(101)[0].0, GoalStatusEnum::Unknown);
 }
+
+#[test]
+fn a_feed_hold_keeps_the_goal_executing_with_the_hold_in_its_feedback() {
+    let mut r = Rig::new();
+    r.ticks(5);
+    r.send(1, "G90 G01 X100 F600\n", false);
+    r.ticks(500);
+    r.ctl.feed_hold(true).unwrap();
+    r.ticks(300);
+    let f = r.feedback(1).pop().unwrap();
+    assert_eq!((f.state, f.path_speed), (2, 0.0), "{f:?}");
+    assert_eq!(r.last_statuses(), [(key(1), GoalStatusEnum::Executing)]);
+    r.ctl.feed_hold(false).unwrap();
+    r.run_out();
+    r.goals.result_request(req(2), key(1), &mut r.wire);
+    let (status, res) = r.results(2).remove(0);
+    assert_eq!(status, GoalStatusEnum::Succeeded);
+    // the hold's time counts
+    assert!(res.cycle_time > res.estimated_duration + 0.25, "{res:?}");
+}
