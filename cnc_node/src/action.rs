@@ -16,7 +16,9 @@
 //! - a cancel ([`Goals::cancel`]) aborts the goal's job, which stops under
 //!   control along its path; the goal ends CANCELED where the axes stopped;
 //! - results are kept for the last [`KEEP_DONE`] goals that ended; a result
-//!   asked for before the end is sent at the end.
+//!   asked for before the end is sent at the end;
+//! - the statuses go out at every change and every [`STATUS_PERIOD_NS`]
+//!   while a goal runs.
 //!
 //! [`ExecuteProgram`] is the action server on the wire: ros2-client's
 //! `ActionServer` (its three services and two topics, with rclpy's type
@@ -43,6 +45,13 @@ pub type GoalKey = [u8; 16];
 /// Feedback of a running goal at most this often (20 Hz), in the
 /// samples' time.
 pub const FEEDBACK_PERIOD_NS: i64 = 50_000_000;
+
+/// While a goal runs, the goals' statuses are published again this often
+/// (500 ms), in the samples' time, besides at every change: rclpy's
+/// action client drops a status that arrives before it has handled the
+/// goal's acceptance (another topic), and its goal handle would stay
+/// UNKNOWN (`ros2 action send_goal` then does not cancel on Ctrl-C).
+pub const STATUS_PERIOD_NS: i64 = 500_000_000;
 
 /// Goals that ended are kept (for their results) up to this many.
 pub const KEEP_DONE: usize = 16;
@@ -149,6 +158,8 @@ pub struct Goals {
     running: Option<(u32, i64)>,
     ended: VecDeque<Ended>,
     last: Option<Last>,
+    /// when the statuses are published again while a goal runs
+    next_status_ns: i64,
 }
 
 impl Goals {
@@ -160,6 +171,7 @@ impl Goals {
             running: None,
             ended: VecDeque::new(),
             last: None,
+            next_status_ns: i64::MIN,
         }
     }
 
@@ -356,6 +368,11 @@ impl Goals {
                     wire.feedback(g.key, f);
                 }
             }
+        }
+        let runs = |g: &Goal| matches!(g.phase, Phase::Running { .. });
+        if c.stamp_ns >= self.next_status_ns && self.goals.iter().any(runs) {
+            self.next_status_ns = c.stamp_ns.saturating_add(STATUS_PERIOD_NS);
+            self.publish_statuses(wire);
         }
     }
 
@@ -600,7 +617,7 @@ impl ExecuteProgram {
         while let Ok(Some((req, g))) = self.server.receive_goal() {
             let key = *g.goal_id.uuid.as_bytes();
             if self.goals.goal(req, key, &mut Dds(&self.server)) {
-                out.push((key, g.goal.into()));
+                out.push((key, g.goal));
             }
         }
         out

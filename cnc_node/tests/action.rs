@@ -5,7 +5,9 @@
 
 use cnc_core::Machine;
 use cnc_msgs::{ExecuteProgramFeedback, ExecuteProgramResult, RunProgramRequest};
-use cnc_node::action::{Cycle, GoalKey, Goals, Wire, FEEDBACK_PERIOD_NS, KEEP_DONE};
+use cnc_node::action::{
+    Cycle, GoalKey, Goals, Wire, FEEDBACK_PERIOD_NS, KEEP_DONE, STATUS_PERIOD_NS,
+};
 use cnc_node::admit::{admit, Refusal};
 use cnc_node::controller::{Controller, State};
 use ros2_client::action::GoalStatusEnum;
@@ -423,10 +425,17 @@ fn a_feed_hold_keeps_the_goal_executing_with_the_hold_in_its_feedback() {
     r.send(1, "G90 G01 X100 F600\n", false);
     r.ticks(500);
     r.ctl.feed_hold(true).unwrap();
-    r.ticks(300);
+    let before = r.wire.0.len();
+    r.ticks(1000);
     let f = r.feedback(1).pop().unwrap();
     assert_eq!((f.state, f.path_speed), (2, 0.0), "{f:?}");
     assert_eq!(r.last_statuses(), [(key(1), GoalStatusEnum::Executing)]);
+    // the statuses again, every 500 ms while it runs
+    let again = r.wire.0[before..]
+        .iter()
+        .filter(|s| matches!(s, Sent::Statuses(_)))
+        .count();
+    assert_eq!(again as i64, 1000 * MS / STATUS_PERIOD_NS);
     r.ctl.feed_hold(false).unwrap();
     r.run_out();
     r.goals.result_request(req(2), key(1), &mut r.wire);

@@ -170,17 +170,10 @@ impl ControllerStatus {
     ];
 }
 
-ros_message!(
-    /// `cnc_msgs/action/ExecuteProgram` goal: the fields of
-    /// [`RunProgramRequest`], field for field
-    ExecuteProgramGoal = "cnc_msgs/action/ExecuteProgram_Goal" {
-        program: String = "string",
-        program_path: String = "string",
-        dialect: String = "string",
-        dry_run: bool = "bool",
-        record: bool = "bool",
-    }
-);
+/// `cnc_msgs/action/ExecuteProgram` goal: `RunProgram`'s request, field
+/// for field (the same wire; `tests/drift.rs` holds the two files to it).
+pub type ExecuteProgramGoal = RunProgramRequest;
+
 ros_message!(
     /// `cnc_msgs/action/ExecuteProgram` result
     ExecuteProgramResult = "cnc_msgs/action/ExecuteProgram_Result" {
@@ -207,19 +200,6 @@ ros_message!(
         state: u8 = "uint8",
     }
 );
-
-impl From<ExecuteProgramGoal> for RunProgramRequest {
-    /// The goal as the `run_program` request it is checked as.
-    fn from(g: ExecuteProgramGoal) -> Self {
-        RunProgramRequest {
-            program: g.program,
-            program_path: g.program_path,
-            dialect: g.dialect,
-            dry_run: g.dry_run,
-            record: g.record,
-        }
-    }
-}
 
 /// The interface files of the package, embedded (also what recordings
 /// store as schema text).

@@ -598,8 +598,9 @@ pub fn qos_action_status() -> QosProfile {
         .history(History::KeepLast { depth: 1 })
 }
 
-/// An action server `ns/base` of the action whose goal type is `G`
-/// (`pkg/action/Type_Goal`), result `R` and feedback `F`, with the QoS of
+/// An action server `ns/base` of the action whose goal type is `G`,
+/// result `R` (`pkg/action/Type_Result`, which names the action) and
+/// feedback `F`, with the QoS of
 /// rcl's action servers: its three services as [`qos_services`], the
 /// feedback as [`qos_default`], the status as [`qos_action_status`].
 pub fn action_server<G, R, F>(
@@ -608,11 +609,11 @@ pub fn action_server<G, R, F>(
     base: &str,
 ) -> Result<ros2_client::action::ActionServer<G, R, F>, String>
 where
-    G: crate::RosType + ros2_client::Message + Clone + 'static,
-    R: ros2_client::Message + Clone + 'static,
+    G: ros2_client::Message + Clone + 'static,
+    R: crate::RosType + ros2_client::Message + Clone + 'static,
     F: ros2_client::Message + 'static,
 {
-    let (pkg, ty) = action_type::<G>();
+    let (pkg, ty) = action_type::<R>();
     let qos = ros2_client::action::ActionServerQosPolicies {
         goal_service: qos_services(),
         result_service: qos_services(),
@@ -629,12 +630,12 @@ where
     .map_err(|e| format!("action {ns}/{base}: {e:?}"))
 }
 
-/// (`pkg`, `Type`) of an action's goal type `pkg/action/Type_Goal`.
-fn action_type<G: crate::RosType>() -> (&'static str, &'static str) {
-    let mut it = G::ROS_NAME.split('/');
+/// (`pkg`, `Type`) of an action's result type `pkg/action/Type_Result`.
+fn action_type<R: crate::RosType>() -> (&'static str, &'static str) {
+    let mut it = R::ROS_NAME.split('/');
     let pkg = it.next().unwrap_or("");
     let ty = it.nth(1).unwrap_or("");
-    (pkg, ty.trim_end_matches("_Goal"))
+    (pkg, ty.trim_end_matches("_Result"))
 }
 
 #[cfg(test)]
@@ -654,7 +655,7 @@ mod type_names {
             ("std_srvs", "SetBool")
         );
         assert_eq!(
-            super::action_type::<crate::ExecuteProgramGoal>(),
+            super::action_type::<crate::ExecuteProgramResult>(),
             ("cnc_msgs", "ExecuteProgram")
         );
     }

@@ -18,7 +18,6 @@ import threading
 import time
 
 import pytest
-import rclpy
 from action_msgs.msg import GoalStatus, GoalStatusArray
 from rclpy.action import ActionClient
 from rclpy.qos import qos_profile_action_status_default
@@ -26,7 +25,7 @@ from sensor_msgs.msg import JointState
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram
-from ros_nodes import ROOT, build, start, SpinningPeer, stamp_s, stop
+from ros_nodes import ROOT, session, SpinningPeer, stamp_s
 
 try:
     from cnc_msgs.action import ExecuteProgram
@@ -40,16 +39,8 @@ ACTION = NS + "/execute_program"
 
 @pytest.fixture(scope="module")
 def env():
-    e = dict(os.environ, ROS_DOMAIN_ID=DOMAIN, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    build()
-    procs = start(e, ["--machine", "mill"],
-                  ["--machine", "mill", "--record-dir", os.path.join("target", "test-recordings-action")])
-    os.environ["ROS_DOMAIN_ID"] = DOMAIN
-    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-    rclpy.init()
-    yield e
-    rclpy.shutdown()
-    stop(procs)
+    yield from session(DOMAIN, ["--machine", "mill"],
+                       ["--machine", "mill", "--record-dir", os.path.join("target", "test-recordings-action")])
 
 
 class Peer(SpinningPeer):
@@ -117,6 +108,15 @@ class Peer(SpinningPeer):
     def result(self, handle, timeout=60.0):
         return self.wait_future(handle.get_result_async(), "result", timeout)
 
+    def final_feedback(self, fb):
+        """The feedback list once its last one (the end's) has come: the
+        result is a service reply, the feedback a topic, and the client
+        may take the one before the other."""
+        self.wait_for("the last feedback", lambda: bool(fb) and fb[-1][1].state not in (
+            ControllerStatus.STATE_RUNNING, ControllerStatus.STATE_HOLD), 10.0)
+        with self.lock:
+            return [m for _, m in fb]
+
 
 @pytest.fixture
 def peer(env):
@@ -157,8 +157,7 @@ def test_a_goal_runs_to_its_end_with_feedback(peer):
         assert abs(got - want) < 1e-6, peer.last_setpoint()
     # feedback at 20 Hz (a busy peer may take some late), progress growing,
     # the program's lines in order
-    with peer.lock:
-        f = [m for _, m in fb]
+    f = peer.final_feedback(fb)
     assert len(f) >= 0.5 * 20 * est, (len(f), est)
     assert all(m.job_id == res.job_id for m in f)
     prog_ = [m.progress for m in f]
@@ -206,8 +205,7 @@ def test_cancel_stops_on_the_path_and_the_next_goal_runs(peer):
     assert all(p == last[-1] for p in last), "the setpoints still move"
     assert on_segment(last[-1], a, b) < 1e-6, last[-1]
     assert all(abs(x - y) < 1e-12 for x, y in zip(last[-1], res.position)), (last[-1], res.position)
-    with peer.lock:
-        f = [m for _, m in fb]
+    f = peer.final_feedback(fb)
     assert f[-1].path_speed == 0.0 and f[-1].state == ControllerStatus.STATE_IDLE, f[-1]
     # the feedback was on the line, at up to 10 mm/s
     assert all(on_segment(m.position, a, b) < 1e-6 for m in f if m.source_line == 2)
