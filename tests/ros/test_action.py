@@ -52,16 +52,28 @@ class Peer(SpinningPeer):
         self.setpoints = []  # (stamp s, positions m)
         self.status = []
         self.goal_status = {}  # goal id (bytes) -> the latest status on the action's status topic
+        self.topic_feedback = {}  # goal id (bytes) -> every feedback on the action's feedback topic
         self.node.create_subscription(JointState, NS + "/joint_setpoints", self._sp, 10)
         self.node.create_subscription(ControllerStatus, NS + "/status", self._st, 10)
         self.node.create_subscription(GoalStatusArray, ACTION + "/_action/status", self._gs,
                                       qos_profile_action_status_default)
+        self.node.create_subscription(ExecuteProgram.Impl.FeedbackMessage, ACTION + "/_action/feedback",
+                                      self._fb, 100)
         self.run = self.node.create_client(RunProgram, NS + "/run_program")
         self.action = ActionClient(self.node, ExecuteProgram, ACTION)
         self.spin()
-        assert self.action.wait_for_server(timeout_sec=30.0), "no %s action server" % ACTION
-        assert self.run.wait_for_service(timeout_sec=30.0), "no /cnc/run_program service"
-        self.wait_for("a setpoint", lambda: bool(self.setpoints), 30.0)
+
+    def missing(self, timeout=30.0):
+        """What has not come within `timeout` s, or None: the action
+        server, the run_program service, a setpoint."""
+        if not self.action.wait_for_server(timeout_sec=timeout):
+            return "no %s action server" % ACTION
+        if not self.run.wait_for_service(timeout_sec=timeout):
+            return "no %s/run_program service" % NS
+        t0 = time.time()
+        while not self.setpoints and time.time() - t0 < timeout:
+            time.sleep(0.01)
+        return None if self.setpoints else "no setpoint"
 
     def _sp(self, m):
         with self.lock:
@@ -71,14 +83,29 @@ class Peer(SpinningPeer):
         with self.lock:
             self.status.append(m)
 
+    def _fb(self, m):
+        with self.lock:
+            self.topic_feedback.setdefault(bytes(m.goal_id.uuid), []).append(m.feedback)
+
     def _gs(self, m):
         with self.lock:
             for s in m.status_list:
                 self.goal_status[bytes(s.goal_info.goal_id.uuid)] = s.status
 
-    def last_setpoint(self):
+    def standing(self, t0, span=0.3):
+        """The setpoints stamped from wall-clock time t0 (s) on, once three
+        of them and one at least `span` s later have come (a busy
+        subscriber lags behind, and loses most of them with two CPU hogs
+        running): all equal, or an assertion; their position. (Call it
+        when nothing is to move after t0.)"""
+        def after():
+            return [p for t, p in self.setpoints if t >= t0]
+        self.wait_for("setpoints from %.3f" % t0, lambda: len(after()) >= 3 and self.setpoints[-1][0] >= t0 + span,
+                      30.0)
         with self.lock:
-            return self.setpoints[-1][1]
+            pts = after()
+        assert all(p == pts[-1] for p in pts), "the setpoints still move"
+        return pts[-1]
 
     def estimate(self, text):
         r = self.call(self.run, RunProgram.Request(program=text, dry_run=True))
@@ -108,19 +135,35 @@ class Peer(SpinningPeer):
     def result(self, handle, timeout=60.0):
         return self.wait_future(handle.get_result_async(), "result", timeout)
 
-    def final_feedback(self, fb):
-        """The feedback list once its last one (the end's) has come: the
-        result is a service reply, the feedback a topic, and the client
-        may take the one before the other."""
-        self.wait_for("the last feedback", lambda: bool(fb) and fb[-1][1].state not in (
-            ControllerStatus.STATE_RUNNING, ControllerStatus.STATE_HOLD), 10.0)
+    def final_feedback(self, handle):
+        """The goal's feedback as its topic carried it, once the last one
+        (the end's) has come. (rclpy's ActionClient forgets a goal's
+        feedback callback when it has the result, a service reply that
+        may be taken before the last feedback: the client's list may lack
+        it.)"""
+        goal = bytes(handle.goal_id.uuid)
+
+        def ended():
+            f = self.topic_feedback.get(goal)
+            return bool(f) and f[-1].state not in (ControllerStatus.STATE_RUNNING, ControllerStatus.STATE_HOLD)
+        self.wait_for("the last feedback on the topic", ended, 30.0)
         with self.lock:
-            return [m for _, m in fb]
+            return list(self.topic_feedback[goal])
 
 
 @pytest.fixture
 def peer(env):
-    p = Peer("action_peer_%d" % (time.time_ns() % 100000))
+    # (a peer's subscriptions have now and then matched nothing for 30 s
+    # on a loaded machine, as tests/ros/test_faults.py saw: a second peer
+    # node is made before giving up)
+    for attempt in (1, 2):
+        p = Peer("action_peer_%d" % (time.time_ns() % 100000))
+        missing = p.missing()
+        if missing is None:
+            break
+        print("peer %d: %s" % (attempt, missing))
+        p.close()
+    assert missing is None, missing
     yield p
     p.close()
 
@@ -152,12 +195,16 @@ def test_a_goal_runs_to_its_end_with_feedback(peer):
     end = [40.0015e-3, 30.002e-3, 2e-3]
     for got, want in zip(res.position, end):
         assert abs(got - want) < 1e-6, res.position
-    time.sleep(0.3)
-    for got, want in zip(peer.last_setpoint(), end):
-        assert abs(got - want) < 1e-6, peer.last_setpoint()
+    last = peer.standing(time.time())
+    for got, want in zip(last, end):
+        assert abs(got - want) < 1e-6, last
     # feedback at 20 Hz (a busy peer may take some late), progress growing,
-    # the program's lines in order
-    f = peer.final_feedback(fb)
+    # the program's lines in order: the client had it, and the topic
+    f = peer.final_feedback(h)
+    with peer.lock:
+        client = [m for _, m in fb]
+    # (the client's reader keeps 10: a starved client loses some)
+    assert len(client) >= 3 and all(m in f for m in client), (len(client), len(f))
     assert len(f) >= 0.5 * 20 * est, (len(f), est)
     assert all(m.job_id == res.job_id for m in f)
     prog_ = [m.progress for m in f]
@@ -185,6 +232,8 @@ def test_cancel_stops_on_the_path_and_the_next_goal_runs(peer):
     h, fb = peer.send("G90 G01 X0 Y0 Z0 F3000\nG01 X100 Y50 F600\nM30\n")
     assert h.accepted
     peer.wait_for("feedback of line 2", lambda: any(m.source_line == 2 for _, m in fb), 30.0)
+    # the client's goal handle knows it runs (from the status topic)
+    peer.wait_for("the goal handle EXECUTING", lambda: h.status == GoalStatus.STATUS_EXECUTING, 2.0)
     time.sleep(1.0)
     c = peer.wait_future(h.cancel_goal_async(), "cancel response")
     assert len(c.goals_canceling) == 1, c
@@ -198,14 +247,11 @@ def test_cancel_stops_on_the_path_and_the_next_goal_runs(peer):
     assert on_segment(res.position, a, b) < 1e-6, res.position
     assert 5e-3 < res.position[0] < 60e-3, res.position
     assert res.cycle_time < 8.0, res.cycle_time
-    # the axes stand: the last setpoints do not change, on the line
-    time.sleep(0.5)
-    with peer.lock:
-        last = [p for _, p in peer.setpoints[-50:]]
-    assert all(p == last[-1] for p in last), "the setpoints still move"
-    assert on_segment(last[-1], a, b) < 1e-6, last[-1]
-    assert all(abs(x - y) < 1e-12 for x, y in zip(last[-1], res.position)), (last[-1], res.position)
-    f = peer.final_feedback(fb)
+    # the axes stand: the setpoints after the end do not change, on the line
+    last = peer.standing(time.time())
+    assert on_segment(last, a, b) < 1e-6, last
+    assert all(abs(x - y) < 1e-12 for x, y in zip(last, res.position)), (last, res.position)
+    f = peer.final_feedback(h)
     assert f[-1].path_speed == 0.0 and f[-1].state == ControllerStatus.STATE_IDLE, f[-1]
     # the feedback was on the line, at up to 10 mm/s
     assert all(on_segment(m.position, a, b) < 1e-6 for m in f if m.source_line == 2)
@@ -218,10 +264,8 @@ def test_cancel_stops_on_the_path_and_the_next_goal_runs(peer):
 
 
 def test_a_bad_program_is_refused_with_its_line_and_column_and_nothing_moves(peer):
-    peer.wait_for("a status", lambda: bool(peer.status), 30.0)
-    before = peer.last_setpoint()
-    with peer.lock:
-        job_before = peer.status[-1].job_id
+    t0 = time.time()
+    before = peer.standing(t0)
     h, fb = peer.send("N10 G90 G00 X50\nN20 G01 X20\nN30 G01 X30 W5 F100\n")
     # accepted by the protocol (a rejection carries no reason), ended at once
     assert h.accepted
@@ -232,11 +276,13 @@ def test_a_bad_program_is_refused_with_its_line_and_column_and_nothing_moves(pee
     assert lines[1].startswith("line 3, column 13: block N30: unknown address 'W'"), r.result.message
     assert r.result.job_id == 0 and r.result.cycle_time == 0.0
     assert not fb
-    time.sleep(0.5)
-    assert peer.last_setpoint() == before
+    t1 = time.time()
+    assert peer.standing(t0, t1 - t0 + 0.3) == before
+    # no job started: the status stayed idle with the job before
     with peer.lock:
-        assert all(s.job_id == job_before and s.state != ControllerStatus.STATE_RUNNING
-                   for s in peer.status[-5:]), peer.status[-1]
+        sts = [s for s in peer.status if stamp_s(s.header.stamp) >= t0 - 0.2]
+    assert len(sts) >= 3 and all(s.job_id == sts[0].job_id and s.state == ControllerStatus.STATE_IDLE
+                                 for s in sts), sts[-1]
     # a goal without a program says so
     h, _ = peer.send("")
     r = peer.result(h)
@@ -295,7 +341,7 @@ def test_ros2_action_send_goal_with_feedback(env):
 
 def test_ctrl_c_in_ros2_send_goal_cancels_the_goal_on_its_path(env, peer):
     ros2 = ros2_command()
-    start = peer.last_setpoint()
+    start = peer.standing(time.time())
     end = [0.1, 0.05, 0.0]
     p = subprocess.Popen([ros2, "action", "send_goal", "--feedback", ACTION, "cnc_msgs/action/ExecuteProgram",
                           "{program: 'G90 G01 X100 Y50 Z0 F600'}"],
@@ -322,11 +368,9 @@ def test_ctrl_c_in_ros2_send_goal_cancels_the_goal_on_its_path(env, peer):
     # while canceling goal: None"; the controller has the cancel)
     peer.wait_for("the goal CANCELED on the action's status topic",
                   lambda: peer.goal_status.get(goal) == GoalStatus.STATUS_CANCELED, 30.0)
-    time.sleep(0.5)
-    with peer.lock:
-        last = [q for _, q in peer.setpoints[-50:]]
-        st = peer.status[-1]
-    assert all(q == last[-1] for q in last), "the setpoints still move"
-    assert on_segment(last[-1], start, end) < 1e-6, (start, last[-1])
-    assert math.dist(last[-1], end) > 5e-3, last[-1]
-    assert st.state == ControllerStatus.STATE_IDLE and "aborted at line 1" in st.last_error, st
+    last = peer.standing(time.time())
+    assert on_segment(last, start, end) < 1e-6, (start, last)
+    assert math.dist(last, end) > 5e-3, last
+    peer.wait_for("the controller idle after the abort", lambda: any(
+        s.state == ControllerStatus.STATE_IDLE and "aborted at line 1" in s.last_error for s in peer.status[-20:]),
+        30.0)
