@@ -56,6 +56,18 @@ pub struct Status {
     pub last_error: String,
 }
 
+/// Where the running (or last) job is in its program, as the status shows
+/// it: cheap to take every cycle (no allocation).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Place {
+    /// 1-based line being executed, 0 before any
+    pub line: u32,
+    /// its N number, −1 if none
+    pub block: i64,
+    /// samples run ÷ samples estimated, 0..1
+    pub progress: f64,
+}
+
 /// A reading of the spindle encoder (`cnc_msgs/SpindleEncoder`), stamped
 /// in the controller's clock.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -530,19 +542,29 @@ impl Controller {
         self.last_error = why;
     }
 
+    /// The line, block and progress of the running (or last) job.
+    pub fn place(&self) -> Place {
+        Place {
+            line: self.line,
+            block: self.block.map_or(-1, |b| b as i64),
+            progress: self.progress,
+        }
+    }
+
     pub fn status(&self) -> Status {
+        let place = self.place();
         Status {
             state: self.state,
             job_id: self.last_job,
-            source_line: self.line,
-            block_number: self.block.map_or(-1, |b| b as i64),
+            source_line: place.line,
+            block_number: place.block,
             active_g_codes: self
                 .gcodes
                 .map_or_else(Vec::new, |g| g.iter().map(|s| s.to_string()).collect()),
             active_tool: self.tool as i32,
             spindle_rpm: self.spindle_rpm,
             feed_override: self.feed_override,
-            progress: self.progress,
+            progress: place.progress,
             last_error: self.last_error.clone(),
         }
     }

@@ -2,6 +2,7 @@
 //! offline simulation loop shared by `cnc simulate` and the tests, and (later)
 //! the ROS 2 node.
 
+pub mod action;
 pub mod admit;
 pub mod bag;
 pub mod client;

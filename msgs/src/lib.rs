@@ -1,5 +1,5 @@
 //! Rust types of the ROS 2 interfaces the controller speaks: `cnc_msgs`
-//! (the `.msg`/`.srv` files beside this crate) and the standard types it
+//! (the `.msg`/`.srv`/`.action` files beside this crate) and the standard types it
 //! uses. Each type is declared once, with its ROS field types, by
 //! [`ros_message!`]; a test parses the interface files and fails if the two
 //! drift apart. Field order is the CDR wire order.
@@ -170,6 +170,37 @@ impl ControllerStatus {
     ];
 }
 
+/// `cnc_msgs/action/ExecuteProgram` goal: `RunProgram`'s request, field
+/// for field (the same wire; `tests/drift.rs` holds the two files to it).
+pub type ExecuteProgramGoal = RunProgramRequest;
+
+ros_message!(
+    /// `cnc_msgs/action/ExecuteProgram` result
+    ExecuteProgramResult = "cnc_msgs/action/ExecuteProgram_Result" {
+        state: u8 = "uint8",
+        message: String = "string",
+        job_id: u32 = "uint32",
+        cycle_time: f64 = "float64",
+        estimated_duration: f64 = "float64",
+        recording: String = "string",
+        joint_names: Vec<String> = "string[]",
+        position: Vec<f64> = "float64[]",
+    }
+);
+ros_message!(
+    /// `cnc_msgs/action/ExecuteProgram` feedback
+    ExecuteProgramFeedback = "cnc_msgs/action/ExecuteProgram_Feedback" {
+        job_id: u32 = "uint32",
+        source_line: u32 = "uint32",
+        block_number: i64 = "int64",
+        progress: f64 = "float64",
+        joint_names: Vec<String> = "string[]",
+        position: Vec<f64> = "float64[]",
+        path_speed: f64 = "float64",
+        state: u8 = "uint8",
+    }
+);
+
 /// The interface files of the package, embedded (also what recordings
 /// store as schema text).
 pub mod definitions {
@@ -177,6 +208,7 @@ pub mod definitions {
     pub const SET_DELAY_SRV: &str = include_str!("../srv/SetDelay.srv");
     pub const SPINDLE_ENCODER_MSG: &str = include_str!("../msg/SpindleEncoder.msg");
     pub const CONTROLLER_STATUS_MSG: &str = include_str!("../msg/ControllerStatus.msg");
+    pub const EXECUTE_PROGRAM_ACTION: &str = include_str!("../action/ExecuteProgram.action");
 }
 
 #[cfg(test)]

@@ -587,6 +587,57 @@ where
     .map_err(|e| format!("client {ns}/{base}: {e:?}"))
 }
 
+/// rcl's QoS of an action's status topic: reliable, transient local,
+/// keep last 1, so a client that comes later gets the latest statuses
+/// (rclpy's action clients subscribe with it: a volatile publisher would
+/// not match them).
+pub fn qos_action_status() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::DEFAULT)
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 1 })
+}
+
+/// An action server `ns/base` of the action whose goal type is `G`,
+/// result `R` (`pkg/action/Type_Result`, which names the action) and
+/// feedback `F`, with the QoS of
+/// rcl's action servers: its three services as [`qos_services`], the
+/// feedback as [`qos_default`], the status as [`qos_action_status`].
+pub fn action_server<G, R, F>(
+    node: &mut Node,
+    ns: &str,
+    base: &str,
+) -> Result<ros2_client::action::ActionServer<G, R, F>, String>
+where
+    G: ros2_client::Message + Clone + 'static,
+    R: crate::RosType + ros2_client::Message + Clone + 'static,
+    F: ros2_client::Message + 'static,
+{
+    let (pkg, ty) = action_type::<R>();
+    let qos = ros2_client::action::ActionServerQosPolicies {
+        goal_service: qos_services(),
+        result_service: qos_services(),
+        cancel_service: qos_services(),
+        feedback_publisher: qos_default(),
+        status_publisher: qos_action_status(),
+    };
+    node.create_action_server::<G, R, F>(
+        ros2_client::ServiceMapping::Enhanced,
+        &name(ns, base)?,
+        &ros2_client::ActionTypeName::new(pkg, ty),
+        qos,
+    )
+    .map_err(|e| format!("action {ns}/{base}: {e:?}"))
+}
+
+/// (`pkg`, `Type`) of an action's result type `pkg/action/Type_Result`.
+fn action_type<R: crate::RosType>() -> (&'static str, &'static str) {
+    let mut it = R::ROS_NAME.split('/');
+    let pkg = it.next().unwrap_or("");
+    let ty = it.nth(1).unwrap_or("");
+    (pkg, ty.trim_end_matches("_Result"))
+}
+
 #[cfg(test)]
 mod type_names {
     #[test]
@@ -602,6 +653,10 @@ mod type_names {
         assert_eq!(
             super::split_type::<crate::SetBoolResponse>(),
             ("std_srvs", "SetBool")
+        );
+        assert_eq!(
+            super::action_type::<crate::ExecuteProgramResult>(),
+            ("cnc_msgs", "ExecuteProgram")
         );
     }
 }

@@ -48,6 +48,22 @@ fn controller_status_msg_matches() {
 }
 
 #[test]
+fn execute_program_action_matches() {
+    let text = file("action/ExecuteProgram.action");
+    let parts: Vec<&str> = text.split("\n---").collect();
+    assert_eq!(parts.len(), 3, "an action has goal, result and feedback");
+    assert_eq!(parse(parts[0]).0, fields_of::<ExecuteProgramGoal>());
+    assert_eq!(parse(parts[1]).0, fields_of::<ExecuteProgramResult>());
+    assert_eq!(parse(parts[2]).0, fields_of::<ExecuteProgramFeedback>());
+    assert_eq!(definitions::EXECUTE_PROGRAM_ACTION, text);
+    // the goal is the run_program request, line for line (comments too)
+    let srv = file("srv/RunProgram.srv");
+    let (req, _) = srv.split_once("\n---").expect("a service has a --- line");
+    let goal: Vec<&str> = parts[0].lines().filter(|l| !l.starts_with('#')).collect();
+    assert_eq!(goal, req.lines().collect::<Vec<_>>());
+}
+
+#[test]
 fn the_package_builds_every_interface_file() {
     let cmake = file("CMakeLists.txt");
     for f in [
@@ -55,13 +71,14 @@ fn the_package_builds_every_interface_file() {
         "srv/SetDelay.srv",
         "msg/SpindleEncoder.msg",
         "msg/ControllerStatus.msg",
+        "action/ExecuteProgram.action",
     ] {
         assert!(
             cmake.contains(&format!("\"{f}\"")),
             "{f} missing from CMakeLists.txt"
         );
     }
-    let mut on_disk: Vec<String> = ["msg", "srv"]
+    let mut on_disk: Vec<String> = ["action", "msg", "srv"]
         .iter()
         .flat_map(|d| {
             std::fs::read_dir(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(d))
@@ -73,6 +90,7 @@ fn the_package_builds_every_interface_file() {
     assert_eq!(
         on_disk,
         [
+            "action/ExecuteProgram.action",
             "msg/ControllerStatus.msg",
             "msg/SpindleEncoder.msg",
             "srv/RunProgram.srv",

@@ -165,5 +165,5 @@ EOF
 # ---------------------------------------------------------------- 6. check
 log "checking imports"
 ( . "$venv/env.sh"
-  python3 -c "import rclpy; from cnc_msgs.srv import RunProgram; from cnc_msgs.msg import SpindleEncoder, ControllerStatus; from sensor_msgs.msg import JointState; from std_srvs.srv import Trigger" )
+  python3 -c "import rclpy; from cnc_msgs.srv import RunProgram; from cnc_msgs.msg import SpindleEncoder, ControllerStatus; from cnc_msgs.action import ExecuteProgram; from sensor_msgs.msg import JointState; from std_srvs.srv import Trigger" )
 log "done: . $(realpath --relative-to="$PWD" "$venv/env.sh" 2>/dev/null || echo "$venv/env.sh") && python3 scripts/ros_peer/smoke.py"

@@ -30,6 +30,24 @@ def start_node(env, args, stderr=None):
     return subprocess.Popen([os.path.join(TARGET, "cnc_node")] + args, cwd=ROOT, env=env, stderr=stderr)
 
 
+def session(domain, sim_args, node_args):
+    """The body of a module fixture: both nodes on `domain` (loopback
+    only) and rclpy initialised there; yields the nodes' environment, then
+    shuts rclpy down and stops the nodes. `yield from` it."""
+    import rclpy
+    env = dict(os.environ, ROS_DOMAIN_ID=domain, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    build()
+    procs = start(env, sim_args, node_args)
+    os.environ["ROS_DOMAIN_ID"] = domain
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    rclpy.init()
+    try:
+        yield env
+    finally:
+        rclpy.shutdown()
+        stop(procs)
+
+
 def stop(procs, timeout=5):
     """Terminates the processes, killing those that do not end in time."""
     for p in procs:

@@ -8,8 +8,10 @@
 //!   never blocks);
 //! - encoder: waits for the spindle encoder's readings and passes each on
 //!   to the control loop as it arrives (bounded queue, `try_send`);
-//! - check worker: reads and checks programs, answers run_program;
-//! - main (DDS): services, publishers, recordings.
+//! - check worker: reads and checks programs, answers run_program and the
+//!   goals of execute_program;
+//! - main (DDS): services, the action (`cnc_node::action`), publishers,
+//!   recordings.
 //!
 //! With `--rt-priority P` the control loop runs under SCHED_FIFO P and the
 //! DDS threads (started by the main thread, which the encoder thread and
@@ -29,8 +31,11 @@ use clap::Parser;
 use cnc_core::Machine;
 use cnc_msgs::ros::{self, Grid, WallClock};
 use cnc_msgs::*;
+use cnc_node::action::{Cycle, ExecuteProgram, GoalKey};
 use cnc_node::admit::{admit, fit_run_reply, recorder, RecordOpts, Refusal};
-use cnc_node::controller::{ActualSample, Controller, EncoderSample, Job, State, Status, Tick};
+use cnc_node::controller::{
+    ActualSample, Controller, EncoderSample, Job, Place, State, Status, Tick,
+};
 use cnc_node::convert::{self, stamp_ns, time_ns};
 use cnc_node::files::load_machine;
 use cnc_node::record::JobRecorder;
@@ -88,9 +93,16 @@ enum Cmd {
     Override(f64),
 }
 
+/// Who a check is for: a run_program request or an execute_program goal.
+enum Asker {
+    Service(ros2_client::RmwRequestId),
+    Goal(GoalKey),
+}
+
 struct Out {
     stamp: Time,
     tick: Tick,
+    place: Place,
     status: Option<Status>,
     /// the running job, 0 if none
     job: u32,
@@ -242,6 +254,7 @@ fn run(args: Args) -> Result<(), String> {
             .map_err(|e| e.to_string())?;
     }
     let names: Vec<String> = machine.axes.iter().map(|a| a.name.clone()).collect();
+    let mut action = ExecuteProgram::new(&mut node, ns, names.clone())?;
     eprintln!(
         "cnc_node: {} ({}), {} Hz, domain {domain}, serving {}/run_program",
         machine.name,
@@ -255,8 +268,14 @@ fn run(args: Args) -> Result<(), String> {
     loop {
         // services
         while let Ok(Some((id, req))) = srv_run.receive_request() {
-            let _ = chk_tx.send((id, req));
+            let _ = chk_tx.send((Asker::Service(id), req));
         }
+        for (goal, req) in action.new_goals() {
+            let _ = chk_tx.send((Asker::Goal(goal), req));
+        }
+        action.serve(|_job| {
+            let _ = ask(&cmd_tx, Cmd::Abort);
+        });
         while let Ok(Some((id, _))) = srv_abort.receive_request() {
             let (success, message) = ask(&cmd_tx, Cmd::Abort);
             let _ = srv_abort.send_response(id, TriggerResponse { success, message });
@@ -268,8 +287,13 @@ fn run(args: Args) -> Result<(), String> {
         while let Ok(Some((m, _))) = sub_ovr.take() {
             let _ = cmd_tx.send(Cmd::Override(m.data));
         }
-        while let Ok((id, resp)) = resp_rx.try_recv() {
-            let _ = srv_run.send_response(id, resp);
+        while let Ok((asker, resp)) = resp_rx.try_recv() {
+            match asker {
+                Asker::Service(id) => {
+                    let _ = srv_run.send_response(id, resp);
+                }
+                Asker::Goal(goal) => action.checked(goal, resp),
+            }
         }
         while let Ok(m) = enc_rec_rx.try_recv() {
             if let Some((_, rec)) = recording.as_mut() {
@@ -337,6 +361,13 @@ fn run(args: Args) -> Result<(), String> {
                 spindle_sent = Instant::now();
                 let _ = pub_spin.publish(convert::spindle_command(t.spindle_rpm));
             }
+            action.cycle(Cycle {
+                stamp_ns: time_ns(&o.stamp),
+                tick: &o.tick,
+                job: o.job,
+                place: o.place,
+                status: o.status.as_ref(),
+            });
             if let Some(s) = status {
                 let _ = pub_status.publish(s);
             }
@@ -572,6 +603,7 @@ impl Loop {
         let o = Out {
             stamp,
             tick,
+            place: self.ctl.place(),
             status,
             job: self.ctl.job_id(),
             recorder: self.pending_rec.take(),
@@ -593,8 +625,8 @@ fn check_worker(
     machine: Machine,
     dir: PathBuf,
     rec: RecordOpts,
-    reqs: Receiver<(ros2_client::RmwRequestId, RunProgramRequest)>,
-    resps: Sender<(ros2_client::RmwRequestId, RunProgramResponse)>,
+    reqs: Receiver<(Asker, RunProgramRequest)>,
+    resps: Sender<(Asker, RunProgramResponse)>,
     cmds: Sender<Cmd>,
     here: Arc<[AtomicU64; 3]>,
 ) {
