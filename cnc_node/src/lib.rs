@@ -10,6 +10,7 @@ pub mod convert;
 pub mod files;
 pub mod live;
 pub mod offline;
+pub mod params;
 pub mod plot;
 pub mod program;
 pub mod record;
