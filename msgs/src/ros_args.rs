@@ -333,8 +333,8 @@ impl RosArgs {
 
     /// The parameter values for the node `fqn` (named `name` before any
     /// `__node` rule), in the order they apply (a later one wins): each
-    /// `-p` and each `--params-file` where it stands; in a file, its
-    /// wildcard sections before the node's own, as rclcpp. Files that
+    /// `-p` and each `--params-file` where it stands, a file's sections
+    /// that match the node in file order (as rclcpp). Files that
     /// cannot be read or parsed are errors; sections that look meant for
     /// this node but do not match it come back as warnings.
     pub fn overrides(&self, name: &str, fqn: &str) -> Result<(Vec<Override>, Vec<String>), String> {
@@ -360,9 +360,7 @@ impl RosArgs {
                 Item::ParamsFile(f) => {
                     let sections = read_params_file(f)?;
                     let shown = f.display();
-                    let (wild, exact): (Vec<_>, Vec<_>) =
-                        sections.into_iter().partition(|(k, _)| k.contains('*'));
-                    for (key, params) in wild.into_iter().chain(exact) {
+                    for (key, params) in sections {
                         if crate::params_file::node_matches(&key, fqn) {
                             out.extend(params.into_iter().map(|(n, v)| Override {
                                 name: n,
@@ -506,7 +504,14 @@ impl Startup {
     ) -> Result<(), String> {
         for o in &self.overrides {
             let Some(p) = params.iter_mut().find(|p| p.name == o.name) else {
-                if o.name != "use_sim_time" && log_enabled(Level::Warn) {
+                let sim_time = o.name == "use_sim_time";
+                if log_enabled(Level::Warn) && sim_time && o.value != ParameterValue::Boolean(false)
+                {
+                    eprintln!(
+                        "{}: warning: {}: simulated time is not supported (the node stamps with the system clock); ignored",
+                        self.tag, o.origin
+                    );
+                } else if log_enabled(Level::Warn) && !sim_time {
                     eprintln!(
                         "{}: warning: {} is not a parameter of this node; ignored",
                         self.tag, o.origin

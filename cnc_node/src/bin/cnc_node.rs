@@ -27,6 +27,7 @@
 
 use cnc_core::Machine;
 use cnc_msgs::ros::{self, Grid, WallClock};
+use cnc_msgs::ros_args::{log_enabled, Level};
 use cnc_msgs::*;
 use cnc_node::admit::{admit, fit_run_reply, recorder, RecordOpts, Refusal};
 use cnc_node::controller::{ActualSample, Controller, EncoderSample, Job, State, Status, Tick};
@@ -211,13 +212,15 @@ fn run(setup: Setup) -> Result<(), String> {
             .map_err(|e| e.to_string())?;
     }
     let names: Vec<String> = machine.axes.iter().map(|a| a.name.clone()).collect();
-    eprintln!(
-        "cnc_node: {} ({}), {} Hz, domain {domain}, serving {}/run_program",
-        machine.name,
-        names.join(" "),
-        machine.interpolation.rate_hz,
-        ns.trim_end_matches('/')
-    );
+    if log_enabled(Level::Info) {
+        eprintln!(
+            "cnc_node: {} ({}), {} Hz, domain {domain}, serving {}/run_program",
+            machine.name,
+            names.join(" "),
+            machine.interpolation.rate_hz,
+            ns.trim_end_matches('/')
+        );
+    }
     let mut last_spindle = f64::NAN;
     let mut spindle_sent = Instant::now();
     let mut recording: Option<(u32, Rec)> = None;

@@ -32,6 +32,7 @@ mod params;
 use cnc_core::machine::MAX_SETPOINT_DELAY_MS;
 use cnc_msgs::params::Parameters;
 use cnc_msgs::ros::{self, Grid, WallClock};
+use cnc_msgs::ros_args::{log_enabled, Level};
 use cnc_msgs::{
     Float64, Header, JointState, SetBoolRequest, SetBoolResponse, SetDelayRequest,
     SetDelayResponse, SpindleEncoder, Time,
@@ -158,14 +159,16 @@ fn run(setup: params::Setup) -> Result<(), String> {
     let mut last_warn: Option<Instant> = None;
     let mut last_late: Option<Instant> = None;
     let mut states: Vec<JointState> = Vec::new();
-    eprintln!(
-        "sim_axes: {} ({}), {} Hz, setpoints applied {}, domain {domain}, {ns}/joint_states, {ns}/spindle_encoder, {ns}/encoder_enabled, {ns}/spindle_stalled, {ns}/setpoint_delay",
-        machine.name,
-        names.join(" "),
-        rate,
-        applied(delay_ms),
-        ns = a.namespace.trim_end_matches('/'),
-    );
+    if log_enabled(Level::Info) {
+        eprintln!(
+            "sim_axes: {} ({}), {} Hz, setpoints applied {}, domain {domain}, {ns}/joint_states, {ns}/spindle_encoder, {ns}/encoder_enabled, {ns}/spindle_stalled, {ns}/setpoint_delay",
+            machine.name,
+            names.join(" "),
+            rate,
+            applied(delay_ms),
+            ns = a.namespace.trim_end_matches('/'),
+        );
+    }
     loop {
         // parameters set with `ros2 param set` (checked already)
         while let Ok((name, v)) = param_changes.try_recv() {
