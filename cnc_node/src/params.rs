@@ -188,7 +188,7 @@ fn read_back(a: &mut Args, params: &[Param]) {
     for p in params {
         match (p.name, &p.value) {
             ("machine", V::String(s)) => a.machine = s.clone(),
-            ("sim_namespace", V::String(s)) => a.sim_namespace = s.clone(),
+            ("sim_namespace", V::String(s)) => a.sim_namespace = ros_args::absolute(s),
             ("rate", V::Double(r)) => a.rate = Some(*r),
             ("program_dir", V::String(s)) => a.program_dir = Some(PathBuf::from(s)),
             ("record_dir", V::String(s)) => a.record_dir = PathBuf::from(s),

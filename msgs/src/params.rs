@@ -521,128 +521,65 @@ impl Parameters {
 
     /// Serves the six services until the process ends.
     fn run(&self, s: Servers) {
-        use smol::Timer;
-        use std::time::Duration;
-        let pause = || Timer::after(Duration::from_millis(20));
         let ex = smol::LocalExecutor::new();
-        let (s, me) = (&s, self);
-        ex.spawn(async move {
-            loop {
-                match s.get.async_receive_request().await {
-                    Ok((id, req)) => {
-                        let values = me.values(&req.names);
-                        let _ = s
-                            .get
-                            .async_send_response(id, rcl::GetParametersResponse { values })
-                            .await;
-                    }
-                    Err(_) => {
-                        pause().await;
-                    }
-                }
-            }
-        })
+        let me = self;
+        ex.spawn(answer(&s.get, |r| rcl::GetParametersResponse {
+            values: me.values(&r.names),
+        }))
         .detach();
-        ex.spawn(async move {
-            loop {
-                match s.types.async_receive_request().await {
-                    Ok((id, req)) => {
-                        let values = me.types(&req.names);
-                        let _ = s
-                            .types
-                            .async_send_response(id, rcl::GetParameterTypesResponse { values })
-                            .await;
-                    }
-                    Err(_) => {
-                        pause().await;
-                    }
-                }
-            }
-        })
+        ex.spawn(answer(&s.types, |r| rcl::GetParameterTypesResponse {
+            values: me.types(&r.names),
+        }))
         .detach();
-        ex.spawn(async move {
-            loop {
-                match s.set.async_receive_request().await {
-                    Ok((id, req)) => {
-                        let results = req
-                            .parameter
-                            .into_iter()
-                            .map(|p| {
-                                me.result(me.set_many(&[(p.name, p.value.into())], true, true))
-                            })
-                            .collect();
-                        let _ = s
-                            .set
-                            .async_send_response(id, rcl::SetParametersResponse { results })
-                            .await;
-                    }
-                    Err(_) => {
-                        pause().await;
-                    }
-                }
-            }
-        })
+        ex.spawn(answer(&s.set, |r| rcl::SetParametersResponse {
+            results: r
+                .parameter
+                .into_iter()
+                .map(|p| me.result(me.set_many(&[(p.name, p.value.into())], true, true)))
+                .collect(),
+        }))
         .detach();
-        ex.spawn(async move {
-            loop {
-                match s.atomic.async_receive_request().await {
-                    Ok((id, req)) => {
-                        let sets: Vec<(String, ParameterValue)> = req
-                            .parameter
-                            .into_iter()
-                            .map(|p| (p.name, p.value.into()))
-                            .collect();
-                        let result = me.result(me.set_many(&sets, true, true));
-                        let _ = s
-                            .atomic
-                            .async_send_response(
-                                id,
-                                rcl::SetParametersAtomicallyResponse { result },
-                            )
-                            .await;
-                    }
-                    Err(_) => {
-                        pause().await;
-                    }
-                }
+        ex.spawn(answer(&s.atomic, |r| {
+            let sets: Vec<(String, ParameterValue)> = r
+                .parameter
+                .into_iter()
+                .map(|p| (p.name, p.value.into()))
+                .collect();
+            rcl::SetParametersAtomicallyResponse {
+                result: me.result(me.set_many(&sets, true, true)),
             }
-        })
+        }))
         .detach();
-        ex.spawn(async move {
-            loop {
-                match s.list.async_receive_request().await {
-                    Ok((id, req)) => {
-                        let result = me.list(&req.prefixes, req.depth);
-                        let _ = s
-                            .list
-                            .async_send_response(id, rcl::ListParametersResponse { result })
-                            .await;
-                    }
-                    Err(_) => {
-                        pause().await;
-                    }
-                }
-            }
-        })
+        ex.spawn(answer(&s.list, |r| rcl::ListParametersResponse {
+            result: me.list(&r.prefixes, r.depth),
+        }))
         .detach();
-        ex.spawn(async move {
-            loop {
-                match s.describe.async_receive_request().await {
-                    Ok((id, req)) => {
-                        let values = me.describe(&req.names);
-                        let _ = s
-                            .describe
-                            .async_send_response(id, rcl::DescribeParametersResponse { values })
-                            .await;
-                    }
-                    Err(_) => {
-                        pause().await;
-                    }
-                }
-            }
-        })
+        ex.spawn(answer(&s.describe, |r| rcl::DescribeParametersResponse {
+            values: me.describe(&r.names),
+        }))
         .detach();
         smol::block_on(ex.run(smol::future::pending::<()>()));
+    }
+}
+
+/// Answers each request of `server` with `reply`, forever.
+async fn answer<Req, Resp>(server: &ros2_client::Server<Req, Resp>, reply: impl Fn(Req) -> Resp)
+where
+    Req: ros2_client::Message + Clone + 'static,
+    Resp: ros2_client::Message + 'static,
+{
+    use smol::stream::StreamExt;
+    let mut requests = server.receive_request_stream();
+    while let Some(r) = requests.next().await {
+        match r {
+            Ok((id, req)) => {
+                let _ = server.async_send_response(id, reply(req)).await;
+            }
+            // (a request that does not decode: the next one)
+            Err(_) => {
+                smol::Timer::after(std::time::Duration::from_millis(20)).await;
+            }
+        }
     }
 }
 

@@ -19,7 +19,7 @@ import time
 
 import pytest
 
-from ros_nodes import ROOT, TARGET, build, SpinningPeer, stamp_s
+from ros_nodes import ROOT, TARGET, build, read_mcap, SpinningPeer, stamp_s
 
 DOMAIN = str(200 + os.getpid() % 30)
 DISCOVERY_S = 30.0
@@ -112,7 +112,7 @@ class Started:
 class Peer(SpinningPeer):
     """Records setpoints, joint states and status of one controller/simulator pair."""
 
-    def __init__(self, name, ns, sim_ns):
+    def __init__(self, name, ns, sim_ns, joint_states="joint_states"):
         super().__init__(name)
         from cnc_msgs.msg import ControllerStatus
         from cnc_msgs.srv import RunProgram
@@ -120,7 +120,7 @@ class Peer(SpinningPeer):
         self.setpoints, self.joints, self.status = [], [], []
         self.node.create_subscription(JointState, ns + "/joint_setpoints",
                                       lambda m: self._add(self.setpoints, m), 100)
-        self.node.create_subscription(JointState, sim_ns + "/joint_states",
+        self.node.create_subscription(JointState, sim_ns + "/" + joint_states,
                                       lambda m: self._add(self.joints, m), 100)
         self.node.create_subscription(ControllerStatus, ns + "/status", self._st, 10)
         self.run = self.node.create_client(RunProgram, ns + "/run_program")
@@ -170,14 +170,19 @@ def um(pos_m):
 @pytest.fixture(scope="module")
 def m2(env, tmp_path_factory):
     """Both nodes started with `ros2 run`, in /m2 and /m2sim, by their ROS
-    arguments (an option given both ways, the ROS parameter wins)."""
+    arguments (an option given both ways, the ROS parameter wins), with the
+    simulator's joint states renamed (`-r joint_states:=actual_joints`) and
+    the controller told so by a remap of its own."""
     d = tmp_path_factory.mktemp("m2")
     rec = d / "recordings"
     sim = Started(env, ["ros2", "run", "cnc_controller", "sim_axes", "--ros-args",
-                        "-r", "__ns:=/m2sim", "-p", "controller_namespace:=/m2",
+                        "-r", "__ns:=/m2sim", "-r", "joint_states:=actual_joints",
+                        "-p", "controller_namespace:=/m2",
                         "-p", "setpoint_delay_ms:=2.0", "-p", "rt_priority:=0"], str(d / "sim.log"))
     node = Started(env, ["ros2", "run", "cnc_controller", "cnc_node", "--rate", "1000", "--ros-args",
-                         "-r", "__ns:=/m2", "-p", "sim_namespace:=/m2sim", "-p", "rate:=500",
+                         "-r", "__ns:=/m2",
+                         "-r", "/m2sim/joint_states:=/m2sim/actual_joints",
+                         "-p", "sim_namespace:=/m2sim", "-p", "rate:=500",
                          "-p", "record_dir:=%s" % rec, "-p", "rt_priority:=0"], str(d / "node.log"))
     yield {"sim": sim, "node": node, "rec": rec}
     node.stop()
@@ -280,7 +285,7 @@ def test_a_job_by_ros2_service_call_ends_where_the_program_says(env, m2):
     rc, out, err = ros2(env, "param", "set", "--no-daemon", "--timeout", "30", "/m2/cnc_node",
                         "record_all", "true")
     assert out.strip() == "Set parameter successful", out + err
-    peer = Peer("ros2_cli_peer", "/m2", "/m2sim")
+    peer = Peer("ros2_cli_peer", "/m2", "/m2sim", joint_states="actual_joints")
     try:
         peer.wait_for("setpoints and joint states",
                       lambda: bool(peer.setpoints) and bool(peer.joints), DISCOVERY_S)
@@ -305,6 +310,16 @@ def test_a_job_by_ros2_service_call_ends_where_the_program_says(env, m2):
     assert re.search(r"^state: 0$", out, re.M) and re.search(r"^job_id: %d$" % job, out, re.M), out + err
     assert re.search(r"^progress: 1\.0$", out, re.M), out
     until("the recording", lambda: os.path.exists(path) and os.path.getsize(path) > 0, 10.0)
+    # the controller heard the simulator under the renamed topic: its recording has them
+    topics = until("a finished recording", lambda: _read(path), 10.0)
+    assert len(topics.get("/sim/joint_states", [])) > 10, sorted(topics)
+
+
+def _read(path):
+    try:
+        return read_mcap(path)
+    except Exception:  # not finished yet
+        return None
 
 
 def test_bad_ros_args_stop_the_node_with_the_reason(env, tmp_path):
@@ -323,6 +338,12 @@ def test_bad_ros_args_stop_the_node_with_the_reason(env, tmp_path):
         assert rc != 0 and want in err, (args, rc, out, err)
     rc, out, err = ros2(env, "run", "cnc_controller", "cnc_node", "--help")
     assert rc == 0 and "--ros-args" in out and "--max-feed-override" in out, out + err
+    # both launch files load (the old one starts the binaries with ExecuteProcess)
+    for f in ["cnc.launch.py", "cnc_ros.launch.py"]:
+        rc, out, err = ros2(env, "launch", "--print", os.path.join("launch_scripts", f))
+        assert rc == 0 and "LaunchDescription" in out, (f, out, err)
+    rc, out, err = ros2(env, "launch", "--print", "cnc_controller", "cnc_ros.launch.py")
+    assert rc == 0 and "cnc_controller" in out, out + err
 
 
 def test_ros2_launch_starts_both_with_a_params_file_and_runs_a_job(env, tmp_path):

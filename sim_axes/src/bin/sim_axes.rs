@@ -25,6 +25,10 @@
 //! command (false releases it: it ramps up to the command again);
 //! (cnc_msgs/SetDelay) `<ns>/setpoint_delay` changes the setpoint delay
 //! from the next step on.
+//!
+//! Its options are ROS parameters too, and it takes `--ros-args`
+//! (`sim_axes/params.rs`); `ripple`, `noise_rpm` and `setpoint_delay_ms`
+//! can be set while it runs (`ros2 param set`), from the next step on.
 
 #[path = "sim_axes/params.rs"]
 mod params;

@@ -162,7 +162,9 @@ fn read_back(a: &mut Args, params: &[Param]) {
     for p in params {
         match (p.name, &p.value) {
             ("machine", V::String(s)) => a.machine = s.clone(),
-            ("controller_namespace", V::String(s)) => a.controller_namespace = s.clone(),
+            ("controller_namespace", V::String(s)) => {
+                a.controller_namespace = ros_args::absolute(s)
+            }
             ("rate", V::Double(r)) => a.rate = Some(*r),
             ("ripple", V::Double(r)) => a.ripple = Some(*r),
             ("noise_rpm", V::Double(n)) => a.noise_rpm = Some(*n),
