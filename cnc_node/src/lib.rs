@@ -11,6 +11,7 @@ pub mod convert;
 pub mod files;
 pub mod live;
 pub mod offline;
+pub mod params;
 pub mod plot;
 pub mod program;
 pub mod record;

@@ -4,7 +4,10 @@
 //! [`ros_message!`]; a test parses the interface files and fails if the two
 //! drift apart. Field order is the CDR wire order.
 
+pub mod params;
+pub mod params_file;
 pub mod ros;
+pub mod ros_args;
 
 use serde::{Deserialize, Serialize};
 

@@ -44,10 +44,20 @@ pub fn context(domain: u16, localhost_only: bool) -> Result<Context, String> {
 /// A node `namespace/name`, with its spinner running on its own thread
 /// (graph and discovery information for `ros2 node list`).
 pub fn node(ctx: &Context, namespace: &str, name: &str) -> Result<Node, String> {
+    node_with(ctx, namespace, name, NodeOptions::new().enable_rosout(true))
+}
+
+/// [`node`] with these options.
+pub fn node_with(
+    ctx: &Context,
+    namespace: &str,
+    name: &str,
+    options: NodeOptions,
+) -> Result<Node, String> {
     let nn = NodeName::new(namespace, name)
         .map_err(|e| format!("node name {namespace}/{name}: {e:?}"))?;
     let mut node = ctx
-        .new_node(nn, NodeOptions::new().enable_rosout(true))
+        .new_node(nn, options)
         .map_err(|e| format!("node {namespace}/{name}: {e:?}"))?;
     let spinner = node.spinner().map_err(|e| format!("spinner: {e:?}"))?;
     std::thread::Builder::new()
@@ -447,6 +457,31 @@ pub fn name(ns: &str, base: &str) -> Result<ros2_client::Name, String> {
     ros2_client::Name::new(ns, base).map_err(|e| format!("name {ns}/{base}: {e:?}"))
 }
 
+/// The process's remap rules (`--ros-args -r`), set once at start by a node.
+static REMAPS: std::sync::OnceLock<crate::ros_args::Remapper> = std::sync::OnceLock::new();
+
+/// Sets the remap rules the topics and services made by this module
+/// follow (once; later calls change nothing).
+pub fn set_remaps(r: crate::ros_args::Remapper) {
+    let _ = REMAPS.set(r);
+}
+
+/// `namespace/base` as a topic (`service` false) or service name, after the
+/// remap rules.
+fn remapped(ns: &str, base: &str, service: bool) -> Result<ros2_client::Name, String> {
+    let Some(r) = REMAPS.get().filter(|r| !r.is_empty()) else {
+        return name(ns, base);
+    };
+    let full = crate::ros_args::resolve(base, &crate::ros_args::absolute(ns), "/");
+    match r.apply(&full, service) {
+        Some(to) => {
+            let (ns, base) = to.rsplit_once('/').unwrap_or(("", to));
+            name(if ns.is_empty() { "/" } else { ns }, base)
+        }
+        None => name(ns, base),
+    }
+}
+
 /// (`pkg`, `Type`) of `pkg/msg/Type` or `pkg/srv/Type_Request`.
 fn split_type<T: crate::RosType>() -> (&'static str, &'static str) {
     let mut it = T::ROS_NAME.split('/');
@@ -462,7 +497,7 @@ fn split_type<T: crate::RosType>() -> (&'static str, &'static str) {
 fn topic<T: crate::RosType>(node: &Node, ns: &str, base: &str) -> Result<rustdds::Topic, String> {
     let (pkg, ty) = split_type::<T>();
     node.create_topic(
-        &name(ns, base)?,
+        &remapped(ns, base, false)?,
         ros2_client::MessageTypeName::new(pkg, ty),
         &qos_default(),
     )
@@ -503,7 +538,7 @@ pub fn publisher_with_window<T: crate::RosType + serde::Serialize>(
     let t = ctx
         .domain_participant()
         .create_topic(
-            name(ns, base)?.to_dds_name("rt", &node_name, ""),
+            remapped(ns, base, false)?.to_dds_name("rt", &node_name, ""),
             ros2_client::MessageTypeName::new(pkg, ty).dds_msg_type(),
             &qos,
             rustdds::TopicKind::NoKey,
@@ -557,7 +592,7 @@ where
     let q = qos_services();
     node.create_server::<Req, Resp>(
         ros2_client::ServiceMapping::Enhanced,
-        &name(ns, base)?,
+        &remapped(ns, base, true)?,
         &ros2_client::ServiceTypeName::new(pkg, ty),
         q.clone(),
         q,
@@ -579,7 +614,7 @@ where
     let q = qos_services();
     node.create_client::<Req, Resp>(
         ros2_client::ServiceMapping::Enhanced,
-        &name(ns, base)?,
+        &remapped(ns, base, true)?,
         &ros2_client::ServiceTypeName::new(pkg, ty),
         q.clone(),
         q,
@@ -759,8 +794,24 @@ pub fn lock_memory() -> Result<(), String> {
 /// only when the environment says so), the node with its spinner, and the
 /// re-announcement of the node information. Keep both alive.
 pub fn join(domain: u16, namespace: &str, name: &str) -> Result<(Context, Node), String> {
+    join_with(
+        domain,
+        namespace,
+        name,
+        NodeOptions::new().enable_rosout(true),
+    )
+}
+
+/// [`join`] with these node options (e.g. without ros2-client's parameter
+/// services, for a node that serves [`crate::params::Parameters`]).
+pub fn join_with(
+    domain: u16,
+    namespace: &str,
+    name: &str,
+    options: NodeOptions,
+) -> Result<(Context, Node), String> {
     let ctx = context(domain, localhost_only_from_env())?;
-    let node = node(&ctx, namespace, name)?;
+    let node = node_with(&ctx, namespace, name, options)?;
     keep_announcing(&ctx)?;
     Ok((ctx, node))
 }

@@ -11,6 +11,15 @@
 #   .venv-ros/build/cnc_msgs/     cmake build tree of msgs/
 #   .venv-ros/cnc_msgs_install/   install prefix of cnc_msgs (C/C++ libs, Python package, ament index)
 #   .venv-ros/env.sh              environment for tests (PATH, PYTHONPATH, LD_LIBRARY_PATH, ...)
+#   .venv-ros/bin/ros2            the ROS 2 command line and launch (ros2cli, launch, launch_ros):
+#                                 from ../shared/vendor beside the repo when it is there (CI),
+#                                 else from their upstream repositories when the network allows,
+#                                 else not (.venv-ros/ros2cli.missing says why; tests that need
+#                                 `ros2` skip with that reason)
+#   .venv-ros/cnc_msgs_install/   also composition_interfaces (launch_ros imports it; no wheel)
+#   .venv-ros/cnc_controller_install/  the nodes as the ament package cnc_controller
+#                                 (install_package.sh: symlinks to $CNC_BIN_DIR, default
+#                                 target/debug), for `ros2 run` and `ros2 launch`
 # and, outside the repo, symlinks under /opt/python/cp311-cp311 (only if missing or
 # dangling) because the wheels' CMake exports hard-code the manylinux build
 # image's Python and numpy include directories.
@@ -136,19 +145,93 @@ cmake --build "$build" -j "$(nproc)" >"$venv/build/cnc_msgs.build.log" 2>&1 \
 cmake --install "$build" >"$venv/build/cnc_msgs.install.log" 2>&1 \
   || { cat "$venv/build/cnc_msgs.install.log" >&2; exit 1; }
 
-# ---------------------------------------------------------------- 5. env.sh
+# ---------------------------------------------------------------- 5. ros2cli and launch
+# Not on PyPI. Unmodified upstream sources: ../shared/vendor (CI and our
+# machines), else the upstream repositories at the same commits.
+vendor="$root/../shared/vendor"
+missing_note="$venv/ros2cli.missing"
+ros2_stamp="$venv/.ros2cli.stamp"
+upstream_install() {  # the vendored install, from github.com/ros2 (needs git and the network)
+  local src="$venv/build/ros2cli-src" r c
+  command -v git >/dev/null || { echo "git is not installed"; return 1; }
+  rm -rf "$src"; mkdir -p "$src"
+  for rc in ros2cli:e20d2c664fc2981b0b80ebed534e5becc6fdbf34 \
+            rosidl_runtime_py:3327b1dc488af514017c5446ffff12d102bbe94a \
+            launch:02595bafc7891d4d287667b6aa9161edf738e9f3 \
+            launch_ros:f9ab9371824d470bca47602bc7d277eb2217c90d; do
+    r=${rc%%:*} c=${rc#*:}
+    git init -q "$src/$r" \
+      && timeout 120 git -C "$src/$r" fetch -q --depth 1 "https://github.com/ros2/$r" "$c" \
+      && git -C "$src/$r" checkout -q FETCH_HEAD \
+      || { echo "github.com/ros2/$r not reachable"; return 1; }
+  done
+  "$vpy" -m pip install -q osrf-pycommon lark argcomplete packaging psutil pyyaml wheel setuptools || return 1
+  for p in rosidl_runtime_py ros2cli/ros2cli ros2cli/ros2pkg ros2cli/ros2node ros2cli/ros2topic \
+           ros2cli/ros2service ros2cli/ros2action ros2cli/ros2param ros2cli/ros2interface \
+           ros2cli/ros2run launch/launch launch/launch_xml launch/launch_yaml \
+           launch_ros/launch_ros launch_ros/ros2launch; do
+    "$vpy" -m pip install -q --no-deps --no-build-isolation "$src/$p" || return 1
+  done
+  rm -rf "$src"
+}
+rm -f "$missing_note"
+if [ -f "$vendor/install.sh" ]; then
+  want_ros2="vendor $(cat "$vendor"/*.tar.gz | sha256sum | cut -d' ' -f1)"
+else
+  want_ros2="upstream e20d2c6 3327b1d 02595ba f9ab937"
+fi
+if [ -x "$venv/bin/ros2" ] && [ "$(cat "$ros2_stamp" 2>/dev/null)" = "$want_ros2" ]; then
+  log "ros2 command line up to date"
+elif [ -f "$vendor/install.sh" ]; then
+  log "installing the ros2 command line and launch from $(realpath "$vendor")"
+  bash "$vendor/install.sh" "$venv" && echo "$want_ros2" > "$ros2_stamp"
+else
+  log "no ../shared/vendor: the ros2 command line and launch from github.com/ros2"
+  if why=$(upstream_install 2>&1); then
+    echo "$want_ros2" > "$ros2_stamp"
+  else
+    log "ros2 command line not installed: $why"
+    echo "the ros2 command line is not installed: no ../shared/vendor beside the repository, and the upstream repositories could not be installed ($why)" > "$missing_note"
+  fi
+fi
+if [ -x "$venv/bin/ros2" ] && ! "$vpy" -c "import composition_interfaces" 2>/dev/null; then
+  ci_build="$venv/build/composition_interfaces"
+  if [ ! -f "$ci_build/CMakeCache.txt" ]; then
+    log "cmake configure composition_interfaces (launch_ros imports it)"
+    cmake -S "$here/composition_interfaces" -B "$ci_build" \
+      -DCMAKE_BUILD_TYPE=Release \
+      -DCMAKE_INSTALL_PREFIX="$prefix" \
+      -DPython3_EXECUTABLE="$vpy" \
+      -DBUILD_TESTING=OFF \
+      >"$venv/build/composition_interfaces.configure.log" 2>&1 \
+      || { cat "$venv/build/composition_interfaces.configure.log" >&2; exit 1; }
+  fi
+  log "cmake build + install composition_interfaces"
+  cmake --build "$ci_build" -j "$(nproc)" >"$venv/build/composition_interfaces.build.log" 2>&1 \
+    || { tail -50 "$venv/build/composition_interfaces.build.log" >&2; exit 1; }
+  cmake --install "$ci_build" >"$venv/build/composition_interfaces.install.log" 2>&1 \
+    || { cat "$venv/build/composition_interfaces.install.log" >&2; exit 1; }
+fi
+
+# ---------------------------------------------------------------- 6. the package cnc_controller
+pkg_prefix="$venv/cnc_controller_install"
+bash "$here/install_package.sh" "$pkg_prefix" "${CNC_BIN_DIR:-$root/target/debug}" >/dev/null
+log "package cnc_controller in $(realpath --relative-to="$root" "$pkg_prefix") (ros2 run cnc_controller cnc_node)"
+
+# ---------------------------------------------------------------- 7. env.sh
 cat > "$venv/env.sh" <<EOF
 # Generated by scripts/ros_peer/setup.sh -- source it: . .venv-ros/env.sh
 # Stock ROS 2 Kilted (PyPI wheels) + cnc_msgs, Fast DDS RMW.
 _rp_venv="$venv"
 _rp_prefix="$prefix"
+_rp_pkg="$pkg_prefix"
 _rp_sp="\$_rp_venv/lib/python3.11/site-packages"
 _rp_libs="\$_rp_prefix/lib:\$_rp_venv/lib"
 for _rp_d in "\$_rp_sp"/ros_*.libs; do [ -d "\$_rp_d" ] && _rp_libs="\$_rp_libs:\$_rp_d"; done
 export PATH="\$_rp_venv/bin\${PATH:+:\$PATH}"
 export PYTHONPATH="\$_rp_prefix/lib/python3.11/site-packages\${PYTHONPATH:+:\$PYTHONPATH}"
 export LD_LIBRARY_PATH="\$_rp_libs\${LD_LIBRARY_PATH:+:\$LD_LIBRARY_PATH}"
-export AMENT_PREFIX_PATH="\$_rp_prefix:\$_rp_venv"
+export AMENT_PREFIX_PATH="\$_rp_pkg:\$_rp_prefix:\$_rp_venv"
 export CMAKE_PREFIX_PATH="\$_rp_prefix:\$_rp_venv"
 export RMW_IMPLEMENTATION=rmw_fastrtps_cpp
 # LD_LIBRARY_PATH is complete: stop ros_wheels_bootstrapper re-exec'ing python.
@@ -159,11 +242,15 @@ export ROS_DISTRO=kilted   # ros2-client compares it with its distro feature
 # sends SPDP by unicast to 127.0.0.1:7410+2*i instead of multicast
 # 239.255.0.1:7400 on every interface. ROS_DOMAIN_ID is left to the caller.
 export ROS_AUTOMATIC_DISCOVERY_RANGE="\${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST}"
-unset _rp_venv _rp_prefix _rp_sp _rp_libs _rp_d
+unset _rp_venv _rp_prefix _rp_pkg _rp_sp _rp_libs _rp_d
 EOF
 
-# ---------------------------------------------------------------- 6. check
+# ---------------------------------------------------------------- 8. check
 log "checking imports"
 ( . "$venv/env.sh"
-  python3 -c "import rclpy; from cnc_msgs.srv import RunProgram; from cnc_msgs.msg import SpindleEncoder, ControllerStatus; from cnc_msgs.action import ExecuteProgram; from sensor_msgs.msg import JointState; from std_srvs.srv import Trigger" )
+  python3 -c "import rclpy; from cnc_msgs.srv import RunProgram; from cnc_msgs.msg import SpindleEncoder, ControllerStatus; from cnc_msgs.action import ExecuteProgram; from sensor_msgs.msg import JointState; from std_srvs.srv import Trigger"
+  if [ -x "$venv/bin/ros2" ]; then
+    python3 -c "import launch_ros.actions"
+    ros2 pkg prefix cnc_controller >/dev/null
+  fi )
 log "done: . $(realpath --relative-to="$PWD" "$venv/env.sh" 2>/dev/null || echo "$venv/env.sh") && python3 scripts/ros_peer/smoke.py"

@@ -339,9 +339,27 @@ impl Spindle {
         }
     }
 
-    /// The parameters this spindle was created with.
+    /// The parameters this spindle runs with.
     pub fn params(&self) -> &SpindleParams {
         &self.params
+    }
+
+    /// Changes the speed ripple (a fraction, 0..1) and the speed noise (rpm, >= 0) from the
+    /// next step on, as the simulator node's parameters `ripple` and `noise_rpm` do while it
+    /// runs; values [`SpindleParams::validate`] refuses change nothing.
+    pub fn set_disturbances(
+        &mut self,
+        ripple_fraction: f64,
+        noise_rpm: f64,
+    ) -> Result<(), &'static str> {
+        let p = SpindleParams {
+            ripple_fraction,
+            noise_rpm,
+            ..self.params
+        };
+        p.validate()?;
+        self.params = p;
+        Ok(())
     }
 }
 

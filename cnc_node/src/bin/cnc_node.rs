@@ -27,9 +27,9 @@
 //! must not be stepped while a thread is cut. A job's executor gets a
 //! reading stamped `s` at `t = s − (stamp of the job's sample 0)`.
 
-use clap::Parser;
 use cnc_core::Machine;
 use cnc_msgs::ros::{self, Grid, WallClock};
+use cnc_msgs::ros_args::{log_enabled, Level};
 use cnc_msgs::*;
 use cnc_node::action::{Cycle, ExecuteProgram, GoalKey};
 use cnc_node::admit::{admit, fit_run_reply, recorder, RecordOpts, Refusal};
@@ -38,49 +38,13 @@ use cnc_node::controller::{
 };
 use cnc_node::convert::{self, stamp_ns, time_ns};
 use cnc_node::files::load_machine;
+use cnc_node::params::{self as node_params, Args, Live, Setup};
 use cnc_node::record::JobRecorder;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, SyncSender, TryRecvError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-
-#[derive(Parser)]
-#[command(name = "cnc_node", version, about = "CNC controller as a ROS 2 node")]
-struct Args {
-    /// machine file, or a bundled machine: mill, lathe
-    #[arg(long, default_value = "mill")]
-    machine: String,
-    /// namespace of the controller's services and topics
-    #[arg(long, default_value = "/cnc")]
-    namespace: String,
-    /// namespace of the simulator (or hardware bridge) publishing the encoder
-    #[arg(long, default_value = "/sim")]
-    sim_namespace: String,
-    /// DDS domain (default: ROS_DOMAIN_ID, else 0)
-    #[arg(long)]
-    domain: Option<u16>,
-    /// interpolation rate, Hz (default: the machine file's)
-    #[arg(long)]
-    rate: Option<f64>,
-    /// directory of programs sent by program_path (default: the machine
-    /// file's program_dir, relative to the machine file)
-    #[arg(long)]
-    program_dir: Option<PathBuf>,
-    /// directory of job recordings (MCAP)
-    #[arg(long, default_value = "recordings")]
-    record_dir: PathBuf,
-    /// record every job (else only those whose request sets `record`)
-    #[arg(long)]
-    record_all: bool,
-    /// real-time (SCHED_FIFO) priority of the control loop, 1-99; 0 keeps
-    /// the normal policy
-    #[arg(long, default_value_t = 80)]
-    rt_priority: i32,
-    /// log the control loop's wake-up lateness percentiles every N seconds
-    #[arg(long, value_name = "SECONDS")]
-    loop_stats: Option<f64>,
-}
 
 type Rec = Box<JobRecorder>;
 
@@ -111,7 +75,7 @@ struct Out {
 }
 
 fn main() {
-    if let Err(e) = run(Args::parse()) {
+    if let Err(e) = node_params::from_env().and_then(run) {
         eprintln!("cnc_node: {e}");
         std::process::exit(2);
     }
@@ -129,7 +93,8 @@ fn program_dir(args: &Args, m: &Machine) -> PathBuf {
     base.join(m.program_dir.as_deref().unwrap_or("."))
 }
 
-fn run(args: Args) -> Result<(), String> {
+fn run(setup: Setup) -> Result<(), String> {
+    let args = &setup.args;
     let mut machine = load_machine(&args.machine)?;
     // recordings attach the machine file as written (or, for a bundled
     // machine, as the core reads it)
@@ -141,7 +106,7 @@ fn run(args: Args) -> Result<(), String> {
         }
         machine.interpolation.rate_hz = r;
     }
-    let dir = program_dir(&args, &machine);
+    let dir = program_dir(args, &machine);
     let domain = args.domain.unwrap_or_else(ros::domain_from_env);
     // DDS's threads start in join and inherit this thread's policy: real
     // time below the control loop, so a busy machine does not hold up the
@@ -152,7 +117,19 @@ fn run(args: Args) -> Result<(), String> {
             eprintln!("cnc_node: DDS threads stay at normal priority (SCHED_FIFO {dds_rt}: {e})");
         }
     }
-    let (ctx, mut node) = ros::join(domain, &args.namespace, "cnc_node")?;
+    let no_own_params = ros2_client::NodeOptions::new()
+        .enable_rosout(true)
+        .start_parameter_services(false);
+    let (ctx, mut node) =
+        ros::join_with(domain, &args.namespace, &setup.start.name, no_own_params)?;
+    let (live, _params) = node_params::serve(
+        &ctx,
+        &mut node,
+        &setup,
+        machine.interpolation.rate_hz,
+        &dir,
+        machine_text.clone(),
+    )?;
     let ns = args.namespace.as_str();
     // a subscriber that dies must not stop the setpoints for the others
     let window = ros::lease_window(machine.interpolation.rate_hz);
@@ -215,10 +192,7 @@ fn run(args: Args) -> Result<(), String> {
         let m = machine.clone();
         let here = here.clone();
         let state = state.clone();
-        let stats = args
-            .loop_stats
-            .filter(|s| *s > 0.0)
-            .map(Duration::from_secs_f64);
+        let stats = live.clone();
         let rt = args.rt_priority;
         std::thread::Builder::new()
             .name("control".into())
@@ -238,11 +212,7 @@ fn run(args: Args) -> Result<(), String> {
     {
         let m = machine.clone();
         let cmd_tx = cmd_tx.clone();
-        let rec_opts = RecordOpts {
-            dir: args.record_dir.clone(),
-            all: args.record_all,
-            machine_toml: machine_text.clone(),
-        };
+        let rec_opts = live.clone();
         std::thread::Builder::new()
             .name("check".into())
             .spawn(move || {
@@ -255,13 +225,15 @@ fn run(args: Args) -> Result<(), String> {
     }
     let names: Vec<String> = machine.axes.iter().map(|a| a.name.clone()).collect();
     let mut action = ExecuteProgram::new(&mut node, ns, names.clone())?;
-    eprintln!(
-        "cnc_node: {} ({}), {} Hz, domain {domain}, serving {}/run_program",
-        machine.name,
-        names.join(" "),
-        machine.interpolation.rate_hz,
-        ns.trim_end_matches('/')
-    );
+    if log_enabled(Level::Info) {
+        eprintln!(
+            "cnc_node: {} ({}), {} Hz, domain {domain}, serving {}/run_program",
+            machine.name,
+            names.join(" "),
+            machine.interpolation.rate_hz,
+            ns.trim_end_matches('/')
+        );
+    }
     let mut last_spindle = f64::NAN;
     let mut spindle_sent = Instant::now();
     let mut recording: Option<(u32, Rec)> = None;
@@ -285,7 +257,15 @@ fn run(args: Args) -> Result<(), String> {
             let _ = srv_hold.send_response(id, SetBoolResponse { success, message });
         }
         while let Ok(Some((m, _))) = sub_ovr.take() {
-            let _ = cmd_tx.send(Cmd::Override(m.data));
+            match live.feed_override(m.data) {
+                Ok(p) => {
+                    let _ = cmd_tx.send(Cmd::Override(p));
+                }
+                Err(e) => eprintln!("cnc_node: {e}"),
+            }
+        }
+        if let Some(p) = live.take_clamp() {
+            let _ = cmd_tx.send(Cmd::Override(p));
         }
         while let Ok((asker, resp)) = resp_rx.try_recv() {
             match asker {
@@ -463,7 +443,7 @@ struct Loop {
     line_changes: Instant,
     dropped: u64,
     pending_rec: Option<(u32, Rec)>,
-    /// with --loop-stats: the newest encoder reading's age at each cycle
+    /// the newest encoder reading's age at each cycle (logged with loop_stats)
     enc_age: Option<ros::Lateness>,
     newest_enc: i64,
 }
@@ -475,9 +455,10 @@ fn control_loop(
     out: SyncSender<Out>,
     here: Arc<[AtomicU64; 3]>,
     state: Arc<AtomicU32>,
-    stats: Option<Duration>,
+    live: Arc<Live>,
 ) {
     let dt = machine.dt();
+    let mut stats = live.loop_stats();
     let period = Duration::from_secs_f64(dt);
     let mut lateness = ros::Lateness::new();
     let mut stats_due = Instant::now() + stats.unwrap_or_default();
@@ -495,7 +476,7 @@ fn control_loop(
         line_changes: Instant::now(),
         dropped: 0,
         pending_rec: None,
-        enc_age: stats.map(|_| ros::Lateness::new()),
+        enc_age: Some(ros::Lateness::new()),
         newest_enc: 0,
     };
     loop {
@@ -525,6 +506,12 @@ fn control_loop(
             if !lp.cycle(stamp) {
                 return;
             }
+        }
+        let now_stats = live.loop_stats();
+        if now_stats != stats {
+            // (loop_stats set while the node runs: from now on)
+            stats = now_stats;
+            stats_due = Instant::now() + stats.unwrap_or_default();
         }
         if let Some(every) = stats {
             if Instant::now() >= stats_due {
@@ -624,7 +611,7 @@ impl Loop {
 fn check_worker(
     machine: Machine,
     dir: PathBuf,
-    rec: RecordOpts,
+    live: Arc<Live>,
     reqs: Receiver<(Asker, RunProgramRequest)>,
     resps: Sender<(Asker, RunProgramResponse)>,
     cmds: Sender<Cmd>,
@@ -632,6 +619,7 @@ fn check_worker(
 ) {
     let mut next_id = 1u32;
     while let Ok((id, req)) = reqs.recv() {
+        let rec = live.record_opts();
         let resp = handle_run(&machine, &dir, &rec, &req, &mut next_id, &cmds, &here);
         let _ = resps.send((id, fit_run_reply(resp)));
     }

@@ -25,10 +25,18 @@
 //! command (false releases it: it ramps up to the command again);
 //! (cnc_msgs/SetDelay) `<ns>/setpoint_delay` changes the setpoint delay
 //! from the next step on.
+//!
+//! Its options are ROS parameters too, and it takes `--ros-args`
+//! (`sim_axes/params.rs`); `ripple`, `noise_rpm` and `setpoint_delay_ms`
+//! can be set while it runs (`ros2 param set`), from the next step on.
 
-use clap::Parser;
+#[path = "sim_axes/params.rs"]
+mod params;
+
 use cnc_core::machine::MAX_SETPOINT_DELAY_MS;
+use cnc_msgs::params::Parameters;
 use cnc_msgs::ros::{self, Grid, WallClock};
+use cnc_msgs::ros_args::{log_enabled, Level};
 use cnc_msgs::{
     Float64, Header, JointState, SetBoolRequest, SetBoolResponse, SetDelayRequest,
     SetDelayResponse, SpindleEncoder, Time,
@@ -37,50 +45,6 @@ use sim_axes::machine::{load_machine, model_for};
 use sim_axes::SetpointQueue;
 use std::time::Instant;
 
-#[derive(Parser)]
-#[command(
-    name = "sim_axes",
-    version,
-    about = "Simulated lathe/mill axes and spindle encoder as a ROS 2 node"
-)]
-struct Args {
-    /// machine file, or a bundled machine: mill, lathe
-    #[arg(long, default_value = "mill")]
-    machine: String,
-    /// namespace of this node's topics
-    #[arg(long, default_value = "/sim")]
-    namespace: String,
-    /// namespace of the controller whose setpoints are followed
-    #[arg(long, default_value = "/cnc")]
-    controller_namespace: String,
-    /// DDS domain (default: ROS_DOMAIN_ID, else 0)
-    #[arg(long)]
-    domain: Option<u16>,
-    /// simulation rate, Hz (default: the machine file's interpolation rate)
-    #[arg(long)]
-    rate: Option<f64>,
-    /// spindle speed ripple as a fraction, e.g. 0.02 (default: machine file)
-    #[arg(long)]
-    ripple: Option<f64>,
-    /// spindle speed noise, rpm (default: machine file)
-    #[arg(long)]
-    noise_rpm: Option<f64>,
-    /// apply each setpoint this long after its stamp, ms; 0: on arrival
-    /// (default: the machine file's interpolation.setpoint_delay_ms)
-    #[arg(long)]
-    setpoint_delay_ms: Option<f64>,
-    /// seed of the spindle noise
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
-    /// real-time (SCHED_FIFO) priority of the simulation loop, 1-99; 0 keeps
-    /// the normal policy
-    #[arg(long, default_value_t = 70)]
-    rt_priority: i32,
-    /// stop after this many seconds (default: run until killed)
-    #[arg(long)]
-    duration: Option<f64>,
-}
-
 /// A wake-up this late is reported on stderr (at most once a second), s.
 const STALL_WARN_S: f64 = 0.005;
 /// A loop further behind than this skips the missed steps (the simulated
@@ -88,13 +52,14 @@ const STALL_WARN_S: f64 = 0.005;
 const MAX_BEHIND_S: f64 = 1.0;
 
 fn main() {
-    if let Err(e) = run(Args::parse()) {
+    if let Err(e) = params::from_env().and_then(run) {
         eprintln!("sim_axes: {e}");
         std::process::exit(2);
     }
 }
 
-fn run(a: Args) -> Result<(), String> {
+fn run(setup: params::Setup) -> Result<(), String> {
+    let a = &setup.args;
     let mut machine = load_machine(&a.machine)?;
     if let Some(s) = machine.spindle.as_mut() {
         if let Some(r) = a.ripple {
@@ -123,7 +88,27 @@ fn run(a: Args) -> Result<(), String> {
             eprintln!("sim_axes: DDS threads stay at normal priority (SCHED_FIFO {dds_rt}: {e})");
         }
     }
-    let (ctx, mut node) = ros::join(domain, &a.namespace, "sim_axes")?;
+    let no_own_params = ros2_client::NodeOptions::new()
+        .enable_rosout(true)
+        .start_parameter_services(false);
+    let (ctx, mut node) = ros::join_with(domain, &a.namespace, &setup.start.name, no_own_params)?;
+    let (ripple, noise_rpm) = machine
+        .spindle
+        .as_ref()
+        .map_or((0.0, 0.0), |s| (s.sim_ripple_fraction, s.sim_noise_rpm));
+    let has_spindle = machine.spindle.is_some();
+    let (parameters, param_changes) = Parameters::serve(
+        &ctx,
+        &mut node,
+        params::NODE,
+        params::in_force(&setup, rate, ripple, noise_rpm, delay_ms),
+        Box::new(move |name, _| match name {
+            "ripple" | "noise_rpm" if !has_spindle => {
+                Err(format!("{name}: this machine has no spindle"))
+            }
+            _ => Ok(()),
+        }),
+    )?;
     let cns = a.controller_namespace.as_str();
     let sub_set = ros::subscription::<JointState>(&mut node, cns, "joint_setpoints")?;
     let sub_spin = ros::subscription::<Float64>(&mut node, cns, "spindle_command")?;
@@ -178,15 +163,21 @@ fn run(a: Args) -> Result<(), String> {
     let mut last_warn: Option<Instant> = None;
     let mut last_late: Option<Instant> = None;
     let mut states: Vec<JointState> = Vec::new();
-    eprintln!(
-        "sim_axes: {} ({}), {} Hz, setpoints applied {}, domain {domain}, {ns}/joint_states, {ns}/spindle_encoder, {ns}/encoder_enabled, {ns}/spindle_stalled, {ns}/setpoint_delay",
-        machine.name,
-        names.join(" "),
-        rate,
-        applied(delay_ms),
-        ns = a.namespace.trim_end_matches('/'),
-    );
+    if log_enabled(Level::Info) {
+        eprintln!(
+            "sim_axes: {} ({}), {} Hz, setpoints applied {}, domain {domain}, {ns}/joint_states, {ns}/spindle_encoder, {ns}/encoder_enabled, {ns}/spindle_stalled, {ns}/setpoint_delay",
+            machine.name,
+            names.join(" "),
+            rate,
+            applied(delay_ms),
+            ns = a.namespace.trim_end_matches('/'),
+        );
+    }
     loop {
+        // parameters set with `ros2 param set` (checked already)
+        while let Ok((name, v)) = param_changes.try_recv() {
+            set_parameter(&name, &v, &mut model, &mut queue);
+        }
         while let Ok(Some((m, _))) = sub_set.take() {
             let joints =
                 m.name.iter().zip(&m.position).filter_map(|(n, p)| {
@@ -199,6 +190,10 @@ fn run(a: Args) -> Result<(), String> {
                 Ok(()) => {
                     let was = queue.delay_ns() as f64 * 1e-6;
                     queue.set_delay_ns(ms_to_ns(req.delay_ms));
+                    let _ = parameters.set_local(
+                        "setpoint_delay_ms",
+                        ros2_client::ParameterValue::Double(req.delay_ms),
+                    );
                     eprintln!(
                         "sim_axes: setpoint delay {was} ms -> {} ms (fault injection)",
                         req.delay_ms
@@ -322,6 +317,34 @@ fn run(a: Args) -> Result<(), String> {
             return Ok(());
         }
         grid.wait();
+    }
+}
+
+/// Puts a parameter set while the node runs into force.
+fn set_parameter(
+    name: &str,
+    v: &ros2_client::ParameterValue,
+    model: &mut sim_axes::MachineModel,
+    queue: &mut SetpointQueue,
+) {
+    let ros2_client::ParameterValue::Double(x) = *v else {
+        return;
+    };
+    match (name, model.spindle.as_mut()) {
+        ("setpoint_delay_ms", _) => queue.set_delay_ns(ms_to_ns(x)),
+        ("ripple", Some(sp)) => {
+            let n = sp.params().noise_rpm;
+            if let Err(e) = sp.set_disturbances(x, n) {
+                eprintln!("sim_axes: ripple {x}: {e}");
+            }
+        }
+        ("noise_rpm", Some(sp)) => {
+            let r = sp.params().ripple_fraction;
+            if let Err(e) = sp.set_disturbances(r, x) {
+                eprintln!("sim_axes: noise_rpm {x}: {e}");
+            }
+        }
+        _ => {}
     }
 }
 
