@@ -91,6 +91,9 @@ enum Cmd {
 struct Out {
     stamp: Time,
     tick: Tick,
+    /// publish the setpoints (every cycle of a job, else at the resting
+    /// pace; an `Out` may carry a status only)
+    setpoints: bool,
     status: Option<Status>,
     /// the running job, 0 if none
     job: u32,
@@ -302,7 +305,9 @@ fn run(args: Args) -> Result<(), String> {
             }
         }
         // samples from the control loop, every one published and recorded
-        drain(&out_rx, Duration::from_millis(2), |mut o| {
+        // (services are polled at least every 5 ms; a job's samples come
+        // every cycle)
+        drain(&out_rx, Duration::from_millis(5), |mut o| {
             if let Some(r) = o.recorder.take() {
                 recording = Some(r);
                 // the recording starts with the spindle command in force
@@ -330,7 +335,9 @@ fn run(args: Args) -> Result<(), String> {
                     }
                 }
             }
-            let _ = pub_set.publish(js);
+            if o.setpoints {
+                let _ = pub_set.publish(js);
+            }
             // on change, and again every SPINDLE_REPEAT (a simulator or
             // drive started later gets it; recordings hold the changes)
             if spindle.is_some() || spindle_sent.elapsed() >= SPINDLE_REPEAT {
@@ -418,6 +425,20 @@ const CATCH_UP: u64 = 2;
 /// A loop further behind than this skips the missed cycles; a running job
 /// then ends where it stands, in the error state (its time base is lost).
 const MAX_BEHIND_S: f64 = 0.2;
+/// An encoder reading at most this many periods old is fresh: a job on a
+/// machine with a spindle starts once the newest one is.
+const FRESH_PERIODS: i64 = 3;
+/// How long a job waits for fresh encoder readings at most, s (then it
+/// starts, and the executor judges the readings as always).
+const MAX_START_WAIT_S: f64 = 0.05;
+
+/// A checked job waiting for its start (see [`Loop::cycle`]).
+struct Pending {
+    job: Job,
+    rec: Option<Rec>,
+    reply: Sender<Result<(), String>>,
+    since: u64,
+}
 
 /// What the control loop owns besides the controller.
 struct Loop {
@@ -428,13 +449,25 @@ struct Loop {
     out: SyncSender<Out>,
     here: Arc<[AtomicU64; 3]>,
     state: Arc<AtomicU32>,
-    last_status: Instant,
-    line_changes: Instant,
+    /// the cycles of the last status and of the last one sent for a line
+    /// change, and how many cycles apart they go at most and at least
+    last_status: Option<u64>,
+    line_change: u64,
+    status_every: u64,
+    line_every: u64,
     dropped: u64,
     pending_rec: Option<(u32, Rec)>,
     /// with --loop-stats: the newest encoder reading's age at each cycle
+    /// of a job
     enc_age: Option<ros::Lateness>,
     newest_enc: i64,
+    /// when the samples go out: every cycle while a job runs (and a
+    /// second after), else at the resting rate
+    pace: ros::Pace,
+    pending: Option<Pending>,
+    has_spindle: bool,
+    period_ns: i64,
+    max_wait: u64,
 }
 
 fn control_loop(
@@ -452,7 +485,13 @@ fn control_loop(
     let mut stats_due = Instant::now() + stats.unwrap_or_default();
     let mut grid = Grid::new(Instant::now() + period, dt);
     let mut clock = WallClock::new();
+    let has_spindle = machine.spindle.is_some();
     let mut lp = Loop {
+        pace: ros::Pace::new(machine.interpolation.rate_hz),
+        pending: None,
+        has_spindle,
+        period_ns: (dt * 1e9).round() as i64,
+        max_wait: (MAX_START_WAIT_S / dt).ceil() as u64,
         ctl: Controller::new(machine),
         cmds,
         encoder,
@@ -460,8 +499,10 @@ fn control_loop(
         out,
         here,
         state,
-        last_status: Instant::now() - Duration::from_secs(1),
-        line_changes: Instant::now(),
+        last_status: None,
+        line_change: 0,
+        status_every: (0.1 / dt).round().max(1.0) as u64,
+        line_every: (0.02 / dt).round().max(1.0) as u64,
         dropped: 0,
         pending_rec: None,
         enc_age: stats.map(|_| ros::Lateness::new()),
@@ -471,14 +512,24 @@ fn control_loop(
         // cycles are meant for the instants of a fixed grid and stamped
         // with them (in the wall clock, as the simulator stamps the
         // encoder): stamp differences are exact periods, and a late
-        // wake-up runs the missed cycles, catching up
-        let deadline = grid.wait();
+        // wake-up runs the missed cycles, catching up. At rest (no job for
+        // a second) the loop wakes only for the cycles that publish and
+        // runs the ones between at once: they publish nothing, and a
+        // command waits at most a resting period
+        let resting = lp.resting(grid.next());
+        let target = if resting {
+            lp.pace.next_due(grid.next())
+        } else {
+            grid.next()
+        };
+        let intended = target + 1 - grid.next();
+        let deadline = grid.wait_for(target);
         let now = Instant::now();
         if stats.is_some() {
             lateness.record(now.saturating_duration_since(deadline));
         }
         let mut due = grid.due(now);
-        if due as f64 * dt > MAX_BEHIND_S {
+        if (due + 1).saturating_sub(intended) as f64 * dt > MAX_BEHIND_S {
             eprintln!(
                 "cnc_node: the control loop fell {:.0} ms behind; {} cycles skipped",
                 due as f64 * dt * 1000.0,
@@ -488,11 +539,16 @@ fn control_loop(
             due = 1;
         }
         clock.update();
-        for _ in 0..due.min(CATCH_UP) {
+        let run = if resting { due } else { due.min(CATCH_UP) };
+        for _ in 0..run {
             let n = grid.advance();
             let stamp = clock.stamp(grid.at(n));
-            if !lp.cycle(stamp) {
+            if !lp.cycle(n, stamp) {
                 return;
+            }
+            // a job is starting: the rest as after a late wake-up
+            if resting && !lp.resting(grid.next()) {
+                break;
             }
         }
         if let Some(every) = stats {
@@ -510,17 +566,35 @@ fn control_loop(
 }
 
 impl Loop {
-    /// One control cycle for the instant `stamp`; false: the node is gone.
-    fn cycle(&mut self, stamp: Time) -> bool {
+    /// At rest at cycle `n`: no job, none starting, and none for a second.
+    fn resting(&self, n: u64) -> bool {
+        self.pace.resting(n) && self.pending.is_none() && self.ctl.job_id() == 0
+    }
+
+    /// One control cycle, `n`, for the instant `stamp`; false: the node is
+    /// gone.
+    ///
+    /// A job on a machine with a spindle starts once the newest encoder
+    /// reading is fresh (at most [`FRESH_PERIODS`] old), waiting up to
+    /// [`MAX_START_WAIT_S`]: a simulator at rest publishes its readings at
+    /// the resting rate only, and turns to every step when the setpoints
+    /// come every cycle, as they do from the moment a job waits (its
+    /// readings reach the loop a few ms later). Without the wait a G95 or
+    /// G33 block at a job's start could see a reading 20 ms old and take
+    /// the encoder for lost.
+    fn cycle(&mut self, n: u64, stamp: Time) -> bool {
         loop {
             match self.cmds.try_recv() {
                 Ok(Cmd::Start(job, rec, reply)) => {
-                    let id = job.id;
-                    let r = self.ctl.start(job);
-                    if r.is_ok() {
-                        self.pending_rec = rec.map(|r| (id, r));
+                    if let Some(p) = self.pending.take() {
+                        let _ = p.reply.send(Err("another job is starting".into()));
                     }
-                    let _ = reply.send(r);
+                    self.pending = Some(Pending {
+                        job,
+                        rec,
+                        reply,
+                        since: n,
+                    });
                 }
                 Ok(Cmd::Abort(reply)) => {
                     let _ = reply.send(self.ctl.abort());
@@ -545,7 +619,23 @@ impl Loop {
         while let Ok(a) = self.actual.try_recv() {
             self.ctl.actual(a);
         }
-        if let Some(a) = self.enc_age.as_mut() {
+        if let Some(p) = self.pending.take() {
+            let fresh = self.newest_enc >= now_ns - FRESH_PERIODS * self.period_ns;
+            // (a job running: the start is refused at once)
+            let now = !self.has_spindle || self.ctl.job_id() != 0;
+            if now || fresh || n - p.since >= self.max_wait {
+                let id = p.job.id;
+                let r = self.ctl.start(p.job);
+                if r.is_ok() {
+                    self.pending_rec = p.rec.map(|r| (id, r));
+                }
+                let _ = p.reply.send(r);
+            } else {
+                self.pending = Some(p);
+            }
+        }
+        let in_job = self.ctl.job_id() != 0;
+        if let Some(a) = self.enc_age.as_mut().filter(|_| in_job) {
             if self.newest_enc > 0 {
                 a.record(Duration::from_nanos(
                     (now_ns - self.newest_enc).max(0) as u64
@@ -558,23 +648,32 @@ impl Loop {
             self.here[j].store(tick.positions[j].to_bits(), Ordering::Relaxed);
         }
         self.state.store(tick.state as u32, Ordering::Relaxed);
-        let now = Instant::now();
         // status: on a state change at once, on a line change at most 50 Hz,
-        // and at least 10 Hz
+        // and at least 10 Hz (counted in cycles: each is meant for its instant)
         let due = tick.state != prev_state
-            || now.duration_since(self.last_status) >= Duration::from_millis(100)
-            || (tick.changed && now.duration_since(self.line_changes) >= Duration::from_millis(20));
+            || self.last_status.is_none_or(|l| n >= l + self.status_every)
+            || (tick.changed && n >= self.line_change + self.line_every);
         let status = due.then(|| {
-            self.last_status = now;
-            self.line_changes = now;
+            self.last_status = Some(n);
+            self.line_change = n;
             self.ctl.status()
         });
+        let busy = in_job || self.ctl.job_id() != 0 || self.pending.is_some();
+        if busy || tick.state != prev_state {
+            self.pace.busy(n);
+        }
+        let recorder = self.pending_rec.take();
+        let setpoints = self.pace.due(n) || recorder.is_some();
+        if !(setpoints || status.is_some()) {
+            return true;
+        }
         let o = Out {
             stamp,
             tick,
+            setpoints,
             status,
             job: self.ctl.job_id(),
-            recorder: self.pending_rec.take(),
+            recorder,
         };
         if self.out.try_send(o).is_err() {
             self.dropped += 1;
