@@ -255,21 +255,26 @@ fn run(args: Args) -> Result<(), String> {
     let mut last_spindle = f64::NAN;
     let mut spindle_sent = Instant::now();
     let mut recording: Option<(u32, Rec)> = None;
+    let mut polled = Instant::now();
     loop {
-        // services
-        while let Ok(Some((id, req))) = srv_run.receive_request() {
-            let _ = chk_tx.send((id, req));
-        }
-        while let Ok(Some((id, _))) = srv_abort.receive_request() {
-            let (success, message) = ask(&cmd_tx, Cmd::Abort);
-            let _ = srv_abort.send_response(id, TriggerResponse { success, message });
-        }
-        while let Ok(Some((id, req))) = srv_hold.receive_request() {
-            let (success, message) = ask(&cmd_tx, |tx| Cmd::Hold(req.data, tx));
-            let _ = srv_hold.send_response(id, SetBoolResponse { success, message });
-        }
-        while let Ok(Some((m, _))) = sub_ovr.take() {
-            let _ = cmd_tx.send(Cmd::Override(m.data));
+        // services and the override, every SERVICE_POLL (each look costs a
+        // system call; a job's samples wake this thread every cycle)
+        if polled.elapsed() >= SERVICE_POLL {
+            polled = Instant::now();
+            while let Ok(Some((id, req))) = srv_run.receive_request() {
+                let _ = chk_tx.send((id, req));
+            }
+            while let Ok(Some((id, _))) = srv_abort.receive_request() {
+                let (success, message) = ask(&cmd_tx, Cmd::Abort);
+                let _ = srv_abort.send_response(id, TriggerResponse { success, message });
+            }
+            while let Ok(Some((id, req))) = srv_hold.receive_request() {
+                let (success, message) = ask(&cmd_tx, |tx| Cmd::Hold(req.data, tx));
+                let _ = srv_hold.send_response(id, SetBoolResponse { success, message });
+            }
+            while let Ok(Some((m, _))) = sub_ovr.take() {
+                let _ = cmd_tx.send(Cmd::Override(m.data));
+            }
         }
         while let Ok((id, resp)) = resp_rx.try_recv() {
             let _ = srv_run.send_response(id, resp);
@@ -305,9 +310,9 @@ fn run(args: Args) -> Result<(), String> {
             }
         }
         // samples from the control loop, every one published and recorded
-        // (services are polled at least every 5 ms; a job's samples come
-        // every cycle)
-        drain(&out_rx, Duration::from_millis(5), |mut o| {
+        // (a job's samples come every cycle; at rest this waits up to
+        // SERVICE_POLL)
+        drain(&out_rx, SERVICE_POLL, |mut o| {
             if let Some(r) = o.recorder.take() {
                 recording = Some(r);
                 // the recording starts with the spindle command in force
@@ -377,6 +382,10 @@ fn drain<T>(rx: &Receiver<T>, wait: Duration, mut f: impl FnMut(T)) -> Result<()
     }
     Ok(())
 }
+
+/// How often the DDS thread looks for service requests and the feed
+/// override.
+const SERVICE_POLL: Duration = Duration::from_millis(4);
 
 /// The spindle command is published on change and at least this often:
 /// the topic is volatile, and a simulator (or drive bridge) that starts
