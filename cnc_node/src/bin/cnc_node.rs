@@ -35,7 +35,7 @@ use cnc_node::convert::{self, stamp_ns, time_ns};
 use cnc_node::files::load_machine;
 use cnc_node::record::JobRecorder;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, SyncSender, TryRecvError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -167,6 +167,8 @@ fn run(args: Args) -> Result<(), String> {
         here[j].store(home[i].to_bits(), Ordering::Relaxed);
     }
     let state = Arc::new(AtomicU32::new(State::Idle as u32));
+    // a request is being checked: the loop publishes every cycle meanwhile
+    let checking = Arc::new(AtomicBool::new(false));
 
     let (cmd_tx, cmd_rx) = mpsc::channel::<Cmd>();
     let (out_tx, out_rx) = mpsc::sync_channel::<Out>(8192);
@@ -206,6 +208,7 @@ fn run(args: Args) -> Result<(), String> {
         let m = machine.clone();
         let here = here.clone();
         let state = state.clone();
+        let checking = checking.clone();
         let stats = args
             .loop_stats
             .filter(|s| *s > 0.0)
@@ -222,7 +225,7 @@ fn run(args: Args) -> Result<(), String> {
                         eprintln!("cnc_node: control loop stays at normal priority (SCHED_FIFO {rt}: {e})");
                     }
                 }
-                control_loop(m, cmd_rx, (enc_rx, act_rx), out_tx, here, state, stats)
+                control_loop(m, cmd_rx, (enc_rx, act_rx), out_tx, here, (state, checking), stats)
             })
             .map_err(|e| e.to_string())?;
     }
@@ -240,7 +243,7 @@ fn run(args: Args) -> Result<(), String> {
                 if dds_rt > 0 {
                     let _ = ros::set_normal();
                 }
-                check_worker(m, dir, rec_opts, chk_rx, resp_tx, cmd_tx, here)
+                check_worker(m, dir, rec_opts, chk_rx, resp_tx, cmd_tx, here, checking)
             })
             .map_err(|e| e.to_string())?;
     }
@@ -474,6 +477,8 @@ struct Loop {
     /// second after), else at the resting rate
     pace: ros::Pace,
     pending: Option<Pending>,
+    /// a request is being checked (a job may follow)
+    checking: Arc<AtomicBool>,
     has_spindle: bool,
     period_ns: i64,
     max_wait: u64,
@@ -485,7 +490,7 @@ fn control_loop(
     (encoder, actual): (Receiver<EncoderSample>, Receiver<ActualSample>),
     out: SyncSender<Out>,
     here: Arc<[AtomicU64; 3]>,
-    state: Arc<AtomicU32>,
+    (state, checking): (Arc<AtomicU32>, Arc<AtomicBool>),
     stats: Option<Duration>,
 ) {
     let dt = machine.dt();
@@ -498,6 +503,7 @@ fn control_loop(
     let mut lp = Loop {
         pace: ros::Pace::new(machine.interpolation.rate_hz),
         pending: None,
+        checking,
         has_spindle,
         period_ns: (dt * 1e9).round() as i64,
         max_wait: (MAX_START_WAIT_S / dt).ceil() as u64,
@@ -577,7 +583,10 @@ fn control_loop(
 impl Loop {
     /// At rest at cycle `n`: no job, none starting, and none for a second.
     fn resting(&self, n: u64) -> bool {
-        self.pace.resting(n) && self.pending.is_none() && self.ctl.job_id() == 0
+        self.pace.resting(n)
+            && self.pending.is_none()
+            && self.ctl.job_id() == 0
+            && !self.checking.load(Ordering::Relaxed)
     }
 
     /// One control cycle, `n`, for the instant `stamp`; false: the node is
@@ -667,7 +676,10 @@ impl Loop {
             self.line_change = n;
             self.ctl.status()
         });
-        let busy = in_job || self.ctl.job_id() != 0 || self.pending.is_some();
+        let busy = in_job
+            || self.ctl.job_id() != 0
+            || self.pending.is_some()
+            || self.checking.load(Ordering::Relaxed);
         if busy || tick.state != prev_state {
             self.pace.busy(n);
         }
@@ -697,6 +709,7 @@ impl Loop {
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn check_worker(
     machine: Machine,
     dir: PathBuf,
@@ -705,10 +718,13 @@ fn check_worker(
     resps: Sender<(ros2_client::RmwRequestId, RunProgramResponse)>,
     cmds: Sender<Cmd>,
     here: Arc<[AtomicU64; 3]>,
+    checking: Arc<AtomicBool>,
 ) {
     let mut next_id = 1u32;
     while let Ok((id, req)) = reqs.recv() {
+        checking.store(true, Ordering::Relaxed);
         let resp = handle_run(&machine, &dir, &rec, &req, &mut next_id, &cmds, &here);
+        checking.store(false, Ordering::Relaxed);
         let _ = resps.send((id, fit_run_reply(resp)));
     }
 }
