@@ -529,8 +529,8 @@ fn control_loop(
         // encoder): stamp differences are exact periods, and a late
         // wake-up runs the missed cycles, catching up. At rest (no job for
         // a second) the loop wakes only for the cycles that publish and
-        // runs the ones between at once: they publish nothing, and a
-        // command waits at most a resting period
+        // skips the ones between (an idle cycle computes and publishes
+        // nothing); a command waits at most a resting period
         let resting = lp.resting(grid.next());
         let target = if resting {
             lp.pace.next_due(grid.next())
@@ -553,17 +553,16 @@ fn control_loop(
             grid.skip(due - 1);
             due = 1;
         }
+        if resting && due > 1 {
+            grid.skip(due - 1);
+            due = 1;
+        }
         clock.update();
-        let run = if resting { due } else { due.min(CATCH_UP) };
-        for _ in 0..run {
+        for _ in 0..due.min(CATCH_UP) {
             let n = grid.advance();
             let stamp = clock.stamp(grid.at(n));
             if !lp.cycle(n, stamp) {
                 return;
-            }
-            // a job is starting: the rest as after a late wake-up
-            if resting && !lp.resting(grid.next()) {
-                break;
             }
         }
         if let Some(every) = stats {
