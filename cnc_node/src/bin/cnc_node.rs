@@ -350,9 +350,10 @@ fn run(args: Args) -> Result<(), String> {
             if o.setpoints {
                 let _ = pub_set.publish(js);
             }
-            // on change, and again every SPINDLE_REPEAT (a simulator or
-            // drive started later gets it; recordings hold the changes)
-            if spindle.is_some() || spindle_sent.elapsed() >= SPINDLE_REPEAT {
+            // on change, and again at least every SPINDLE_REPEAT (a
+            // simulator or drive started later gets it; recordings hold
+            // the changes)
+            if spindle.is_some() || spindle_sent.elapsed() >= SPINDLE_AGAIN {
                 spindle_sent = Instant::now();
                 let _ = pub_spin.publish(convert::spindle_command(t.spindle_rpm));
             }
@@ -398,6 +399,10 @@ const SERVICE_POLL: Duration = Duration::from_millis(4);
 /// the topic is volatile, and a simulator (or drive bridge) that starts
 /// while the spindle turns would otherwise never hear the command.
 const SPINDLE_REPEAT: Duration = Duration::from_millis(100);
+/// It is sent again with the first sample this long after the last: at
+/// rest samples come every 20 ms only (`ros::REST_RATE_HZ`), so the next
+/// one goes out within [`SPINDLE_REPEAT`].
+const SPINDLE_AGAIN: Duration = SPINDLE_REPEAT.saturating_sub(Duration::from_millis(20));
 
 /// Sends a command to the control loop and waits (briefly) for its answer.
 fn ask(
