@@ -191,6 +191,7 @@ fn run(a: Args) -> Result<(), String> {
     // the last setpoint's stamp (ns), and the last step's published state
     let mut last_set: Option<i64> = None;
     let mut last_state: Vec<f64> = Vec::new();
+    let mut now_state: Vec<f64> = Vec::new();
     // the steps the last wait was for (more at rest, see the end)
     let mut intended = 1;
     eprintln!(
@@ -322,15 +323,16 @@ fn run(a: Args) -> Result<(), String> {
             // a state that changes is published every step
             model.positions_into(&mut act);
             let e = model.spindle.as_ref().map(|sp| sp.encoder());
-            let now_state = act
-                .iter()
-                .copied()
-                .chain(model.axes.iter().map(|x| x.velocity()))
-                .chain(e.map(|e| e.count as f64))
-                .collect::<Vec<f64>>();
+            now_state.clear();
+            now_state.extend(
+                act.iter()
+                    .copied()
+                    .chain(model.axes.iter().map(|x| x.velocity()))
+                    .chain(e.map(|e| e.count as f64)),
+            );
             if now_state != last_state {
                 pace.busy(n);
-                last_state = now_state;
+                std::mem::swap(&mut now_state, &mut last_state);
             }
             if !pace.due(n) {
                 continue;
