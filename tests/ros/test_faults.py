@@ -736,7 +736,12 @@ def test_simulator_killed_during_a_g95_move_ends_the_job_with_the_encoder_lost(r
     # a killed subscriber stays matched until its lease ends (50 s): the
     # setpoints go on to everyone past the 8192 samples rustdds would
     # otherwise hold for it (they stopped 8 s after the kill, for 40 s)
+    # (measured during a job: at rest both nodes publish at 50 Hz only,
+    # docs/ros_interface.md §3; a job publishes every cycle)
     first = getattr(rig, "first_kill", t_kill)
+    time.sleep(max(0.0, first + 11.0 - time.time()))
+    r = peer.run_program("N10 G01 X120 F1200\n")  # 5 s
+    assert r.accepted, r.message
     time.sleep(max(0.0, first + 12.0 - time.time()))
     t0 = time.time()
     a, b = int(t0 * 1e9), int(t0 * 1e9) + 1_000_000_000
@@ -744,6 +749,8 @@ def test_simulator_killed_during_a_g95_move_ends_the_job_with_the_encoder_lost(r
     with peer.lock:
         n = len([s for s in peer.setpoints if a <= s[0] < b])
         js_n = len([j for j in peer.joint_states if a <= j[0] < b])
+    peer.call(peer.abort, Trigger.Request())
+    peer.final_status(r.job_id)
     print("%.1f s after the first kill: %d setpoints and %d joint states in 1 s" % (t0 - first, n, js_n))
     # (the defect stopped them altogether; this subscriber takes all but a
     # few on an idle machine, half with two CPU hogs running)

@@ -133,6 +133,55 @@ def test_known_program_end_positions_and_rate(peer):
     assert last.state == ControllerStatus.STATE_IDLE and last.progress == 1.0
 
 
+class LateJoiner(SpinningPeer):
+    """A participant that subscribes (rclpy's default QoS: volatile) only
+    after the machine came to rest."""
+
+    def __init__(self, name):
+        super().__init__(name)
+        self.got = {"setpoints": [], "states": []}
+        self.node.create_subscription(JointState, NS + "/joint_setpoints", lambda m: self._m("setpoints", m), 10)
+        self.node.create_subscription(JointState, "/sim/joint_states", lambda m: self._m("states", m), 10)
+        self.spin()
+
+    def _m(self, k, m):
+        with self.lock:
+            self.got[k].append((stamp_s(m.header.stamp), list(m.position)))
+
+
+def test_a_late_subscriber_hears_where_the_machine_stands_at_rest(peer):
+    """At rest both nodes publish at 50 Hz only (docs/ros_interface.md
+    §3.1); a subscriber that joins then hears where the machine stands
+    within 20 ms of its matching, setpoints and joint states alike."""
+    r = peer.run_program("G00 X12.5 Y7 Z3\n")
+    assert r.accepted, r.message
+    peer.wait_state(r.job_id, ControllerStatus.STATE_RUNNING)
+    peer.wait_state(r.job_id, ControllerStatus.STATE_IDLE)
+    # the node lingers 1 s at every cycle, the simulator until its axes
+    # stand still to the last bit
+    time.sleep(4.0)
+    late = LateJoiner("late_%d" % (time.time_ns() % 100000))
+    try:
+        late.wait_for("a setpoint and a joint state", lambda: late.got["setpoints"] and late.got["states"])
+        t0 = time.time()
+        time.sleep(2.0)
+        with late.lock:
+            sps, sts = list(late.got["setpoints"]), list(late.got["states"])
+    finally:
+        late.close()
+    span = time.time() - t0
+    print("late subscriber: %d setpoints, %d joint states in %.1f s after the first" % (len(sps), len(sts), span))
+    want = [0.0125, 0.007, 0.003]
+    assert all(all(abs(a - b) < 1e-9 for a, b in zip(p, want)) for _, p in sps), sps[-1]
+    assert all(all(abs(a - b) < 1e-6 for a, b in zip(p, want)) for _, p in sts), sts[-1]
+    # 50 Hz, on the 1 kHz grid: stamps 20 ms apart (the median: a busy
+    # subscriber may miss one), about 50 a second of each
+    for name, msgs in (("setpoints", sps), ("joint states", sts)):
+        gaps = sorted(b[0] - a[0] for a, b in zip(msgs, msgs[1:]))
+        assert gaps and abs(gaps[len(gaps) // 2] - 0.020) < 0.0005, (name, gaps[:3], gaps[-3:])
+        assert 30 * span <= len(msgs) <= 60 * (span + 1.0), (name, len(msgs), span)
+
+
 def test_bad_program_is_refused_with_its_line(peer):
     r = peer.run_program("N10 G00 X10\nN20 G01 X20\nN30 G01 X30 W5 F100\n")
     assert not r.accepted

@@ -1,7 +1,7 @@
 //! The controller as a ROS 2 node (`docs/ros_interface.md`).
 //!
 //! Four threads, so the control loop never waits on DDS, a file or a check:
-//! - control: at the interpolation rate (on the instants of a fixed grid,
+//! - control (`cnc_node/control.rs`): at the interpolation rate (on the instants of a fixed grid,
 //!   catching up after a late wake-up) it takes commands and encoder
 //!   readings without blocking, computes one sample and hands it to the DDS
 //!   thread through a bounded queue (`try_send`: a full queue drops, it
@@ -28,23 +28,25 @@
 //! reading stamped `s` at `t = s − (stamp of the job's sample 0)`.
 
 use cnc_core::Machine;
-use cnc_msgs::ros::{self, Grid, WallClock};
+use cnc_msgs::ros;
 use cnc_msgs::ros_args::{log_enabled, Level};
 use cnc_msgs::*;
 use cnc_node::action::{Cycle, ExecuteProgram, GoalKey};
 use cnc_node::admit::{admit, fit_run_reply, recorder, RecordOpts, Refusal};
-use cnc_node::controller::{
-    ActualSample, Controller, EncoderSample, Job, Place, State, Status, Tick,
-};
+use cnc_node::controller::{ActualSample, EncoderSample, Job, Place, State, Status, Tick};
 use cnc_node::convert::{self, stamp_ns, time_ns};
 use cnc_node::files::load_machine;
 use cnc_node::params::{self as node_params, Args, Live, Setup};
 use cnc_node::record::JobRecorder;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
-use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, SyncSender, TryRecvError};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+
+#[path = "cnc_node/control.rs"]
+mod control;
+use control::control_loop;
 
 type Rec = Box<JobRecorder>;
 
@@ -67,6 +69,9 @@ struct Out {
     stamp: Time,
     tick: Tick,
     place: Place,
+    /// publish the setpoints (every cycle of a job, else at the resting
+    /// pace; an `Out` may carry a status only)
+    setpoints: bool,
     status: Option<Status>,
     /// the running job, 0 if none
     job: u32,
@@ -153,6 +158,8 @@ fn run(setup: Setup) -> Result<(), String> {
         here[j].store(home[i].to_bits(), Ordering::Relaxed);
     }
     let state = Arc::new(AtomicU32::new(State::Idle as u32));
+    // a request is being checked: the loop publishes every cycle meanwhile
+    let checking = Arc::new(AtomicBool::new(false));
 
     let (cmd_tx, cmd_rx) = mpsc::channel::<Cmd>();
     let (out_tx, out_rx) = mpsc::sync_channel::<Out>(8192);
@@ -193,6 +200,7 @@ fn run(setup: Setup) -> Result<(), String> {
         let here = here.clone();
         let state = state.clone();
         let stats = live.clone();
+        let checking = checking.clone();
         let rt = args.rt_priority;
         std::thread::Builder::new()
             .name("control".into())
@@ -205,7 +213,7 @@ fn run(setup: Setup) -> Result<(), String> {
                         eprintln!("cnc_node: control loop stays at normal priority (SCHED_FIFO {rt}: {e})");
                     }
                 }
-                control_loop(m, cmd_rx, (enc_rx, act_rx), out_tx, here, state, stats)
+                control_loop(m, cmd_rx, (enc_rx, act_rx), out_tx, here, (state, checking), stats)
             })
             .map_err(|e| e.to_string())?;
     }
@@ -219,7 +227,7 @@ fn run(setup: Setup) -> Result<(), String> {
                 if dds_rt > 0 {
                     let _ = ros::set_normal();
                 }
-                check_worker(m, dir, rec_opts, chk_rx, resp_tx, cmd_tx, here)
+                check_worker(m, dir, rec_opts, chk_rx, resp_tx, cmd_tx, here, checking)
             })
             .map_err(|e| e.to_string())?;
     }
@@ -237,31 +245,36 @@ fn run(setup: Setup) -> Result<(), String> {
     let mut last_spindle = f64::NAN;
     let mut spindle_sent = Instant::now();
     let mut recording: Option<(u32, Rec)> = None;
+    let mut polled = Instant::now();
     loop {
-        // services
-        while let Ok(Some((id, req))) = srv_run.receive_request() {
-            let _ = chk_tx.send((Asker::Service(id), req));
-        }
-        for (goal, req) in action.new_goals() {
-            let _ = chk_tx.send((Asker::Goal(goal), req));
-        }
-        action.serve(|_job| {
-            let _ = ask(&cmd_tx, Cmd::Abort);
-        });
-        while let Ok(Some((id, _))) = srv_abort.receive_request() {
-            let (success, message) = ask(&cmd_tx, Cmd::Abort);
-            let _ = srv_abort.send_response(id, TriggerResponse { success, message });
-        }
-        while let Ok(Some((id, req))) = srv_hold.receive_request() {
-            let (success, message) = ask(&cmd_tx, |tx| Cmd::Hold(req.data, tx));
-            let _ = srv_hold.send_response(id, SetBoolResponse { success, message });
-        }
-        while let Ok(Some((m, _))) = sub_ovr.take() {
-            match live.feed_override(m.data) {
-                Ok(p) => {
-                    let _ = cmd_tx.send(Cmd::Override(p));
+        // services and the override, every SERVICE_POLL (each look costs a
+        // system call; a job's samples wake this thread every cycle)
+        if polled.elapsed() >= SERVICE_POLL {
+            polled = Instant::now();
+            while let Ok(Some((id, req))) = srv_run.receive_request() {
+                let _ = chk_tx.send((Asker::Service(id), req));
+            }
+            for (goal, req) in action.new_goals() {
+                let _ = chk_tx.send((Asker::Goal(goal), req));
+            }
+            action.serve(|_job| {
+                let _ = ask(&cmd_tx, Cmd::Abort);
+            });
+            while let Ok(Some((id, _))) = srv_abort.receive_request() {
+                let (success, message) = ask(&cmd_tx, Cmd::Abort);
+                let _ = srv_abort.send_response(id, TriggerResponse { success, message });
+            }
+            while let Ok(Some((id, req))) = srv_hold.receive_request() {
+                let (success, message) = ask(&cmd_tx, |tx| Cmd::Hold(req.data, tx));
+                let _ = srv_hold.send_response(id, SetBoolResponse { success, message });
+            }
+            while let Ok(Some((m, _))) = sub_ovr.take() {
+                match live.feed_override(m.data) {
+                    Ok(p) => {
+                        let _ = cmd_tx.send(Cmd::Override(p));
+                    }
+                    Err(e) => eprintln!("cnc_node: {e}"),
                 }
-                Err(e) => eprintln!("cnc_node: {e}"),
             }
         }
         if let Some(p) = live.take_clamp() {
@@ -306,7 +319,9 @@ fn run(setup: Setup) -> Result<(), String> {
             }
         }
         // samples from the control loop, every one published and recorded
-        drain(&out_rx, Duration::from_millis(2), |mut o| {
+        // (a job's samples come every cycle; at rest this waits up to
+        // SERVICE_POLL)
+        drain(&out_rx, SERVICE_POLL, |mut o| {
             if let Some(r) = o.recorder.take() {
                 recording = Some(r);
                 // the recording starts with the spindle command in force
@@ -334,10 +349,13 @@ fn run(setup: Setup) -> Result<(), String> {
                     }
                 }
             }
-            let _ = pub_set.publish(js);
-            // on change, and again every SPINDLE_REPEAT (a simulator or
-            // drive started later gets it; recordings hold the changes)
-            if spindle.is_some() || spindle_sent.elapsed() >= SPINDLE_REPEAT {
+            if o.setpoints {
+                let _ = pub_set.publish(js);
+            }
+            // on change, and again at least every SPINDLE_REPEAT (a
+            // simulator or drive started later gets it; recordings hold
+            // the changes)
+            if spindle.is_some() || spindle_sent.elapsed() >= SPINDLE_AGAIN {
                 spindle_sent = Instant::now();
                 let _ = pub_spin.publish(convert::spindle_command(t.spindle_rpm));
             }
@@ -382,10 +400,18 @@ fn drain<T>(rx: &Receiver<T>, wait: Duration, mut f: impl FnMut(T)) -> Result<()
     Ok(())
 }
 
+/// How often the DDS thread looks for service requests and the feed
+/// override.
+const SERVICE_POLL: Duration = Duration::from_millis(4);
+
 /// The spindle command is published on change and at least this often:
 /// the topic is volatile, and a simulator (or drive bridge) that starts
 /// while the spindle turns would otherwise never hear the command.
 const SPINDLE_REPEAT: Duration = Duration::from_millis(100);
+/// It is sent again with the first sample this long after the last: at
+/// rest samples come every 20 ms only (`ros::REST_RATE_HZ`), so the next
+/// one goes out within [`SPINDLE_REPEAT`].
+const SPINDLE_AGAIN: Duration = SPINDLE_REPEAT.saturating_sub(Duration::from_millis(20));
 
 /// Sends a command to the control loop and waits (briefly) for its answer.
 fn ask(
@@ -420,194 +446,7 @@ fn finish_recording(id: u32, rec: Rec, err: Option<String>) {
     }
 }
 
-/// Cycles the loop runs in one wake-up at most when it woke late (wake-ups
-/// then come twice a period: it catches up at up to four times its rate),
-/// so the n-th cycle of a job stays meant for its instant (the executor's
-/// time base, which a thread synchronizes to the encoder in) while the
-/// encoder readings of the stall have time to arrive.
-const CATCH_UP: u64 = 2;
-/// A loop further behind than this skips the missed cycles; a running job
-/// then ends where it stands, in the error state (its time base is lost).
-const MAX_BEHIND_S: f64 = 0.2;
-
-/// What the control loop owns besides the controller.
-struct Loop {
-    ctl: Controller,
-    cmds: Receiver<Cmd>,
-    encoder: Receiver<EncoderSample>,
-    actual: Receiver<ActualSample>,
-    out: SyncSender<Out>,
-    here: Arc<[AtomicU64; 3]>,
-    state: Arc<AtomicU32>,
-    last_status: Instant,
-    line_changes: Instant,
-    dropped: u64,
-    pending_rec: Option<(u32, Rec)>,
-    /// the newest encoder reading's age at each cycle (logged with loop_stats)
-    enc_age: Option<ros::Lateness>,
-    newest_enc: i64,
-}
-
-fn control_loop(
-    machine: Machine,
-    cmds: Receiver<Cmd>,
-    (encoder, actual): (Receiver<EncoderSample>, Receiver<ActualSample>),
-    out: SyncSender<Out>,
-    here: Arc<[AtomicU64; 3]>,
-    state: Arc<AtomicU32>,
-    live: Arc<Live>,
-) {
-    let dt = machine.dt();
-    let mut stats = live.loop_stats();
-    let period = Duration::from_secs_f64(dt);
-    let mut lateness = ros::Lateness::new();
-    let mut stats_due = Instant::now() + stats.unwrap_or_default();
-    let mut grid = Grid::new(Instant::now() + period, dt);
-    let mut clock = WallClock::new();
-    let mut lp = Loop {
-        ctl: Controller::new(machine),
-        cmds,
-        encoder,
-        actual,
-        out,
-        here,
-        state,
-        last_status: Instant::now() - Duration::from_secs(1),
-        line_changes: Instant::now(),
-        dropped: 0,
-        pending_rec: None,
-        enc_age: Some(ros::Lateness::new()),
-        newest_enc: 0,
-    };
-    loop {
-        // cycles are meant for the instants of a fixed grid and stamped
-        // with them (in the wall clock, as the simulator stamps the
-        // encoder): stamp differences are exact periods, and a late
-        // wake-up runs the missed cycles, catching up
-        let deadline = grid.wait();
-        let now = Instant::now();
-        if stats.is_some() {
-            lateness.record(now.saturating_duration_since(deadline));
-        }
-        let mut due = grid.due(now);
-        if due as f64 * dt > MAX_BEHIND_S {
-            eprintln!(
-                "cnc_node: the control loop fell {:.0} ms behind; {} cycles skipped",
-                due as f64 * dt * 1000.0,
-                due - 1
-            );
-            grid.skip(due - 1);
-            due = 1;
-        }
-        clock.update();
-        for _ in 0..due.min(CATCH_UP) {
-            let n = grid.advance();
-            let stamp = clock.stamp(grid.at(n));
-            if !lp.cycle(stamp) {
-                return;
-            }
-        }
-        let now_stats = live.loop_stats();
-        if now_stats != stats {
-            // (loop_stats set while the node runs: from now on)
-            stats = now_stats;
-            stats_due = Instant::now() + stats.unwrap_or_default();
-        }
-        if let Some(every) = stats {
-            if Instant::now() >= stats_due {
-                stats_due += every;
-                eprintln!("cnc_node: loop lateness {}", lateness.summary());
-                if let Some(a) = &lp.enc_age {
-                    if a.count() > 0 {
-                        eprintln!("cnc_node: encoder reading age {}", a.summary());
-                    }
-                }
-            }
-        }
-    }
-}
-
-impl Loop {
-    /// One control cycle for the instant `stamp`; false: the node is gone.
-    fn cycle(&mut self, stamp: Time) -> bool {
-        loop {
-            match self.cmds.try_recv() {
-                Ok(Cmd::Start(job, rec, reply)) => {
-                    let id = job.id;
-                    let r = self.ctl.start(job);
-                    if r.is_ok() {
-                        self.pending_rec = rec.map(|r| (id, r));
-                    }
-                    let _ = reply.send(r);
-                }
-                Ok(Cmd::Abort(reply)) => {
-                    let _ = reply.send(self.ctl.abort());
-                }
-                Ok(Cmd::Hold(on, reply)) => {
-                    let _ = reply.send(self.ctl.feed_hold(on));
-                }
-                Ok(Cmd::Override(pct)) => {
-                    if let Err(e) = self.ctl.set_feed_override(pct) {
-                        eprintln!("cnc_node: {e}");
-                    }
-                }
-                Err(TryRecvError::Empty) => break,
-                Err(TryRecvError::Disconnected) => return false,
-            }
-        }
-        let now_ns = time_ns(&stamp);
-        while let Ok(e) = self.encoder.try_recv() {
-            self.newest_enc = self.newest_enc.max(e.stamp_ns);
-            self.ctl.encoder(e);
-        }
-        while let Ok(a) = self.actual.try_recv() {
-            self.ctl.actual(a);
-        }
-        if let Some(a) = self.enc_age.as_mut() {
-            if self.newest_enc > 0 {
-                a.record(Duration::from_nanos(
-                    (now_ns - self.newest_enc).max(0) as u64
-                ));
-            }
-        }
-        let prev_state = self.ctl.state();
-        let tick = self.ctl.tick(now_ns);
-        for j in 0..tick.n {
-            self.here[j].store(tick.positions[j].to_bits(), Ordering::Relaxed);
-        }
-        self.state.store(tick.state as u32, Ordering::Relaxed);
-        let now = Instant::now();
-        // status: on a state change at once, on a line change at most 50 Hz,
-        // and at least 10 Hz
-        let due = tick.state != prev_state
-            || now.duration_since(self.last_status) >= Duration::from_millis(100)
-            || (tick.changed && now.duration_since(self.line_changes) >= Duration::from_millis(20));
-        let status = due.then(|| {
-            self.last_status = now;
-            self.line_changes = now;
-            self.ctl.status()
-        });
-        let o = Out {
-            stamp,
-            tick,
-            place: self.ctl.place(),
-            status,
-            job: self.ctl.job_id(),
-            recorder: self.pending_rec.take(),
-        };
-        if self.out.try_send(o).is_err() {
-            self.dropped += 1;
-            if self.dropped.is_power_of_two() {
-                eprintln!(
-                    "cnc_node: publisher queue full, {} samples dropped",
-                    self.dropped
-                );
-            }
-        }
-        true
-    }
-}
-
+#[allow(clippy::too_many_arguments)]
 fn check_worker(
     machine: Machine,
     dir: PathBuf,
@@ -616,11 +455,14 @@ fn check_worker(
     resps: Sender<(Asker, RunProgramResponse)>,
     cmds: Sender<Cmd>,
     here: Arc<[AtomicU64; 3]>,
+    checking: Arc<AtomicBool>,
 ) {
     let mut next_id = 1u32;
     while let Ok((id, req)) = reqs.recv() {
         let rec = live.record_opts();
+        checking.store(true, Ordering::Relaxed);
         let resp = handle_run(&machine, &dir, &rec, &req, &mut next_id, &cmds, &here);
+        checking.store(false, Ordering::Relaxed);
         let _ = resps.send((id, fit_run_reply(resp)));
     }
 }

@@ -19,6 +19,13 @@
 //! instant ([`sim_axes::clocked`]): DDS latency below the delay does not
 //! move the axes. With delay 0 they are applied on arrival.
 //!
+//! At rest (the setpoints come at the controller's resting rate, nothing
+//! commanded changes, and the simulated state stands still) the joint
+//! states and encoder readings go out at `ros::REST_RATE_HZ` only (every
+//! step is still simulated); from the first setpoint that comes a cycle
+//! after the last (a job), or anything that changes, every step again
+//! (`ros::Pace`).
+//!
 //! Fault injection (std_srvs/SetBool): `<ns>/encoder_enabled` false stops
 //! publishing encoder readings (the spindle turns on; true resumes);
 //! `<ns>/spindle_stalled` true makes the spindle stand still whatever its
@@ -142,6 +149,8 @@ fn run(setup: params::Setup) -> Result<(), String> {
     let mut model = model_for(&machine, a.seed);
     let home: Vec<f64> = machine.axes.iter().map(|x| x.home_mm).collect();
     let mut act = vec![0.0; home.len()];
+    // the newest setpoint received (a change means busy, see the loop)
+    let mut last_pos = home.clone();
     let mut queue = SetpointQueue::new(home, ms_to_ns(delay_ms));
     let mut late_reported = 0;
     let mut spindle_rpm = 0.0;
@@ -163,6 +172,13 @@ fn run(setup: params::Setup) -> Result<(), String> {
     let mut last_warn: Option<Instant> = None;
     let mut last_late: Option<Instant> = None;
     let mut states: Vec<JointState> = Vec::new();
+    let mut pace = ros::Pace::new(rate);
+    // the last setpoint's stamp (ns), and the last step's published state
+    let mut last_set: Option<i64> = None;
+    let mut last_state: Vec<f64> = Vec::new();
+    let mut now_state: Vec<f64> = Vec::new();
+    // the steps the last wait was for (more at rest, see the end)
+    let mut intended = 1;
     if log_enabled(Level::Info) {
         eprintln!(
             "sim_axes: {} ({}), {} Hz, setpoints applied {}, domain {domain}, {ns}/joint_states, {ns}/spindle_encoder, {ns}/encoder_enabled, {ns}/spindle_stalled, {ns}/setpoint_delay",
@@ -174,18 +190,32 @@ fn run(setup: params::Setup) -> Result<(), String> {
         );
     }
     loop {
+        // something happens: setpoints every cycle (closer than half the
+        // resting period), a changed setpoint, command or fault
+        let mut busy = false;
         // parameters set with `ros2 param set` (checked already)
         while let Ok((name, v)) = param_changes.try_recv() {
             set_parameter(&name, &v, &mut model, &mut queue);
+            busy = true;
         }
         while let Ok(Some((m, _))) = sub_set.take() {
-            let joints =
-                m.name.iter().zip(&m.position).filter_map(|(n, p)| {
-                    names.iter().position(|x| x == n).map(|j| (j, p * 1000.0))
-                });
-            queue.push(time_ns(&m.header.stamp), joints);
+            let t = time_ns(&m.header.stamp);
+            busy |= last_set.is_some_and(|p| t > p && ((t - p) as f64) < 0.5e9 / ros::REST_RATE_HZ);
+            last_set = Some(t);
+            let joints = || {
+                m.name
+                    .iter()
+                    .zip(&m.position)
+                    .filter_map(|(n, p)| names.iter().position(|x| x == n).map(|j| (j, p * 1000.0)))
+            };
+            for (j, p) in joints().filter(|(_, p)| p.is_finite()) {
+                busy |= last_pos[j] != p;
+                last_pos[j] = p;
+            }
+            queue.push(t, joints());
         }
         while let Ok(Some((id, req))) = srv_delay.receive_request() {
+            busy = true;
             let resp = match check_delay(req.delay_ms) {
                 Ok(()) => {
                     let was = queue.delay_ns() as f64 * 1e-6;
@@ -215,7 +245,9 @@ fn run(setup: params::Setup) -> Result<(), String> {
         }
         while let Ok(Some((m, _))) = sub_spin.take() {
             if m.data.is_finite() {
-                spindle_rpm = m.data * 60.0 / std::f64::consts::TAU;
+                let rpm = m.data * 60.0 / std::f64::consts::TAU;
+                busy |= rpm != spindle_rpm;
+                spindle_rpm = rpm;
             }
         }
         while let Ok(Some((id, req))) = srv_enc.receive_request() {
@@ -227,8 +259,10 @@ fn run(setup: params::Setup) -> Result<(), String> {
             };
             let success = model.spindle.is_some();
             let _ = srv_enc.send_response(id, SetBoolResponse { success, message });
+            busy = true;
         }
         while let Ok(Some((id, req))) = srv_stall.receive_request() {
+            busy = true;
             let resp = match model.spindle.as_mut() {
                 Some(sp) => {
                     sp.set_stalled(req.data);
@@ -251,7 +285,9 @@ fn run(setup: params::Setup) -> Result<(), String> {
         }
         // the steps due by now (one, or the ones a late wake-up missed)
         let mut due = grid.due(Instant::now());
-        if due as f64 * dt > MAX_BEHIND_S {
+        // (1: on time)
+        let late = (due + 1).saturating_sub(intended);
+        if late as f64 * dt > MAX_BEHIND_S {
             eprintln!(
                 "sim_axes: the loop fell {:.0} ms behind; the simulation skips it",
                 due as f64 * dt * 1000.0
@@ -259,14 +295,18 @@ fn run(setup: params::Setup) -> Result<(), String> {
             grid.skip(due - 1);
             due = 1;
         }
-        if due as f64 * dt >= STALL_WARN_S && last_warn.is_none_or(|w| w.elapsed().as_secs() >= 1) {
+        if late as f64 * dt >= STALL_WARN_S && last_warn.is_none_or(|w| w.elapsed().as_secs() >= 1)
+        {
             // (a reader of the encoder sees these readings late)
             eprintln!(
                 "sim_axes: stalled: {} steps ({:.0} ms) ran late at once",
-                due,
-                due as f64 * dt * 1000.0
+                late,
+                late as f64 * dt * 1000.0
             );
             last_warn = Some(Instant::now());
+        }
+        if busy {
+            pace.busy(grid.next());
         }
         clock.update();
         // the encoder readings first (the controller waits for them), then
@@ -276,6 +316,23 @@ fn run(setup: params::Setup) -> Result<(), String> {
             let stamp = clock.stamp(grid.at(n));
             let t_ns = time_ns(&stamp);
             model.step(queue.at(t_ns), spindle_rpm, dt);
+            // a state that changes is published every step
+            model.positions_into(&mut act);
+            let e = model.spindle.as_ref().map(|sp| sp.encoder());
+            now_state.clear();
+            now_state.extend(
+                act.iter()
+                    .copied()
+                    .chain(model.axes.iter().map(|x| x.velocity()))
+                    .chain(e.map(|e| e.count as f64)),
+            );
+            if now_state != last_state {
+                pace.busy(n);
+                std::mem::swap(&mut now_state, &mut last_state);
+            }
+            if !pace.due(n) {
+                continue;
+            }
             if let (Some(sp), true) = (model.spindle.as_ref(), encoder_on) {
                 let e = sp.encoder();
                 let _ = pub_enc.publish(SpindleEncoder {
@@ -287,7 +344,6 @@ fn run(setup: params::Setup) -> Result<(), String> {
                     velocity: e.velocity,
                 });
             }
-            model.positions_into(&mut act);
             states.push(JointState {
                 header: Header {
                     stamp,
@@ -316,7 +372,16 @@ fn run(setup: params::Setup) -> Result<(), String> {
         {
             return Ok(());
         }
-        grid.wait();
+        // at rest the loop wakes only for the steps that publish and runs
+        // the ones between at once (the model still takes every step)
+        let next = grid.next();
+        let target = if pace.resting(next) {
+            pace.next_due(next)
+        } else {
+            next
+        };
+        intended = target + 1 - next;
+        grid.wait_for(target);
     }
 }
 

@@ -1,0 +1,156 @@
+"""CPU of one twin (cnc_node + sim_axes) at 1 kHz, idle and running a job,
+as a new user measures it: utime + stime from /proc/PID/stat over a window,
+in % of one core, per process and per thread (/proc/PID/task/TID/stat).
+Several builds side by side in the same run, interleaved, several runs
+each; medians.
+
+    python3 bench/node_cpu.py --build before=/tmp/before/bin --build after=target/release [--runs 3]
+
+Each run: both nodes started (lathe, their own namespaces), 4 s to settle,
+an idle window, then bench/fleet/lathe_job.nc (G95, G33; 24 s) and a
+window inside the job. With --node-args/--sim-args more options (e.g.
+'--rt-priority 0'), with --no-sim the controller alone (idle only).
+"""
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+
+import rclpy  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+
+from cnc_msgs.srv import RunProgram  # noqa: E402
+
+
+def cpu_s(path):
+    with open(path) as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def threads(pid):
+    """{thread name: cpu s} (threads of one name summed)."""
+    out = {}
+    for tid in os.listdir("/proc/%d/task" % pid):
+        try:
+            with open("/proc/%d/task/%s/comm" % (pid, tid)) as f:
+                name = f.read().strip()
+            out[name] = out.get(name, 0.0) + cpu_s("/proc/%d/task/%s/stat" % (pid, tid))
+        except OSError:
+            pass
+    return out
+
+
+def window(procs, secs, spin):
+    """{proc name: (percent, {thread: percent})} over `secs`."""
+    c0 = {k: (cpu_s("/proc/%d/stat" % p.pid), threads(p.pid)) for k, p in procs.items()}
+    t0 = time.time()
+    spin(secs)
+    c1 = {k: (cpu_s("/proc/%d/stat" % p.pid), threads(p.pid)) for k, p in procs.items()}
+    w = time.time() - t0
+    return {k: (100.0 * (c1[k][0] - c0[k][0]) / w,
+                {t: 100.0 * (c1[k][1].get(t, 0.0) - c0[k][1].get(t, 0.0)) / w for t in c1[k][1]})
+            for k in procs}
+
+
+def one(a, label, bindir, run_no, node):
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    ns = "/cpu%s%d" % (label.replace("-", "_"), run_no)
+    procs = {}
+    try:
+        if not a.no_sim:
+            procs["sim_axes"] = subprocess.Popen(
+                [os.path.join(bindir, "sim_axes"), "--machine", "lathe", "--namespace", ns + "s",
+                 "--controller-namespace", ns] + a.sim_args.split(), cwd=ROOT, env=env, stderr=subprocess.DEVNULL)
+        procs["cnc_node"] = subprocess.Popen(
+            [os.path.join(bindir, "cnc_node"), "--machine", "lathe", "--namespace", ns, "--sim-namespace", ns + "s",
+             "--program-dir", os.path.join(HERE, "fleet")] + a.node_args.split(),
+            cwd=ROOT, env=env, stderr=subprocess.DEVNULL)
+        cli = node.create_client(RunProgram, ns + "/run_program")
+        ex = SingleThreadedExecutor()
+        ex.add_node(node)
+
+        def spin(secs):
+            t_end = time.time() + secs
+            while time.time() < t_end:
+                ex.spin_once(timeout_sec=min(0.05, max(0.0, t_end - time.time())))
+        t0 = time.time()
+        while not cli.service_is_ready() and time.time() - t0 < 30:
+            spin(0.1)
+        spin(a.settle)
+        res = {"idle": window(procs, a.window, spin)}
+        if not a.no_sim:
+            req = RunProgram.Request()
+            req.program_path = "lathe_job.nc"
+            fut = cli.call_async(req)
+            t0 = time.time()
+            while not fut.done() and time.time() - t0 < 30:
+                spin(0.01)
+            assert fut.done() and fut.result().accepted, fut.result() if fut.done() else "no reply"
+            spin(1.0)
+            res["running"] = window(procs, a.window, spin)
+        node.destroy_client(cli)
+        ex.remove_node(node)
+        return res
+    finally:
+        for p in procs.values():
+            p.terminate()
+        for p in procs.values():
+            try:
+                p.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--build", action="append", required=True, help="LABEL=BINDIR")
+    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--window", type=float, default=10.0)
+    ap.add_argument("--settle", type=float, default=4.0)
+    ap.add_argument("--node-args", default="")
+    ap.add_argument("--sim-args", default="")
+    ap.add_argument("--no-sim", action="store_true")
+    ap.add_argument("--threads", action="store_true", help="per-thread breakdown")
+    a = ap.parse_args()
+    builds = [b.split("=", 1) for b in a.build]
+    rclpy.init()
+    node = rclpy.create_node("cpu_probe")
+    print("%d cores, load average before: %s" % (os.cpu_count(), open("/proc/loadavg").read().split()[:3]))
+    got = {lab: [] for lab, _ in builds}
+    for r in range(a.runs):
+        for lab, d in builds:
+            res = one(a, lab, d, r, node)
+            got[lab].append(res)
+            print("run %d %s: %s" % (r + 1, lab, "; ".join(
+                "%s %s %.1f %%" % (ph, k, v[0]) for ph, x in res.items() for k, v in x.items())), flush=True)
+    print("load average after: %s" % open("/proc/loadavg").read().split()[:3])
+    print("| build | state | cnc_node % of a core (median, runs) | sim_axes % of a core (median, runs) |")
+    print("|---|---|---:|---:|")
+    for lab, _ in builds:
+        for ph in got[lab][0]:
+            cells = []
+            for k in ("cnc_node", "sim_axes"):
+                v = [x[ph][k][0] for x in got[lab] if k in x[ph]]
+                cells.append("%.1f (%s)" % (statistics.median(v), ", ".join("%.1f" % y for y in v)) if v else "—")
+            print("| %s | %s | %s | %s |" % (lab, ph, cells[0], cells[1]))
+    if a.threads:
+        for lab, _ in builds:
+            for ph in got[lab][0]:
+                for k in got[lab][0][ph]:
+                    names = sorted({t for x in got[lab] for t in x[ph][k][1]})
+                    med = {t: statistics.median([x[ph][k][1].get(t, 0.0) for x in got[lab]]) for t in names}
+                    print("%s %s %s threads: %s" % (lab, ph, k, ", ".join(
+                        "%s %.1f" % (t, v) for t, v in sorted(med.items(), key=lambda kv: -kv[1]) if v >= 0.05)))
+    node.destroy_node()
+    rclpy.shutdown()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,305 @@
+//! The control loop (its thread in [`super`]): cycles on the instants of
+//! a fixed grid at the interpolation rate, commands and readings taken
+//! without blocking, one sample per cycle handed to the DDS thread; at
+//! rest it wakes only for the cycles that publish (`ros::Pace`,
+//! docs/ros_interface.md §3.1).
+
+use super::{Cmd, Out, Rec};
+use cnc_core::Machine;
+use cnc_msgs::ros::{self, Grid, WallClock};
+use cnc_msgs::Time;
+use cnc_node::controller::{ActualSample, Controller, EncoderSample, Job};
+use cnc_node::convert::time_ns;
+use cnc_node::params::Live;
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
+use std::sync::mpsc::{Receiver, Sender, SyncSender, TryRecvError};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Cycles the loop runs in one wake-up at most when it woke late (wake-ups
+/// then come twice a period: it catches up at up to four times its rate),
+/// so the n-th cycle of a job stays meant for its instant (the executor's
+/// time base, which a thread synchronizes to the encoder in) while the
+/// encoder readings of the stall have time to arrive.
+const CATCH_UP: u64 = 2;
+/// A loop further behind than this skips the missed cycles; a running job
+/// then ends where it stands, in the error state (its time base is lost).
+const MAX_BEHIND_S: f64 = 0.2;
+/// An encoder reading at most this many periods old is fresh: a job on a
+/// machine with a spindle starts once the newest one is.
+const FRESH_PERIODS: i64 = 3;
+/// How long a job waits for fresh encoder readings at most, s (then it
+/// starts, and the executor judges the readings as always).
+const MAX_START_WAIT_S: f64 = 0.05;
+
+/// A checked job waiting for its start (see [`Loop::cycle`]).
+struct Pending {
+    job: Job,
+    rec: Option<Rec>,
+    reply: Sender<Result<(), String>>,
+    since: u64,
+}
+
+/// What the control loop owns besides the controller.
+struct Loop {
+    ctl: Controller,
+    cmds: Receiver<Cmd>,
+    encoder: Receiver<EncoderSample>,
+    actual: Receiver<ActualSample>,
+    out: SyncSender<Out>,
+    here: Arc<[AtomicU64; 3]>,
+    state: Arc<AtomicU32>,
+    /// the cycles of the last status and of the last one sent for a line
+    /// change, and how many cycles apart they go at most and at least
+    last_status: Option<u64>,
+    line_change: u64,
+    status_every: u64,
+    line_every: u64,
+    dropped: u64,
+    pending_rec: Option<(u32, Rec)>,
+    /// the newest encoder reading's age at each cycle of a job (logged
+    /// with loop_stats)
+    enc_age: Option<ros::Lateness>,
+    newest_enc: i64,
+    /// when the samples go out: every cycle while a job runs (and a
+    /// second after), else at the resting rate
+    pace: ros::Pace,
+    pending: Option<Pending>,
+    /// a request is being checked (a job may follow)
+    checking: Arc<AtomicBool>,
+    has_spindle: bool,
+    period_ns: i64,
+    max_wait: u64,
+}
+
+pub(super) fn control_loop(
+    machine: Machine,
+    cmds: Receiver<Cmd>,
+    (encoder, actual): (Receiver<EncoderSample>, Receiver<ActualSample>),
+    out: SyncSender<Out>,
+    here: Arc<[AtomicU64; 3]>,
+    (state, checking): (Arc<AtomicU32>, Arc<AtomicBool>),
+    live: Arc<Live>,
+) {
+    let dt = machine.dt();
+    let mut stats = live.loop_stats();
+    let period = Duration::from_secs_f64(dt);
+    let mut lateness = ros::Lateness::new();
+    let mut stats_due = Instant::now() + stats.unwrap_or_default();
+    let mut grid = Grid::new(Instant::now() + period, dt);
+    let mut clock = WallClock::new();
+    let has_spindle = machine.spindle.is_some();
+    let mut lp = Loop {
+        pace: ros::Pace::new(machine.interpolation.rate_hz),
+        pending: None,
+        checking,
+        has_spindle,
+        period_ns: (dt * 1e9).round() as i64,
+        max_wait: (MAX_START_WAIT_S / dt).ceil() as u64,
+        ctl: Controller::new(machine),
+        cmds,
+        encoder,
+        actual,
+        out,
+        here,
+        state,
+        last_status: None,
+        line_change: 0,
+        status_every: (0.1 / dt).round().max(1.0) as u64,
+        line_every: (0.02 / dt).round().max(1.0) as u64,
+        dropped: 0,
+        pending_rec: None,
+        enc_age: Some(ros::Lateness::new()),
+        newest_enc: 0,
+    };
+    loop {
+        // cycles are meant for the instants of a fixed grid and stamped
+        // with them (in the wall clock, as the simulator stamps the
+        // encoder): stamp differences are exact periods, and a late
+        // wake-up runs the missed cycles, catching up. At rest (no job for
+        // a second) the loop wakes only for the cycles that publish and
+        // skips the ones between (an idle cycle computes and publishes
+        // nothing); a command waits at most a resting period
+        let resting = lp.resting(grid.next());
+        let target = if resting {
+            lp.pace.next_due(grid.next())
+        } else {
+            grid.next()
+        };
+        let intended = target + 1 - grid.next();
+        let deadline = grid.wait_for(target);
+        let now = Instant::now();
+        if stats.is_some() {
+            lateness.record(now.saturating_duration_since(deadline));
+        }
+        let mut due = grid.due(now);
+        if (due + 1).saturating_sub(intended) as f64 * dt > MAX_BEHIND_S {
+            eprintln!(
+                "cnc_node: the control loop fell {:.0} ms behind; {} cycles skipped",
+                due as f64 * dt * 1000.0,
+                due - 1
+            );
+            grid.skip(due - 1);
+            due = 1;
+        }
+        if resting && due > 1 {
+            grid.skip(due - 1);
+            due = 1;
+        }
+        clock.update();
+        for _ in 0..due.min(CATCH_UP) {
+            let n = grid.advance();
+            let stamp = clock.stamp(grid.at(n));
+            if !lp.cycle(n, stamp) {
+                return;
+            }
+        }
+        let now_stats = live.loop_stats();
+        if now_stats != stats {
+            // (loop_stats set while the node runs: from now on)
+            stats = now_stats;
+            stats_due = Instant::now() + stats.unwrap_or_default();
+        }
+        if let Some(every) = stats {
+            if Instant::now() >= stats_due {
+                stats_due += every;
+                eprintln!("cnc_node: loop lateness {}", lateness.summary());
+                if let Some(a) = &lp.enc_age {
+                    if a.count() > 0 {
+                        eprintln!("cnc_node: encoder reading age {}", a.summary());
+                    }
+                }
+            }
+        }
+    }
+}
+
+impl Loop {
+    /// At rest at cycle `n`: no job, none starting, and none for a second.
+    fn resting(&self, n: u64) -> bool {
+        self.pace.resting(n)
+            && self.pending.is_none()
+            && self.ctl.job_id() == 0
+            && !self.checking.load(Ordering::Relaxed)
+    }
+
+    /// One control cycle, `n`, for the instant `stamp`; false: the node is
+    /// gone.
+    ///
+    /// A job on a machine with a spindle starts once the newest encoder
+    /// reading is fresh (at most [`FRESH_PERIODS`] old), waiting up to
+    /// [`MAX_START_WAIT_S`]: a simulator at rest publishes its readings at
+    /// the resting rate only, and turns to every step when the setpoints
+    /// come every cycle, as they do from the moment a job waits (its
+    /// readings reach the loop a few ms later). Without the wait a G95 or
+    /// G33 block at a job's start could see a reading 20 ms old and take
+    /// the encoder for lost.
+    fn cycle(&mut self, n: u64, stamp: Time) -> bool {
+        loop {
+            match self.cmds.try_recv() {
+                Ok(Cmd::Start(job, rec, reply)) => {
+                    if let Some(p) = self.pending.take() {
+                        let _ = p.reply.send(Err("another job is starting".into()));
+                    }
+                    self.pending = Some(Pending {
+                        job,
+                        rec,
+                        reply,
+                        since: n,
+                    });
+                }
+                Ok(Cmd::Abort(reply)) => {
+                    let _ = reply.send(self.ctl.abort());
+                }
+                Ok(Cmd::Hold(on, reply)) => {
+                    let _ = reply.send(self.ctl.feed_hold(on));
+                }
+                Ok(Cmd::Override(pct)) => {
+                    if let Err(e) = self.ctl.set_feed_override(pct) {
+                        eprintln!("cnc_node: {e}");
+                    }
+                }
+                Err(TryRecvError::Empty) => break,
+                Err(TryRecvError::Disconnected) => return false,
+            }
+        }
+        let now_ns = time_ns(&stamp);
+        while let Ok(e) = self.encoder.try_recv() {
+            self.newest_enc = self.newest_enc.max(e.stamp_ns);
+            self.ctl.encoder(e);
+        }
+        while let Ok(a) = self.actual.try_recv() {
+            self.ctl.actual(a);
+        }
+        if let Some(p) = self.pending.take() {
+            let fresh = self.newest_enc >= now_ns - FRESH_PERIODS * self.period_ns;
+            // (a job running: the start is refused at once)
+            let now = !self.has_spindle || self.ctl.job_id() != 0;
+            if now || fresh || n - p.since >= self.max_wait {
+                let id = p.job.id;
+                let r = self.ctl.start(p.job);
+                if r.is_ok() {
+                    self.pending_rec = p.rec.map(|r| (id, r));
+                }
+                let _ = p.reply.send(r);
+            } else {
+                self.pending = Some(p);
+            }
+        }
+        let in_job = self.ctl.job_id() != 0;
+        if let Some(a) = self.enc_age.as_mut().filter(|_| in_job) {
+            if self.newest_enc > 0 {
+                a.record(Duration::from_nanos(
+                    (now_ns - self.newest_enc).max(0) as u64
+                ));
+            }
+        }
+        let prev_state = self.ctl.state();
+        let tick = self.ctl.tick(now_ns);
+        for j in 0..tick.n {
+            self.here[j].store(tick.positions[j].to_bits(), Ordering::Relaxed);
+        }
+        self.state.store(tick.state as u32, Ordering::Relaxed);
+        // status: on a state change at once, on a line change at most 50 Hz,
+        // and at least 10 Hz (counted in cycles: each is meant for its instant)
+        let due = tick.state != prev_state
+            || self.last_status.is_none_or(|l| n >= l + self.status_every)
+            || (tick.changed && n >= self.line_change + self.line_every);
+        let status = due.then(|| {
+            self.last_status = Some(n);
+            self.line_change = n;
+            self.ctl.status()
+        });
+        let busy = in_job
+            || self.ctl.job_id() != 0
+            || self.pending.is_some()
+            || self.checking.load(Ordering::Relaxed);
+        if busy || tick.state != prev_state {
+            self.pace.busy(n);
+        }
+        let recorder = self.pending_rec.take();
+        let setpoints = self.pace.due(n) || recorder.is_some();
+        if !(setpoints || status.is_some()) {
+            return true;
+        }
+        let o = Out {
+            stamp,
+            tick,
+            place: self.ctl.place(),
+            setpoints,
+            status,
+            job: self.ctl.job_id(),
+            recorder,
+        };
+        if self.out.try_send(o).is_err() {
+            self.dropped += 1;
+            if self.dropped.is_power_of_two() {
+                eprintln!(
+                    "cnc_node: publisher queue full, {} samples dropped",
+                    self.dropped
+                );
+            }
+        }
+        true
+    }
+}
