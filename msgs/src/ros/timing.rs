@@ -1,0 +1,401 @@
+//! Time for fixed-rate loops: the cycle grid ([`Grid`]), stamps in the
+//! wall clock ([`WallClock`]) and wake-up lateness ([`Lateness`]).
+
+use std::time::{Duration, Instant};
+
+/// The cycles of a fixed-rate loop on the grid `origin + n·dt` of the
+/// monotonic clock. Cycle n is *meant for* its grid instant: a loop that
+/// woke late runs the cycles it missed ([`Grid::due`]) rather than shifting
+/// every later one, so its n-th cycle always stands for the same instant
+/// and its stamps ([`WallClock::stamp`]) are exactly n·dt apart. Instants are
+/// computed from n (no accumulated rounding, also when dt is not a whole
+/// number of nanoseconds).
+#[derive(Clone, Copy, Debug)]
+pub struct Grid {
+    origin: Instant,
+    dt: f64,
+    next: u64,
+    /// how long before an instant the sleep ends (the rest is spun): the
+    /// sleep's own lateness, learnt (see [`Grid::wait`]), ns
+    margin_ns: f64,
+    last_wake: Option<Instant>,
+}
+
+/// The longest a [`Grid`] spins before an instant (its margin's bound).
+pub const MAX_SPIN: Duration = Duration::from_micros(150);
+/// The share of a [`Grid`]'s sleeps that end before the instant they wake
+/// for: its margin follows this quantile of the sleep's lateness.
+const ON_TIME_SHARE: f64 = 0.9;
+
+impl Grid {
+    /// Cycle 0 at `origin`, one every `dt` seconds. Create it on the
+    /// loop's thread: it sets that thread's timer slack to 1 ns.
+    pub fn new(origin: Instant, dt: f64) -> Self {
+        // SAFETY: prctl(PR_SET_TIMERSLACK) only changes this thread's timer
+        // slack (1 ns instead of the default 50 µs); no memory is touched.
+        unsafe {
+            libc::prctl(libc::PR_SET_TIMERSLACK, 1 as libc::c_ulong, 0, 0, 0);
+        }
+        Grid {
+            origin,
+            dt,
+            next: 0,
+            margin_ns: 50_000.0,
+            last_wake: None,
+        }
+    }
+
+    /// The instant of cycle `n`.
+    pub fn at(&self, n: u64) -> Instant {
+        self.origin + Duration::from_secs_f64(n as f64 * self.dt)
+    }
+
+    /// The next cycle to run.
+    pub fn next(&self) -> u64 {
+        self.next
+    }
+
+    /// How many cycles are due at `now` and not run yet (0 when the next
+    /// one's instant is still to come).
+    pub fn due(&self, now: Instant) -> u64 {
+        if self.at(self.next) > now {
+            return 0;
+        }
+        let x = now.saturating_duration_since(self.origin).as_secs_f64() / self.dt;
+        let mut last = (x.floor() as u64).max(self.next);
+        // (the division may land a hair either side of a whole cycle)
+        while last > self.next && self.at(last) > now {
+            last -= 1;
+        }
+        while self.at(last + 1) <= now {
+            last += 1;
+        }
+        last + 1 - self.next
+    }
+
+    /// Marks the next cycle as run; returns its number.
+    pub fn advance(&mut self) -> u64 {
+        self.next += 1;
+        self.next - 1
+    }
+
+    /// Skips `n` cycles without running them (a loop too far behind).
+    pub fn skip(&mut self, n: u64) {
+        self.next += n;
+    }
+
+    /// Waits for the next cycle's instant and returns it: sleeps until
+    /// shortly before, then spins the rest, so wake-ups are on time within
+    /// microseconds. A loop that is behind returns at once, but at most
+    /// twice a period, so its catching up is spread out (and runs as many
+    /// cycles per wake-up as the caller allows).
+    ///
+    /// How long before is learnt: the sleep ends late by some tens of µs
+    /// (the timer, the scheduler), so it is asked to end that much early
+    /// and the rest is spun. The margin follows the 90th percentile of that
+    /// lateness (a step of 1 µs per wake-up, up to [`MAX_SPIN`]), so nine
+    /// sleeps in ten end before the instant and spin only the difference
+    /// (a few µs, not a fixed 150 µs: most of a 1 kHz loop's CPU time was
+    /// that spin), and a rare stall moves it by a microsecond only.
+    pub fn wait(&mut self) -> Instant {
+        self.wait_for(self.next)
+    }
+
+    /// Waits for the instant of cycle `n` (the next one or a later one: a
+    /// loop at rest that runs the cycles in between at once, see
+    /// [`Pace::next_due`]) and returns it, as [`Grid::wait`].
+    pub fn wait_for(&mut self, n: u64) -> Instant {
+        let deadline = self.at(n.max(self.next));
+        let mut until = deadline;
+        if let Some(w) = self.last_wake {
+            until = until.max(w + Duration::from_secs_f64(0.5 * self.dt));
+        }
+        let margin = Duration::from_nanos(self.margin_ns as u64);
+        let now = Instant::now();
+        if now + margin < until {
+            let wake = until - margin;
+            std::thread::sleep(wake - now);
+            let late = Instant::now().saturating_duration_since(wake).as_nanos() as f64;
+            self.margin_ns = if late > self.margin_ns {
+                self.margin_ns + 1000.0 * ON_TIME_SHARE
+            } else {
+                self.margin_ns - 1000.0 * (1.0 - ON_TIME_SHARE)
+            }
+            .clamp(0.0, MAX_SPIN.as_nanos() as f64);
+        }
+        while Instant::now() < until {
+            std::hint::spin_loop();
+        }
+        self.last_wake = Some(Instant::now());
+        deadline
+    }
+
+    /// How long before an instant the sleep ends now (the spin's bound).
+    pub fn margin(&self) -> Duration {
+        Duration::from_nanos(self.margin_ns as u64)
+    }
+}
+
+/// Maps instants of the monotonic clock to the system (wall) clock, the
+/// clock ROS stamps are in. Loops stamp their cycles with their grid
+/// instants this way, so stamps are exactly a period apart whatever the
+/// wake-up jitter, and in the clock every node on the host stamps with.
+///
+/// The offset between the clocks is measured by reading the wall clock
+/// between two reads of the monotonic one; a measurement the thread was
+/// interrupted in (the two more than [`WallClock::MAX_BRACKET`] apart)
+/// keeps the previous offset, so a preemption between the reads never
+/// shifts a stamp. The offset changes only when the system clock is
+/// slewed or stepped; [`WallClock::update`] once a cycle follows that.
+#[derive(Clone, Copy, Debug)]
+pub struct WallClock {
+    anchor: Instant,
+    /// wall clock (ns since the epoch) minus monotonic (ns since anchor)
+    offset_ns: i128,
+}
+
+impl Default for WallClock {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl WallClock {
+    /// The widest bracket a measurement of the offset may have.
+    pub const MAX_BRACKET: Duration = Duration::from_micros(20);
+
+    pub fn new() -> Self {
+        let mut c = WallClock {
+            anchor: Instant::now(),
+            offset_ns: 0,
+        };
+        // the first measurement is taken whatever its bracket (a narrow
+        // one is very likely within a few tries)
+        let mut best: Option<(Duration, i128)> = None;
+        for _ in 0..10 {
+            if let Some((w, off)) = c.measure() {
+                if best.is_none_or(|(bw, _)| w < bw) {
+                    best = Some((w, off));
+                }
+                if w <= Self::MAX_BRACKET {
+                    break;
+                }
+            }
+        }
+        if let Some((_, off)) = best {
+            c.offset_ns = off;
+        }
+        c
+    }
+
+    /// (bracket, offset) of one measurement.
+    fn measure(&self) -> Option<(Duration, i128)> {
+        let m1 = Instant::now();
+        let wall = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .ok()?;
+        let m2 = Instant::now();
+        let mid =
+            m1.duration_since(self.anchor).as_nanos() as i128 + (m2 - m1).as_nanos() as i128 / 2;
+        Some((m2 - m1, wall.as_nanos() as i128 - mid))
+    }
+
+    /// Measures the offset again (kept when the measurement was interrupted).
+    pub fn update(&mut self) {
+        if let Some((w, off)) = self.measure() {
+            if w <= Self::MAX_BRACKET {
+                self.offset_ns = off;
+            }
+        }
+    }
+
+    /// The wall clock's time at `at`, ns since the epoch.
+    pub fn ns_at(&self, at: Instant) -> i128 {
+        let mono = match at.checked_duration_since(self.anchor) {
+            Some(d) => d.as_nanos() as i128,
+            None => -(self.anchor.duration_since(at).as_nanos() as i128),
+        };
+        mono + self.offset_ns
+    }
+
+    /// The wall clock's time at `at`, as a ROS stamp.
+    pub fn stamp(&self, at: Instant) -> crate::Time {
+        let ns = self.ns_at(at).max(0);
+        crate::Time {
+            sec: (ns / 1_000_000_000).min(i32::MAX as i128) as i32,
+            nanosec: (ns % 1_000_000_000) as u32,
+        }
+    }
+}
+
+/// Wake-up lateness of a loop, in 1 µs bins up to 20 ms (one overflow bin):
+/// fixed memory, no allocation per record.
+pub struct Lateness {
+    bins: Vec<u64>,
+    n: u64,
+    max_us: f64,
+    /// the record number of the worst one
+    max_at: u64,
+}
+
+impl Default for Lateness {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Lateness {
+    const BINS: usize = 20_001;
+
+    pub fn new() -> Self {
+        Lateness {
+            bins: vec![0; Self::BINS],
+            n: 0,
+            max_us: 0.0,
+            max_at: 0,
+        }
+    }
+
+    pub fn record(&mut self, late: Duration) {
+        let us = late.as_secs_f64() * 1e6;
+        let b = (us as usize).min(Self::BINS - 1);
+        self.bins[b] += 1;
+        self.n += 1;
+        if us > self.max_us {
+            self.max_us = us;
+            self.max_at = self.n;
+        }
+    }
+
+    /// The `p`-th percentile in µs (bin upper edge).
+    pub fn percentile(&self, p: f64) -> f64 {
+        if self.n == 0 {
+            return 0.0;
+        }
+        let want = ((p / 100.0) * self.n as f64).ceil().max(1.0) as u64;
+        let mut acc = 0;
+        for (i, &c) in self.bins.iter().enumerate() {
+            acc += c;
+            if acc >= want {
+                return (i + 1) as f64;
+            }
+        }
+        self.max_us
+    }
+
+    pub fn count(&self) -> u64 {
+        self.n
+    }
+
+    /// How many were later than `us` (whole µs, up to 20,000).
+    pub fn over(&self, us: usize) -> u64 {
+        self.bins[us.min(Self::BINS - 1)..].iter().sum()
+    }
+
+    /// `n=…, p50 … µs, p99 …, p99.9 …, max …, over 1 ms: …` (the counts
+    /// are cumulative: two summaries give the wake-ups over 1 ms between)
+    pub fn summary(&self) -> String {
+        format!(
+            "n={} p50<={:.0} us p99<={:.0} us p99.9<={:.0} us max={:.1} us (cycle {}) over_1ms={}",
+            self.n,
+            self.percentile(50.0),
+            self.percentile(99.0),
+            self.percentile(99.9),
+            self.max_us,
+            self.max_at,
+            self.over(1000)
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lateness_percentiles() {
+        let mut l = Lateness::new();
+        for i in 0..1000u64 {
+            l.record(Duration::from_nanos(i * 1000 + 500));
+        }
+        assert_eq!(l.count(), 1000);
+        assert_eq!(l.percentile(50.0), 500.0);
+        assert_eq!(l.percentile(99.0), 990.0);
+        assert!((l.max_us - 999.5).abs() < 1e-6);
+        assert_eq!(l.over(990), 10);
+        l.record(Duration::from_millis(30));
+        assert_eq!(l.over(1000), 1);
+        assert!(l.summary().ends_with("over_1ms=1"), "{}", l.summary());
+    }
+
+    #[test]
+    fn grid_counts_missed_cycles_and_keeps_its_instants() {
+        let o = Instant::now();
+        let mut g = Grid::new(o, 0.001);
+        assert_eq!(g.due(o), 1);
+        assert_eq!(g.advance(), 0);
+        assert_eq!(g.due(o), 0);
+        assert_eq!(g.due(o + Duration::from_micros(999)), 0);
+        assert_eq!(g.due(o + Duration::from_micros(1000)), 1);
+        // woke 3.5 cycles late: cycles 1..=4 are due
+        assert_eq!(g.due(o + Duration::from_micros(4500)), 4);
+        g.skip(2);
+        assert_eq!(g.next(), 3);
+        assert_eq!(g.due(o + Duration::from_micros(4500)), 2);
+        assert_eq!(g.due(o + Duration::from_micros(2999)), 0);
+        // no drift: the instant of cycle n is n·dt from the origin
+        let dt = 1.0 / 3000.0;
+        let g = Grid::new(o, dt);
+        let n = 3_000_000 * 3600;
+        assert_eq!(g.at(n) - o, Duration::from_secs(3_600_000));
+    }
+
+    #[test]
+    fn grid_waits_for_its_instants_and_spreads_a_catch_up() {
+        let o = Instant::now() + Duration::from_millis(2);
+        let mut g = Grid::new(o, 0.001);
+        assert_eq!(g.wait(), o);
+        assert!(Instant::now() >= o);
+        g.advance();
+        assert_eq!(g.wait(), g.at(1));
+        assert!(Instant::now() >= g.at(1));
+        // behind: the cycles are due at once, the wake-ups half a period apart
+        std::thread::sleep(Duration::from_millis(5));
+        g.advance();
+        let w0 = Instant::now();
+        g.wait();
+        g.advance();
+        g.wait();
+        assert!(Instant::now() - w0 >= Duration::from_micros(500));
+        assert!(g.due(Instant::now()) >= 2);
+        // a later cycle: its instant, and the ones before are due then
+        let n = g.next() + 10;
+        assert_eq!(g.wait_for(n), g.at(n));
+        assert!(Instant::now() >= g.at(n));
+        assert!(g.due(Instant::now()) > n - g.next());
+    }
+
+    #[test]
+    fn grid_learns_its_sleeps_lateness_within_bounds() {
+        let o = Instant::now();
+        let mut g = Grid::new(o, 0.001);
+        for _ in 0..200 {
+            assert!(g.wait() <= Instant::now());
+            g.advance();
+            assert!(g.margin() <= MAX_SPIN);
+        }
+    }
+
+    #[test]
+    fn wall_clock_stamps_an_instant_with_the_wall_clock_then() {
+        let mut c = WallClock::new();
+        c.update();
+        let now = Instant::now();
+        let a = c.stamp(now - Duration::from_millis(20)).as_secs_f64();
+        let w = super::wall_stamp().as_secs_f64();
+        assert!((w - a - 0.020).abs() < 0.005, "{}", w - a);
+        // instants a period apart are stamped a period apart, to the ns
+        let d = c.ns_at(now + Duration::from_micros(1000)) - c.ns_at(now);
+        assert_eq!(d, 1_000_000);
+    }
+}
