@@ -9,10 +9,10 @@
 //! set while the node runs (`ros2 param set`); the others are read-only.
 
 use crate::admit::RecordOpts;
-use clap::parser::ValueSource;
-use clap::{ArgMatches, CommandFactory, FromArgMatches, Parser};
+use clap::Parser;
+use cnc_msgs::options::{self, Options};
 use cnc_msgs::params::{Change, Kind, Param, Parameters};
-use cnc_msgs::ros_args::{self, Startup};
+use cnc_msgs::ros_args;
 use ros2_client::ParameterValue as V;
 use std::ffi::OsString;
 use std::path::PathBuf;
@@ -74,25 +74,8 @@ pub const MAX_OVERRIDE: f64 = cnc_core::exec::MAX_OVERRIDE * 100.0;
 /// The node's name unless `__node` says otherwise.
 pub const NODE: &str = "cnc_node";
 
-/// The options that are parameters (clap's ids are the parameter names).
-const PARAMS: &[&str] = &[
-    "machine",
-    "sim_namespace",
-    "rate",
-    "program_dir",
-    "record_dir",
-    "record_all",
-    "rt_priority",
-    "loop_stats",
-    "max_feed_override",
-];
-
 /// The node's settings at start.
-pub struct Setup {
-    pub args: Args,
-    pub start: Startup,
-    pub params: Vec<Param>,
-}
+pub type Setup = options::Setup<Args>;
 
 /// The settings from this process's command line; a bad one is an error
 /// (clap's own errors, `--help` and `--version` exit here as usual).
@@ -102,26 +85,23 @@ pub fn from_env() -> Result<Setup, String> {
 
 /// The settings from a command line (its first item the program's name).
 pub fn setup<I: IntoIterator<Item = OsString>>(argv: I) -> Result<Setup, String> {
-    let split = ros_args::split(argv)?;
-    let m = Args::command()
-        .try_get_matches_from(&split.args)
-        .unwrap_or_else(|e| e.exit());
-    let mut args = Args::from_arg_matches(&m).map_err(|e| e.to_string())?;
-    let start = Startup::new(&split.ros, NODE, &args.namespace, NODE)?;
-    args.namespace = start.namespace.clone();
-    let mut params = declare(&args)?;
-    start.apply(&mut params, |name| given(&m, name))?;
-    read_back(&mut args, &params);
-    Ok(Setup {
-        args,
-        start,
-        params,
-    })
+    options::setup(argv)
 }
 
-fn given(m: &ArgMatches, id: &str) -> Option<String> {
-    (PARAMS.contains(&id) && m.value_source(id) == Some(ValueSource::CommandLine))
-        .then(|| format!("--{}", id.replace('_', "-")))
+impl Options for Args {
+    const NODE: &'static str = NODE;
+
+    fn namespace_mut(&mut self) -> &mut String {
+        &mut self.namespace
+    }
+
+    fn declare(&self) -> Vec<Param> {
+        declare(self)
+    }
+
+    fn read_back(&mut self, params: &[Param]) {
+        read_back(self, params)
+    }
 }
 
 fn path_value(p: &std::path::Path) -> V {
@@ -130,9 +110,9 @@ fn path_value(p: &std::path::Path) -> V {
 
 /// The parameters with the options' values (the machine's rate and
 /// program directory come in [`serve`], once the machine is loaded).
-fn declare(a: &Args) -> Result<Vec<Param>, String> {
+fn declare(a: &Args) -> Vec<Param> {
     let opt = |v: Option<V>| v.unwrap_or(V::NotSet);
-    let params = vec![
+    vec![
         Param::fixed("machine", Kind::String, "machine file, or a bundled machine: mill, lathe")
             .value(V::String(a.machine.clone())),
         Param::fixed(
@@ -172,15 +152,7 @@ fn declare(a: &Args) -> Result<Vec<Param>, String> {
         )
         .range(1.0, MAX_OVERRIDE)
         .value(V::Double(a.max_feed_override)),
-    ];
-    // the options' own values must be in range too
-    for p in &params {
-        if !matches!(p.value, V::NotSet) {
-            p.coerce(&p.value)
-                .map_err(|e| format!("--{}: {e}", p.name.replace('_', "-")))?;
-        }
-    }
-    Ok(params)
+    ]
 }
 
 /// The parameters' values back into the options.
@@ -414,7 +386,7 @@ mod tests {
                 "unknown ROS argument '--bogus'",
             ),
         ] {
-            let e = setup(argv(a)).err().expect("an error");
+            let e = setup(argv(a)).expect_err("an error");
             assert!(e.contains(want), "{a:?}: {e}");
         }
     }

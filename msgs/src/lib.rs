@@ -4,6 +4,7 @@
 //! [`ros_message!`]; a test parses the interface files and fails if the two
 //! drift apart. Field order is the CDR wire order.
 
+pub mod options;
 pub mod params;
 pub mod params_file;
 pub mod ros;

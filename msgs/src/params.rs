@@ -396,7 +396,11 @@ impl Parameters {
         let _ = w.publish(ev);
     }
 
-    fn values(&self, names: &[String]) -> Vec<raw::ParameterValue> {
+    /// `f` of each named parameter, or `missing` for a name not declared.
+    fn each<T>(&self, names: &[String], missing: T, f: impl Fn(&Param) -> T) -> Vec<T>
+    where
+        T: Clone,
+    {
         let params = self.lock();
         names
             .iter()
@@ -404,23 +408,19 @@ impl Parameters {
                 params
                     .iter()
                     .find(|p| p.name == n)
-                    .map_or(ParameterValue::NotSet, |p| p.value.clone())
-                    .into()
+                    .map_or_else(|| missing.clone(), &f)
             })
             .collect()
     }
 
+    fn values(&self, names: &[String]) -> Vec<raw::ParameterValue> {
+        self.each(names, ParameterValue::NotSet.into(), |p| {
+            p.value.clone().into()
+        })
+    }
+
     fn types(&self, names: &[String]) -> Vec<u8> {
-        let params = self.lock();
-        names
-            .iter()
-            .map(|n| {
-                params
-                    .iter()
-                    .find(|p| p.name == n)
-                    .map_or(raw::ParameterType::NOT_SET, |p| p.kind.raw())
-            })
-            .collect()
+        self.each(names, raw::ParameterType::NOT_SET, |p| p.kind.raw())
     }
 
     /// As rclcpp: without prefixes, the names with fewer than `depth` dots
@@ -458,8 +458,22 @@ impl Parameters {
             .iter()
             .map(|n| match params.iter().find(|p| p.name == n) {
                 Some(p) => {
-                    let (lo, hi) = p.range.unwrap_or((0.0, 0.0));
-                    let ranged = p.range.is_some();
+                    let (mut floating_point_range, mut integer_range) = (Vec::new(), Vec::new());
+                    match (p.kind, p.range) {
+                        (Kind::Double, Some((from_value, to_value))) => {
+                            floating_point_range.push(raw::FloatingPointRange {
+                                from_value,
+                                to_value,
+                                step: 0.0,
+                            })
+                        }
+                        (Kind::Integer, Some((lo, hi))) => integer_range.push(raw::IntegerRange {
+                            from_value: lo as i64,
+                            to_value: hi as i64,
+                            step: 1,
+                        }),
+                        _ => {}
+                    }
                     raw::ParameterDescriptor {
                         name: n.clone(),
                         r#type: p.kind.raw(),
@@ -467,24 +481,8 @@ impl Parameters {
                         additional_constraints: p.constraints.clone(),
                         read_only: p.read_only,
                         dynamic_typing: false,
-                        floating_point_range: if ranged && p.kind == Kind::Double {
-                            vec![raw::FloatingPointRange {
-                                from_value: lo,
-                                to_value: hi,
-                                step: 0.0,
-                            }]
-                        } else {
-                            Vec::new()
-                        },
-                        integer_range: if ranged && p.kind == Kind::Integer {
-                            vec![raw::IntegerRange {
-                                from_value: lo as i64,
-                                to_value: hi as i64,
-                                step: 1,
-                            }]
-                        } else {
-                            Vec::new()
-                        },
+                        floating_point_range,
+                        integer_range,
                     }
                 }
                 None => raw::ParameterDescriptor {

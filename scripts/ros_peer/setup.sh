@@ -129,21 +129,26 @@ export AMENT_PREFIX_PATH="$venv"
 unset PYTHONPATH
 if [ "$force" = 1 ]; then rm -rf "$build" "$prefix"; fi
 mkdir -p "$venv/build"
-if [ ! -f "$build/CMakeCache.txt" ]; then
-  log "cmake configure msgs/"
-  cmake -S "$root/msgs" -B "$build" \
-    -DCMAKE_BUILD_TYPE=Release \
-    -DCMAKE_INSTALL_PREFIX="$prefix" \
-    -DPython3_EXECUTABLE="$vpy" \
-    -DBUILD_TESTING=OFF \
-    >"$venv/build/cnc_msgs.configure.log" 2>&1 \
-    || { cat "$venv/build/cnc_msgs.configure.log" >&2; exit 1; }
-fi
-log "cmake build + install msgs/ -> $(realpath --relative-to="$root" "$prefix")"
-cmake --build "$build" -j "$(nproc)" >"$venv/build/cnc_msgs.build.log" 2>&1 \
-  || { tail -50 "$venv/build/cnc_msgs.build.log" >&2; exit 1; }
-cmake --install "$build" >"$venv/build/cnc_msgs.install.log" 2>&1 \
-  || { cat "$venv/build/cnc_msgs.install.log" >&2; exit 1; }
+# interface package NAME from SRC: configured once in BUILD, built and installed into $prefix
+cmake_package() {  # cmake_package NAME SRC BUILD
+  local name="$1" src="$2" b="$3" logs="$venv/build/$1"
+  if [ ! -f "$b/CMakeCache.txt" ]; then
+    log "cmake configure $name"
+    cmake -S "$src" -B "$b" \
+      -DCMAKE_BUILD_TYPE=Release \
+      -DCMAKE_INSTALL_PREFIX="$prefix" \
+      -DPython3_EXECUTABLE="$vpy" \
+      -DBUILD_TESTING=OFF \
+      >"$logs.configure.log" 2>&1 \
+      || { cat "$logs.configure.log" >&2; exit 1; }
+  fi
+  log "cmake build + install $name -> $(realpath --relative-to="$root" "$prefix")"
+  cmake --build "$b" -j "$(nproc)" >"$logs.build.log" 2>&1 \
+    || { tail -50 "$logs.build.log" >&2; exit 1; }
+  cmake --install "$b" >"$logs.install.log" 2>&1 \
+    || { cat "$logs.install.log" >&2; exit 1; }
+}
+cmake_package cnc_msgs "$root/msgs" "$build"
 
 # ---------------------------------------------------------------- 5. ros2cli and launch
 # Not on PyPI. Unmodified upstream sources: ../shared/vendor (CI and our
@@ -194,23 +199,9 @@ else
     echo "the ros2 command line is not installed: no ../shared/vendor beside the repository, and the upstream repositories could not be installed ($why)" > "$missing_note"
   fi
 fi
+# launch_ros imports composition_interfaces, which no wheel provides
 if [ -x "$venv/bin/ros2" ] && ! "$vpy" -c "import composition_interfaces" 2>/dev/null; then
-  ci_build="$venv/build/composition_interfaces"
-  if [ ! -f "$ci_build/CMakeCache.txt" ]; then
-    log "cmake configure composition_interfaces (launch_ros imports it)"
-    cmake -S "$here/composition_interfaces" -B "$ci_build" \
-      -DCMAKE_BUILD_TYPE=Release \
-      -DCMAKE_INSTALL_PREFIX="$prefix" \
-      -DPython3_EXECUTABLE="$vpy" \
-      -DBUILD_TESTING=OFF \
-      >"$venv/build/composition_interfaces.configure.log" 2>&1 \
-      || { cat "$venv/build/composition_interfaces.configure.log" >&2; exit 1; }
-  fi
-  log "cmake build + install composition_interfaces"
-  cmake --build "$ci_build" -j "$(nproc)" >"$venv/build/composition_interfaces.build.log" 2>&1 \
-    || { tail -50 "$venv/build/composition_interfaces.build.log" >&2; exit 1; }
-  cmake --install "$ci_build" >"$venv/build/composition_interfaces.install.log" 2>&1 \
-    || { cat "$venv/build/composition_interfaces.install.log" >&2; exit 1; }
+  cmake_package composition_interfaces "$here/composition_interfaces" "$venv/build/composition_interfaces"
 fi
 
 # ---------------------------------------------------------------- 6. the package cnc_controller

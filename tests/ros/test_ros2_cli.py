@@ -359,17 +359,16 @@ def test_ros2_launch_starts_both_with_a_params_file_and_runs_a_job(env, tmp_path
                      str(tmp_path / "launch.log"))
     peer = None
     try:
-        for node, name, want in [
-            ("/l3/cnc_node", "rate", "Double value is: 250.0"),
-            ("/l3/cnc_node", "record_dir", "String value is: %s" % rec),
-            ("/l3/cnc_node", "sim_namespace", "String value is: /l3sim"),
-            ("/l3sim/sim_axes", "setpoint_delay_ms", "Double value is: 4.0"),
-            ("/l3sim/sim_axes", "seed", "Integer value is: 7"),
-            ("/l3sim/sim_axes", "controller_namespace", "String value is: /l3"),
+        # the values from the file and the launch arguments, one `ros2 param dump` a node
+        for node, want in [
+            ("/l3/cnc_node", ["    rate: 250.0", "    record_dir: %s" % rec, "    record_all: true",
+                              "    sim_namespace: /l3sim", "    rt_priority: 0"]),
+            ("/l3sim/sim_axes", ["    setpoint_delay_ms: 4.0", "    seed: 7",
+                                 "    controller_namespace: /l3", "    machine: mill"]),
         ]:
-            rc, out, err = until("%s %s" % (node, name), lambda: (lambda r: (
-                r[1].strip() == want, r[1], r[2]))(ros2(env, "param", "get", "--no-daemon", "--timeout",
-                                                          "30", node, name)), 45.0)
+            rc, out, err = until("the parameters of %s" % node, lambda: (lambda r: (
+                all(w in r[1].splitlines() for w in want), r[1], r[2]))(
+                    ros2(env, "param", "dump", "--no-daemon", "--timeout", "30", node)), 45.0)
         from cnc_msgs.srv import RunProgram
         peer = Peer("ros2_launch_peer", "/l3", "/l3sim")
         peer.wait_for("setpoints and joint states",

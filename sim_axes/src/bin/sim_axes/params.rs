@@ -6,11 +6,11 @@
 //! both ways, the ROS parameter wins (with a warning). `ripple`,
 //! `noise_rpm` and `setpoint_delay_ms` can be set while it runs.
 
-use clap::parser::ValueSource;
-use clap::{CommandFactory, FromArgMatches, Parser};
+use clap::Parser;
 use cnc_core::machine::MAX_SETPOINT_DELAY_MS;
+use cnc_msgs::options::{self, Options};
 use cnc_msgs::params::{Kind, Param};
-use cnc_msgs::ros_args::{self, Startup};
+use cnc_msgs::ros_args;
 use ros2_client::ParameterValue as V;
 
 #[derive(Parser, Debug)]
@@ -62,55 +62,33 @@ pub struct Args {
 
 pub const NODE: &str = "sim_axes";
 
-const PARAMS: &[&str] = &[
-    "machine",
-    "controller_namespace",
-    "rate",
-    "ripple",
-    "noise_rpm",
-    "setpoint_delay_ms",
-    "seed",
-    "rt_priority",
-    "duration",
-];
-
-#[derive(Debug)]
-pub struct Setup {
-    pub args: Args,
-    pub start: Startup,
-    pub params: Vec<Param>,
-}
+pub type Setup = options::Setup<Args>;
 
 /// The settings from this process's command line (clap's errors, `--help`
 /// and `--version` exit here as usual).
 pub fn from_env() -> Result<Setup, String> {
-    let split = ros_args::split(std::env::args_os())?;
-    setup(split)
+    options::setup(std::env::args_os())
 }
 
-fn setup(split: ros_args::Split) -> Result<Setup, String> {
-    let m = Args::command()
-        .try_get_matches_from(&split.args)
-        .unwrap_or_else(|e| e.exit());
-    let mut args = Args::from_arg_matches(&m).map_err(|e| e.to_string())?;
-    let start = Startup::new(&split.ros, NODE, &args.namespace, NODE)?;
-    args.namespace = start.namespace.clone();
-    let mut params = declare(&args)?;
-    start.apply(&mut params, |id| {
-        (PARAMS.contains(&id) && m.value_source(id) == Some(ValueSource::CommandLine))
-            .then(|| format!("--{}", id.replace('_', "-")))
-    })?;
-    read_back(&mut args, &params);
-    Ok(Setup {
-        args,
-        start,
-        params,
-    })
+impl Options for Args {
+    const NODE: &'static str = NODE;
+
+    fn namespace_mut(&mut self) -> &mut String {
+        &mut self.namespace
+    }
+
+    fn declare(&self) -> Vec<Param> {
+        declare(self)
+    }
+
+    fn read_back(&mut self, params: &[Param]) {
+        read_back(self, params)
+    }
 }
 
-fn declare(a: &Args) -> Result<Vec<Param>, String> {
+fn declare(a: &Args) -> Vec<Param> {
     let opt = |v: Option<f64>| v.map_or(V::NotSet, V::Double);
-    let params = vec![
+    vec![
         Param::fixed("machine", Kind::String, "machine file, or a bundled machine: mill, lathe")
             .value(V::String(a.machine.clone())),
         Param::fixed(
@@ -148,14 +126,7 @@ fn declare(a: &Args) -> Result<Vec<Param>, String> {
         Param::fixed("duration", Kind::Double, "stop after this many seconds; 0: run until stopped")
             .range(0.0, 1.0e9)
             .value(V::Double(a.duration.unwrap_or(0.0))),
-    ];
-    for p in &params {
-        if !matches!(p.value, V::NotSet) {
-            p.coerce(&p.value)
-                .map_err(|e| format!("--{}: {e}", p.name.replace('_', "-")))?;
-        }
-    }
-    Ok(params)
+    ]
 }
 
 fn read_back(a: &mut Args, params: &[Param]) {
@@ -202,18 +173,17 @@ pub fn in_force(
 mod tests {
     use super::*;
 
-    fn split(v: &[&str]) -> ros_args::Split {
-        ros_args::split(
+    fn setup(v: &[&str]) -> Result<Setup, String> {
+        options::setup(
             std::iter::once("sim_axes")
                 .chain(v.iter().copied())
                 .map(std::ffi::OsString::from),
         )
-        .unwrap()
     }
 
     #[test]
     fn ros_parameters_set_the_options() {
-        let s = setup(split(&[
+        let s = setup(&[
             "--seed",
             "4",
             "--ros-args",
@@ -225,13 +195,13 @@ mod tests {
             "setpoint_delay_ms:=2",
             "-p",
             "seed:=9",
-        ]))
+        ])
         .unwrap();
         assert_eq!(s.args.namespace, "/m2sim");
         assert_eq!(s.args.controller_namespace, "/m2");
         assert_eq!(s.args.setpoint_delay_ms, Some(2.0));
         assert_eq!(s.args.seed, 9);
-        let e = setup(split(&["--ros-args", "-p", "ripple:=1.5"])).unwrap_err();
+        let e = setup(&["--ros-args", "-p", "ripple:=1.5"]).unwrap_err();
         assert!(
             e.contains("out of its range 0 to 0.99 (from -p ripple:=1.5)"),
             "{e}"
