@@ -163,7 +163,11 @@ pub(super) fn control_loop(
         if let Some(every) = stats {
             if Instant::now() >= stats_due {
                 stats_due += every;
-                eprintln!("cnc_node: loop lateness {}", lateness.summary());
+                eprintln!(
+                    "cnc_node: loop lateness {}; wakes {} us early",
+                    lateness.summary(),
+                    grid.margin().as_micros()
+                );
                 if let Some(a) = &lp.enc_age {
                     if a.count() > 0 {
                         eprintln!("cnc_node: encoder reading age {}", a.summary());
