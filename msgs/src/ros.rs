@@ -334,29 +334,6 @@ fn action_type<R: crate::RosType>() -> (&'static str, &'static str) {
     (pkg, ty.trim_end_matches("_Result"))
 }
 
-#[cfg(test)]
-mod type_names {
-    #[test]
-    fn split() {
-        assert_eq!(
-            super::split_type::<crate::JointState>(),
-            ("sensor_msgs", "JointState")
-        );
-        assert_eq!(
-            super::split_type::<crate::RunProgramRequest>(),
-            ("cnc_msgs", "RunProgram")
-        );
-        assert_eq!(
-            super::split_type::<crate::SetBoolResponse>(),
-            ("std_srvs", "SetBool")
-        );
-        assert_eq!(
-            super::action_type::<crate::ExecuteProgramResult>(),
-            ("cnc_msgs", "ExecuteProgram")
-        );
-    }
-}
-
 /// Re-publishes this context's node information on `ros_discovery_info`
 /// every second for the first ten seconds, then every five seconds.
 ///
@@ -475,4 +452,27 @@ pub fn join_with(
     let node = node_with(&ctx, namespace, name, options)?;
     keep_announcing(&ctx)?;
     Ok((ctx, node))
+}
+
+#[cfg(test)]
+mod type_names {
+    #[test]
+    fn split() {
+        assert_eq!(
+            super::split_type::<crate::JointState>(),
+            ("sensor_msgs", "JointState")
+        );
+        assert_eq!(
+            super::split_type::<crate::RunProgramRequest>(),
+            ("cnc_msgs", "RunProgram")
+        );
+        assert_eq!(
+            super::split_type::<crate::SetBoolResponse>(),
+            ("std_srvs", "SetBool")
+        );
+        assert_eq!(
+            super::action_type::<crate::ExecuteProgramResult>(),
+            ("cnc_msgs", "ExecuteProgram")
+        );
+    }
 }

@@ -392,7 +392,7 @@ mod tests {
         c.update();
         let now = Instant::now();
         let a = c.stamp(now - Duration::from_millis(20)).as_secs_f64();
-        let w = super::wall_stamp().as_secs_f64();
+        let w = crate::ros::wall_stamp().as_secs_f64();
         assert!((w - a - 0.020).abs() < 0.005, "{}", w - a);
         // instants a period apart are stamped a period apart, to the ns
         let d = c.ns_at(now + Duration::from_micros(1000)) - c.ns_at(now);
