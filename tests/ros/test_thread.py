@@ -609,17 +609,21 @@ def test_thread_the_cut_groove_stays_put_at_s200_s800_s2000_with_ripple(machine,
                  len(sp), len(ac)))
         # the controller's own measurement of the recording (`cnc plot
         # --thread`, the same pairing in Rust: setpoints as published, at
-        # their stamp + the setpoint delay + the servo lag) agrees: its
-        # setpoints' mean with this one as published; its actual mean,
-        # taken over the whole synchronized part (from the end of the
-        # run-in: the axis still settles there, which this test's window
-        # leaves out), with this measurement over the same part
+        # their stamp + the setpoint delay + the servo lag; joint states at
+        # their own stamps) agrees with this one over the same part of the
+        # pass: the whole synchronized part it prints (from the end of the
+        # run-in, where the axis still settles, which this test's window
+        # leaves out; and the setpoints' acceleration lead follows the
+        # ripple, so their mean depends on the span by up to 0.015 deg at
+        # S2000)
         r_set, r_act, (z0, z1) = cnc_plot_thread(r.recording, str(tmp_path / ("s%d.svg" % rpm)))
-        ac_all = pairs_at(act, enc, 1, 5.0, min(z0, z1), max(z0, z1), ahead=0.0)
-        a_mean_all = groove(ac_all, 5.0, 1.5, 90.0)[0]
-        print("S%d: cnc plot --thread: setpoints mean %+.4f deg (here, as published: %+.4f), actual mean %+.4f "
-              "deg (here over Z %.3f..%.3f: %+.4f)" % (rpm, r_set, r_mean, r_act, z0, z1, a_mean_all))
-        assert abs(r_set - r_mean) <= 0.02, (rpm, r_set, r_mean)
+        lo, hi = min(z0, z1), max(z0, z1)
+        s_mean_all = groove(pairs_at(sps, enc, 1, 5.0, lo, hi), 5.0, 1.5, 90.0)[0]
+        a_mean_all = groove(pairs_at(act, enc, 1, 5.0, lo, hi, ahead=0.0), 5.0, 1.5, 90.0)[0]
+        print("S%d: cnc plot --thread over Z %.3f..%.3f: setpoints mean %+.4f deg (here %+.4f; as published "
+              "over -35..-2: %+.4f), actual mean %+.4f deg (here %+.4f)"
+              % (rpm, z0, z1, r_set, s_mean_all, r_mean, r_act, a_mean_all))
+        assert abs(r_set - s_mean_all) <= 0.02, (rpm, r_set, s_mean_all)
         assert abs(r_act - a_mean_all) <= 0.02, (rpm, r_act, a_mean_all)
     print("| S | setpoints mean | setpoints worst | as published: worst | acceleration lead | actual mean "
           "| actual worst | actual spread |")
