@@ -22,8 +22,10 @@ echo "== ROS 2 integration with a stock peer (rclpy, Kilted wheels from PyPI)"
 bash scripts/ros_peer/setup.sh
 # shellcheck disable=SC1091
 . .venv-ros/env.sh
-cargo build --locked -p cnc_node -p sim_axes --bins
-cargo build --locked -p cnc_node --example record_example
+# `cargo test` above already built (and placed in target/debug) the nodes, the
+# cnc tool and the record_example the tests run; a separate `cargo build -p`
+# would resolve other features and compile the whole tree a second time.
+cargo test --workspace --locked --no-run
 # (one line a failure, with what the test printed: all of them fit in a
 # CI log that is cut)
 CNC_SKIP_BUILD=1 python3 -m pytest tests/ros tests/mcap -q -p no:cacheprovider --tb=line -rfE
