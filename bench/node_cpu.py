@@ -67,6 +67,9 @@ def window(procs, secs, spin):
     spin(secs)
     c1 = {k: (cpu_s("/proc/%d/stat" % p.pid), threads(p.pid)) for k, p in procs.items()}
     w = time.time() - t0
+    if w > 1.5 * secs:
+        # (the whole machine stalled: what was measured is not this window)
+        return None
 
     def delta(k, t):
         (a, m), (b, n) = c0[k][1].get(t, (0.0, 0)), c1[k][1][t]
@@ -102,6 +105,10 @@ def one(a, label, bindir, run_no, node):
             spin(0.1)
         spin(a.settle)
         res = {"idle": window(procs, a.window, spin)}
+        if res["idle"] is None:
+            print("run %d %s: the idle window took over 1.5 times its length (the machine stalled); left out"
+                  % (run_no + 1, label), flush=True)
+            del res["idle"]
         if not a.no_sim:
             req = RunProgram.Request()
             req.program_path = "lathe_job.nc"
@@ -115,7 +122,11 @@ def one(a, label, bindir, run_no, node):
             res["running"] = window(procs, a.window, spin)
             # (a job that ended in the window, e.g. in ERROR on a busy
             # machine, did not run all of it: the run is left out)
-            if not states or set(states) != {ControllerStatus.STATE_RUNNING}:
+            if res["running"] is None:
+                print("run %d %s: the running window took over 1.5 times its length (the machine stalled); left out"
+                      % (run_no + 1, label), flush=True)
+                del res["running"]
+            elif not states or set(states) != {ControllerStatus.STATE_RUNNING}:
                 print("run %d %s: the job was not RUNNING throughout the window (states %s); left out"
                       % (run_no + 1, label, sorted(set(states))), flush=True)
                 del res["running"]
