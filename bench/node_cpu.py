@@ -1,6 +1,7 @@
 """CPU of one twin (cnc_node + sim_axes) at 1 kHz, idle and running a job,
 as a new user measures it: utime + stime from /proc/PID/stat over a window,
-in % of one core, per process and per thread (/proc/PID/task/TID/stat).
+in % of one core, per process and per thread (/proc/PID/task/TID/stat,
+with each thread's wake-ups per second from .../status).
 Several builds side by side in the same run, interleaved, several runs
 each; medians.
 
@@ -24,6 +25,7 @@ ROOT = os.path.dirname(HERE)
 import rclpy  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 
+from cnc_msgs.msg import ControllerStatus  # noqa: E402
 from cnc_msgs.srv import RunProgram  # noqa: E402
 
 
@@ -33,29 +35,46 @@ def cpu_s(path):
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
+def wakeups(path):
+    """Voluntary context switches of a thread (its wake-ups from a sleep or
+    a wait), from /proc/PID/task/TID/status."""
+    with open(path) as f:
+        for line in f:
+            if line.startswith("voluntary_ctxt_switches:"):
+                return int(line.split()[1])
+    return 0
+
+
 def threads(pid):
-    """{thread name: cpu s} (threads of one name summed)."""
+    """{thread name: (cpu s, wake-ups)} (threads of one name summed)."""
     out = {}
     for tid in os.listdir("/proc/%d/task" % pid):
         try:
             with open("/proc/%d/task/%s/comm" % (pid, tid)) as f:
                 name = f.read().strip()
-            out[name] = out.get(name, 0.0) + cpu_s("/proc/%d/task/%s/stat" % (pid, tid))
+            c, n = out.get(name, (0.0, 0))
+            out[name] = (c + cpu_s("/proc/%d/task/%s/stat" % (pid, tid)),
+                         n + wakeups("/proc/%d/task/%s/status" % (pid, tid)))
         except OSError:
             pass
     return out
 
 
 def window(procs, secs, spin):
-    """{proc name: (percent, {thread: percent})} over `secs`."""
+    """{proc name: (percent, {thread: (percent, wake-ups/s)})} over `secs`."""
     c0 = {k: (cpu_s("/proc/%d/stat" % p.pid), threads(p.pid)) for k, p in procs.items()}
     t0 = time.time()
     spin(secs)
     c1 = {k: (cpu_s("/proc/%d/stat" % p.pid), threads(p.pid)) for k, p in procs.items()}
     w = time.time() - t0
-    return {k: (100.0 * (c1[k][0] - c0[k][0]) / w,
-                {t: 100.0 * (c1[k][1].get(t, 0.0) - c0[k][1].get(t, 0.0)) / w for t in c1[k][1]})
-            for k in procs}
+    if w > 1.5 * secs:
+        # (the whole machine stalled: what was measured is not this window)
+        return None
+
+    def delta(k, t):
+        (a, m), (b, n) = c0[k][1].get(t, (0.0, 0)), c1[k][1][t]
+        return 100.0 * (b - a) / w, (n - m) / w
+    return {k: (100.0 * (c1[k][0] - c0[k][0]) / w, {t: delta(k, t) for t in c1[k][1]}) for k in procs}
 
 
 def one(a, label, bindir, run_no, node):
@@ -72,6 +91,8 @@ def one(a, label, bindir, run_no, node):
              "--program-dir", os.path.join(HERE, "fleet")] + a.node_args.split(),
             cwd=ROOT, env=env, stderr=subprocess.DEVNULL)
         cli = node.create_client(RunProgram, ns + "/run_program")
+        states = []
+        sub = node.create_subscription(ControllerStatus, ns + "/status", lambda m: states.append(m.state), 10)
         ex = SingleThreadedExecutor()
         ex.add_node(node)
 
@@ -84,6 +105,10 @@ def one(a, label, bindir, run_no, node):
             spin(0.1)
         spin(a.settle)
         res = {"idle": window(procs, a.window, spin)}
+        if res["idle"] is None:
+            print("run %d %s: the idle window took over 1.5 times its length (the machine stalled); left out"
+                  % (run_no + 1, label), flush=True)
+            del res["idle"]
         if not a.no_sim:
             req = RunProgram.Request()
             req.program_path = "lathe_job.nc"
@@ -93,7 +118,19 @@ def one(a, label, bindir, run_no, node):
                 spin(0.01)
             assert fut.done() and fut.result().accepted, fut.result() if fut.done() else "no reply"
             spin(1.0)
+            del states[:]
             res["running"] = window(procs, a.window, spin)
+            # (a job that ended in the window, e.g. in ERROR on a busy
+            # machine, did not run all of it: the run is left out)
+            if res["running"] is None:
+                print("run %d %s: the running window took over 1.5 times its length (the machine stalled); left out"
+                      % (run_no + 1, label), flush=True)
+                del res["running"]
+            elif not states or set(states) != {ControllerStatus.STATE_RUNNING}:
+                print("run %d %s: the job was not RUNNING throughout the window (states %s); left out"
+                      % (run_no + 1, label, sorted(set(states))), flush=True)
+                del res["running"]
+        node.destroy_subscription(sub)
         node.destroy_client(cli)
         ex.remove_node(node)
         return res
@@ -133,21 +170,26 @@ def main():
     print("load average after: %s" % open("/proc/loadavg").read().split()[:3])
     print("| build | state | cnc_node % of a core (median, runs) | sim_axes % of a core (median, runs) |")
     print("|---|---|---:|---:|")
+    def phases(lab):
+        return [ph for ph in ("idle", "running") if any(ph in x for x in got[lab])]
     for lab, _ in builds:
-        for ph in got[lab][0]:
+        for ph in phases(lab):
             cells = []
             for k in ("cnc_node", "sim_axes"):
-                v = [x[ph][k][0] for x in got[lab] if k in x[ph]]
+                v = [x[ph][k][0] for x in got[lab] if ph in x and k in x[ph]]
                 cells.append("%.1f (%s)" % (statistics.median(v), ", ".join("%.1f" % y for y in v)) if v else "—")
             print("| %s | %s | %s | %s |" % (lab, ph, cells[0], cells[1]))
     if a.threads:
         for lab, _ in builds:
-            for ph in got[lab][0]:
-                for k in got[lab][0][ph]:
-                    names = sorted({t for x in got[lab] for t in x[ph][k][1]})
-                    med = {t: statistics.median([x[ph][k][1].get(t, 0.0) for x in got[lab]]) for t in names}
-                    print("%s %s %s threads: %s" % (lab, ph, k, ", ".join(
-                        "%s %.1f" % (t, v) for t, v in sorted(med.items(), key=lambda kv: -kv[1]) if v >= 0.05)))
+            for ph in phases(lab):
+                runs = [x for x in got[lab] if ph in x]
+                for k in runs[0][ph]:
+                    names = sorted({t for x in runs for t in x[ph][k][1]})
+                    med = {t: [statistics.median([x[ph][k][1].get(t, (0.0, 0.0))[i] for x in runs]) for i in (0, 1)]
+                           for t in names}
+                    print("%s %s %s threads (%% of a core, wake-ups/s): %s" % (lab, ph, k, ", ".join(
+                        "%s %.1f (%.0f/s)" % (t, v[0], v[1])
+                        for t, v in sorted(med.items(), key=lambda kv: -kv[1][0]) if v[0] >= 0.05)))
     node.destroy_node()
     rclpy.shutdown()
 

@@ -11,7 +11,7 @@ N60 G02 X50 Z-30 I10 K0
 N70 G01 X60
 N80 Z-45
 N90 G94 G00 X30 Z5
-N100                        " (the thread at S1200 too: a new S while the spindle turns is not commanded to the spindle today, see BENCHMARKS.md)
+N100                        " (the thread at S1200 too, as in the first measurements: a new S while the spindle turns was not commanded then; it is since 7fd6450)
 N110 G00 X20 Z5
 N120 G33 Z-30 F1.5          " first pass, pitch 1.5 mm/rev
 N130 G00 X30
