@@ -31,6 +31,10 @@ fn std_types_match_their_definitions() {
     check::<TFMessage>(d::TF_MESSAGE_MSG);
     check::<PointField>(d::POINT_FIELD_MSG);
     check::<PointCloud2>(d::POINT_CLOUD2_MSG);
+    check::<Log>(d::LOG_MSG);
+    check::<KeyValue>(d::KEY_VALUE_MSG);
+    check::<DiagnosticStatus>(d::DIAGNOSTIC_STATUS_MSG);
+    check::<DiagnosticArray>(d::DIAGNOSTIC_ARRAY_MSG);
     check::<ControllerStatus>(definitions::CONTROLLER_STATUS_MSG);
     check::<SpindleEncoder>(definitions::SPINDLE_ENCODER_MSG);
     let want: Pairs = PointField::CONSTANTS
@@ -38,6 +42,16 @@ fn std_types_match_their_definitions() {
         .map(|(n, v)| (n.to_string(), v.to_string()))
         .collect();
     assert_eq!(parse(d::POINT_FIELD_MSG).1, want);
+    let pairs = |c: &[(&str, u8)]| -> Pairs {
+        c.iter()
+            .map(|(n, v)| (n.to_string(), v.to_string()))
+            .collect()
+    };
+    assert_eq!(parse(d::LOG_MSG).1, pairs(Log::CONSTANTS));
+    assert_eq!(
+        parse(d::DIAGNOSTIC_STATUS_MSG).1,
+        pairs(DiagnosticStatus::CONSTANTS)
+    );
 }
 
 /// Splits a complete definition into (package-qualified name, text) sections.
