@@ -14,3 +14,4 @@ pub mod plot;
 pub mod program;
 pub mod record;
 pub mod recover;
+pub mod urdf;
