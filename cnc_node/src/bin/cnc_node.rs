@@ -32,7 +32,9 @@ use cnc_msgs::*;
 use cnc_node::admit::{admit, fit_run_reply, recorder, RecordOpts, Refusal};
 use cnc_node::controller::{ActualSample, Controller, EncoderSample, Job, State, Status, Tick};
 use cnc_node::convert::{self, stamp_ns, time_ns};
+use cnc_node::diagnostics::LOOP;
 use cnc_node::files::load_machine;
+use cnc_node::observe::{self, Observer};
 use cnc_node::record::JobRecorder;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
@@ -100,7 +102,7 @@ struct Out {
 
 fn main() {
     if let Err(e) = run(Args::parse()) {
-        eprintln!("cnc_node: {e}");
+        ros_error!("{e}");
         std::process::exit(2);
     }
 }
@@ -137,10 +139,11 @@ fn run(args: Args) -> Result<(), String> {
     let dds_rt = ros::dds_priority(args.rt_priority);
     if dds_rt > 0 {
         if let Err(e) = ros::set_realtime(dds_rt) {
-            eprintln!("cnc_node: DDS threads stay at normal priority (SCHED_FIFO {dds_rt}: {e})");
+            ros_warn!("DDS threads stay at normal priority (SCHED_FIFO {dds_rt}: {e})");
         }
     }
     let (ctx, mut node) = ros::join(domain, &args.namespace, "cnc_node")?;
+    cnc_msgs::rosout::init(&ctx, &mut node, &args.namespace, "cnc_node")?;
     let ns = args.namespace.as_str();
     // a subscriber that dies must not stop the setpoints for the others
     let window = ros::lease_window(machine.interpolation.rate_hz);
@@ -156,6 +159,7 @@ fn run(args: Args) -> Result<(), String> {
     let srv_abort = ros::server::<TriggerRequest, TriggerResponse>(&mut node, ns, "abort")?;
     let srv_hold = ros::server::<SetBoolRequest, SetBoolResponse>(&mut node, ns, "feed_hold")?;
     let sub_ovr = ros::subscription::<Float64>(&mut node, ns, "feed_override")?;
+    let mut obs = Observer::new(&mut node, ns, &machine)?;
 
     // where the machine stands (f64 bits per joint), for checks of new jobs
     let here: Arc<[AtomicU64; 3]> = Arc::new(Default::default());
@@ -213,10 +217,10 @@ fn run(args: Args) -> Result<(), String> {
             .spawn(move || {
                 if rt > 0 {
                     if let Err(e) = ros::lock_memory() {
-                        eprintln!("cnc_node: memory not locked (mlockall: {e})");
+                        ros_warn!("memory not locked (mlockall: {e})");
                     }
                     if let Err(e) = ros::set_realtime(rt) {
-                        eprintln!("cnc_node: control loop stays at normal priority (SCHED_FIFO {rt}: {e})");
+                        ros_warn!("control loop stays at normal priority (SCHED_FIFO {rt}: {e})");
                     }
                 }
                 control_loop(m, cmd_rx, (enc_rx, act_rx), out_tx, here, state, stats)
@@ -242,8 +246,8 @@ fn run(args: Args) -> Result<(), String> {
             .map_err(|e| e.to_string())?;
     }
     let names: Vec<String> = machine.axes.iter().map(|a| a.name.clone()).collect();
-    eprintln!(
-        "cnc_node: {} ({}), {} Hz, domain {domain}, serving {}/run_program",
+    ros_info!(
+        "{} ({}), {} Hz, domain {domain}, serving {}/run_program",
         machine.name,
         names.join(" "),
         machine.interpolation.rate_hz,
@@ -253,6 +257,7 @@ fn run(args: Args) -> Result<(), String> {
     let mut spindle_sent = Instant::now();
     let mut recording: Option<(u32, Rec)> = None;
     loop {
+        obs.poll();
         // services
         while let Ok(Some((id, req))) = srv_run.receive_request() {
             let _ = chk_tx.send((id, req));
@@ -272,6 +277,7 @@ fn run(args: Args) -> Result<(), String> {
             let _ = srv_run.send_response(id, resp);
         }
         while let Ok(m) = enc_rec_rx.try_recv() {
+            obs.encoder(&m);
             if let Some((_, rec)) = recording.as_mut() {
                 let _ = rec.encoder(&m);
             }
@@ -314,6 +320,7 @@ fn run(args: Args) -> Result<(), String> {
                 last_spindle = t.spindle_rpm;
                 convert::spindle_command(t.spindle_rpm)
             });
+            obs.sample(o.stamp, t, o.status.as_ref());
             let status = o.status.as_ref().map(|s| convert::status(s, o.stamp));
             if let Some((id, rec)) = recording.as_mut() {
                 let r = rec
@@ -396,16 +403,13 @@ fn ask(
 fn finish_recording(id: u32, rec: Rec, err: Option<String>) {
     let file = rec.file.clone();
     match err.map_or_else(|| rec.finish(), Err) {
-        Ok(s) => eprintln!(
-            "cnc_node: job {id} recorded to {} ({} messages, {} bytes)",
+        Ok(s) => ros_info!(
+            "job {id} recorded to {} ({} messages, {} bytes)",
             file.display(),
             s.messages,
             s.bytes
         ),
-        Err(e) => eprintln!(
-            "cnc_node: recording of job {id} to {} failed: {e}",
-            file.display()
-        ),
+        Err(e) => ros_error!("recording of job {id} to {} failed: {e}", file.display()),
     }
 }
 
@@ -479,14 +483,20 @@ fn control_loop(
         }
         let mut due = grid.due(now);
         if due as f64 * dt > MAX_BEHIND_S {
-            eprintln!(
-                "cnc_node: the control loop fell {:.0} ms behind; {} cycles skipped",
+            ros_error!(
+                "the control loop fell {:.0} ms behind; {} cycles skipped",
                 due as f64 * dt * 1000.0,
                 due - 1
             );
+            LOOP.skipped(due - 1);
             grid.skip(due - 1);
             due = 1;
         }
+        LOOP.wake(
+            now.saturating_duration_since(deadline),
+            due.min(CATCH_UP),
+            dt,
+        );
         clock.update();
         for _ in 0..due.min(CATCH_UP) {
             let n = grid.advance();
@@ -498,10 +508,10 @@ fn control_loop(
         if let Some(every) = stats {
             if Instant::now() >= stats_due {
                 stats_due += every;
-                eprintln!("cnc_node: loop lateness {}", lateness.summary());
+                ros_info!("loop lateness {}", lateness.summary());
                 if let Some(a) = &lp.enc_age {
                     if a.count() > 0 {
-                        eprintln!("cnc_node: encoder reading age {}", a.summary());
+                        ros_info!("encoder reading age {}", a.summary());
                     }
                 }
             }
@@ -530,7 +540,7 @@ impl Loop {
                 }
                 Ok(Cmd::Override(pct)) => {
                     if let Err(e) = self.ctl.set_feed_override(pct) {
-                        eprintln!("cnc_node: {e}");
+                        ros_warn!("{e}");
                     }
                 }
                 Err(TryRecvError::Empty) => break,
@@ -578,11 +588,9 @@ impl Loop {
         };
         if self.out.try_send(o).is_err() {
             self.dropped += 1;
+            LOOP.dropped(1);
             if self.dropped.is_power_of_two() {
-                eprintln!(
-                    "cnc_node: publisher queue full, {} samples dropped",
-                    self.dropped
-                );
+                ros_error!("publisher queue full, {} samples dropped", self.dropped);
             }
         }
         true
@@ -601,6 +609,9 @@ fn check_worker(
     let mut next_id = 1u32;
     while let Ok((id, req)) = reqs.recv() {
         let resp = handle_run(&machine, &dir, &rec, &req, &mut next_id, &cmds, &here);
+        if resp.job_id == 0 {
+            observe::log_run(&req, &resp);
+        }
         let _ = resps.send((id, fit_run_reply(resp)));
     }
 }
@@ -641,6 +652,7 @@ fn handle_run(
         .map(|r| r.file.display().to_string())
         .unwrap_or_default();
     let accepted = admitted.reply(job_id, recording);
+    observe::log_run(req, &accepted);
     let (tx, rx) = mpsc::channel();
     if cmds
         .send(Cmd::Start(admitted.job(job_id), recorder, tx))

@@ -30,9 +30,10 @@ use clap::Parser;
 use cnc_core::machine::MAX_SETPOINT_DELAY_MS;
 use cnc_msgs::ros::{self, Grid, WallClock};
 use cnc_msgs::{
-    Float64, Header, JointState, SetBoolRequest, SetBoolResponse, SetDelayRequest,
-    SetDelayResponse, SpindleEncoder, Time,
+    ros_error, ros_info, ros_warn, DiagnosticArray, Float64, Header, JointState, SetBoolRequest,
+    SetBoolResponse, SetDelayRequest, SetDelayResponse, SpindleEncoder, Time,
 };
+use sim_axes::diagnostics::{SimMonitor, SpindleState};
 use sim_axes::machine::{load_machine, model_for};
 use sim_axes::SetpointQueue;
 use std::time::Instant;
@@ -89,7 +90,7 @@ const MAX_BEHIND_S: f64 = 1.0;
 
 fn main() {
     if let Err(e) = run(Args::parse()) {
-        eprintln!("sim_axes: {e}");
+        ros_error!("{e}");
         std::process::exit(2);
     }
 }
@@ -120,10 +121,14 @@ fn run(a: Args) -> Result<(), String> {
     let dds_rt = ros::dds_priority(a.rt_priority);
     if dds_rt > 0 {
         if let Err(e) = ros::set_realtime(dds_rt) {
-            eprintln!("sim_axes: DDS threads stay at normal priority (SCHED_FIFO {dds_rt}: {e})");
+            ros_warn!("DDS threads stay at normal priority (SCHED_FIFO {dds_rt}: {e})");
         }
     }
     let (ctx, mut node) = ros::join(domain, &a.namespace, "sim_axes")?;
+    cnc_msgs::rosout::init(&ctx, &mut node, &a.namespace, "sim_axes")?;
+    let pub_diag = ros::publisher::<DiagnosticArray>(&mut node, "/", "diagnostics")?;
+    let mut mon = SimMonitor::default();
+    let hardware_id = format!("{} ({})", machine.name, a.namespace.trim_end_matches('/'));
     let cns = a.controller_namespace.as_str();
     let sub_set = ros::subscription::<JointState>(&mut node, cns, "joint_setpoints")?;
     let sub_spin = ros::subscription::<Float64>(&mut node, cns, "spindle_command")?;
@@ -163,11 +168,11 @@ fn run(a: Args) -> Result<(), String> {
     let mut encoder_on = true;
     if a.rt_priority > 0 {
         if let Err(e) = ros::lock_memory() {
-            eprintln!("sim_axes: memory not locked (mlockall: {e})");
+            ros_warn!("memory not locked (mlockall: {e})");
         }
         if let Err(e) = ros::set_realtime(a.rt_priority) {
-            eprintln!(
-                "sim_axes: loop stays at normal priority (SCHED_FIFO {}: {e})",
+            ros_warn!(
+                "loop stays at normal priority (SCHED_FIFO {}: {e})",
                 a.rt_priority
             );
         }
@@ -178,8 +183,9 @@ fn run(a: Args) -> Result<(), String> {
     let mut last_warn: Option<Instant> = None;
     let mut last_late: Option<Instant> = None;
     let mut states: Vec<JointState> = Vec::new();
-    eprintln!(
-        "sim_axes: {} ({}), {} Hz, setpoints applied {}, domain {domain}, {ns}/joint_states, {ns}/spindle_encoder, {ns}/encoder_enabled, {ns}/spindle_stalled, {ns}/setpoint_delay",
+    let mut diag_at = Instant::now();
+    ros_info!(
+        "{} ({}), {} Hz, setpoints applied {}, domain {domain}, {ns}/joint_states, {ns}/spindle_encoder, {ns}/encoder_enabled, {ns}/spindle_stalled, {ns}/setpoint_delay",
         machine.name,
         names.join(" "),
         rate,
@@ -193,14 +199,15 @@ fn run(a: Args) -> Result<(), String> {
                     names.iter().position(|x| x == n).map(|j| (j, p * 1000.0))
                 });
             queue.push(time_ns(&m.header.stamp), joints);
+            mon.setpoint(start.elapsed().as_secs_f64());
         }
         while let Ok(Some((id, req))) = srv_delay.receive_request() {
             let resp = match check_delay(req.delay_ms) {
                 Ok(()) => {
                     let was = queue.delay_ns() as f64 * 1e-6;
                     queue.set_delay_ns(ms_to_ns(req.delay_ms));
-                    eprintln!(
-                        "sim_axes: setpoint delay {was} ms -> {} ms (fault injection)",
+                    ros_warn!(
+                        "setpoint delay {was} ms -> {} ms (fault injection)",
                         req.delay_ms
                     );
                     SetDelayResponse {
@@ -257,22 +264,24 @@ fn run(a: Args) -> Result<(), String> {
         // the steps due by now (one, or the ones a late wake-up missed)
         let mut due = grid.due(Instant::now());
         if due as f64 * dt > MAX_BEHIND_S {
-            eprintln!(
-                "sim_axes: the loop fell {:.0} ms behind; the simulation skips it",
+            ros_error!(
+                "the loop fell {:.0} ms behind; the simulation skips it",
                 due as f64 * dt * 1000.0
             );
+            mon.skipped(due - 1);
             grid.skip(due - 1);
             due = 1;
         }
         if due as f64 * dt >= STALL_WARN_S && last_warn.is_none_or(|w| w.elapsed().as_secs() >= 1) {
             // (a reader of the encoder sees these readings late)
-            eprintln!(
-                "sim_axes: stalled: {} steps ({:.0} ms) ran late at once",
+            ros_warn!(
+                "stalled: {} steps ({:.0} ms) ran late at once",
                 due,
                 due as f64 * dt * 1000.0
             );
             last_warn = Some(Instant::now());
         }
+        mon.wake(due, dt);
         clock.update();
         // the encoder readings first (the controller waits for them), then
         // the joint states
@@ -308,13 +317,36 @@ fn run(a: Args) -> Result<(), String> {
             let _ = pub_js.publish(js);
         }
         if queue.late() > late_reported && last_late.is_none_or(|w| w.elapsed().as_secs() >= 1) {
-            eprintln!(
-                "sim_axes: {} setpoints arrived after their instant (stamp + {} ms) and were applied at once",
+            ros_warn!(
+                "{} setpoints arrived after their instant (stamp + {} ms) and were applied at once",
                 queue.late() - late_reported,
                 queue.delay_ns() as f64 * 1e-6
             );
             late_reported = queue.late();
             last_late = Some(Instant::now());
+        }
+        if diag_at.elapsed().as_secs_f64() >= 1.0 {
+            diag_at = Instant::now();
+            let spindle = model.spindle.as_ref().map(|sp| SpindleState {
+                encoder_on,
+                stalled: sp.stalled(),
+                rpm: sp.speed_rpm(),
+                command_rpm: spindle_rpm,
+            });
+            let status = mon.statuses(
+                start.elapsed().as_secs_f64(),
+                queue.late(),
+                queue.delay_ns() as f64 * 1e-6,
+                spindle,
+                &hardware_id,
+            );
+            let _ = pub_diag.publish(DiagnosticArray {
+                header: Header {
+                    stamp: ros::wall_stamp(),
+                    frame_id: String::new(),
+                },
+                status,
+            });
         }
         if a.duration
             .is_some_and(|d| start.elapsed().as_secs_f64() >= d)
