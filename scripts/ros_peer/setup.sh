@@ -1,15 +1,16 @@
 #!/usr/bin/env bash
 # Set up a stock ROS 2 (Kilted) peer from PyPI wheels, for interop tests of the
-# Rust controller: rclpy + rmw_fastrtps_cpp + std/sensor msgs, and our own
-# interface package msgs/ (cnc_msgs) built with plain cmake.
+# Rust controller: rclpy + rmw_fastrtps_cpp + std/sensor/diagnostic msgs, our own
+# interface package msgs/ (cnc_msgs) built with plain cmake, and tf2_msgs's
+# TFMessage (scripts/ros_peer/tf2_msgs: geometry2 has no wheel on PyPI) likewise.
 #
 #   scripts/ros_peer/setup.sh          # idempotent; re-runs take a few seconds
 #   . .venv-ros/env.sh                 # then: python3 scripts/ros_peer/smoke.py
 #
 # Creates (all gitignored, under the repo root):
 #   .venv-ros/                    Python 3.11 venv with the pinned wheels (requirements.txt)
-#   .venv-ros/build/cnc_msgs/     cmake build tree of msgs/
-#   .venv-ros/cnc_msgs_install/   install prefix of cnc_msgs (C/C++ libs, Python package, ament index)
+#   .venv-ros/build/cnc_msgs/     cmake build tree of msgs/ (build/tf2_msgs/: of tf2_msgs)
+#   .venv-ros/cnc_msgs_install/   install prefix of cnc_msgs and tf2_msgs (C/C++ libs, Python packages, ament index)
 #   .venv-ros/env.sh              environment for tests (PATH, PYTHONPATH, LD_LIBRARY_PATH, ...)
 # and, outside the repo, symlinks under /opt/python/cp311-cp311 (only if missing or
 # dangling) because the wheels' CMake exports hard-code the manylinux build
@@ -25,7 +26,6 @@ here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
 venv="$root/.venv-ros"
 prefix="$venv/cnc_msgs_install"
-build="$venv/build/cnc_msgs"
 req="$here/requirements.txt"
 py="${ROS_PEER_PYTHON:-python3}"
 force="${ROS_PEER_FORCE:-0}"
@@ -118,23 +118,29 @@ export PATH="$venv/bin:$PATH"
 export CMAKE_PREFIX_PATH="$venv"
 export AMENT_PREFIX_PATH="$venv"
 unset PYTHONPATH
-if [ "$force" = 1 ]; then rm -rf "$build" "$prefix"; fi
+if [ "$force" = 1 ]; then rm -rf "$venv/build" "$prefix"; fi
 mkdir -p "$venv/build"
-if [ ! -f "$build/CMakeCache.txt" ]; then
-  log "cmake configure msgs/"
-  cmake -S "$root/msgs" -B "$build" \
-    -DCMAKE_BUILD_TYPE=Release \
-    -DCMAKE_INSTALL_PREFIX="$prefix" \
-    -DPython3_EXECUTABLE="$vpy" \
-    -DBUILD_TESTING=OFF \
-    >"$venv/build/cnc_msgs.configure.log" 2>&1 \
-    || { cat "$venv/build/cnc_msgs.configure.log" >&2; exit 1; }
-fi
-log "cmake build + install msgs/ -> $(realpath --relative-to="$root" "$prefix")"
-cmake --build "$build" -j "$(nproc)" >"$venv/build/cnc_msgs.build.log" 2>&1 \
-  || { tail -50 "$venv/build/cnc_msgs.build.log" >&2; exit 1; }
-cmake --install "$build" >"$venv/build/cnc_msgs.install.log" 2>&1 \
-  || { cat "$venv/build/cnc_msgs.install.log" >&2; exit 1; }
+# build_pkg NAME SOURCE_DIR: configure once, then build and install into $prefix
+build_pkg() {
+  local name="$1" src="$2" b="$venv/build/$1"
+  if [ ! -f "$b/CMakeCache.txt" ]; then
+    log "cmake configure $(realpath --relative-to="$root" "$src")"
+    cmake -S "$src" -B "$b" \
+      -DCMAKE_BUILD_TYPE=Release \
+      -DCMAKE_INSTALL_PREFIX="$prefix" \
+      -DPython3_EXECUTABLE="$vpy" \
+      -DBUILD_TESTING=OFF \
+      >"$venv/build/$name.configure.log" 2>&1 \
+      || { cat "$venv/build/$name.configure.log" >&2; exit 1; }
+  fi
+  log "cmake build + install $(realpath --relative-to="$root" "$src") -> $(realpath --relative-to="$root" "$prefix")"
+  cmake --build "$b" -j "$(nproc)" >"$venv/build/$name.build.log" 2>&1 \
+    || { tail -50 "$venv/build/$name.build.log" >&2; exit 1; }
+  cmake --install "$b" >"$venv/build/$name.install.log" 2>&1 \
+    || { cat "$venv/build/$name.install.log" >&2; exit 1; }
+}
+build_pkg cnc_msgs "$root/msgs"
+build_pkg tf2_msgs "$here/tf2_msgs"
 
 # ---------------------------------------------------------------- 5. env.sh
 cat > "$venv/env.sh" <<EOF
@@ -165,5 +171,5 @@ EOF
 # ---------------------------------------------------------------- 6. check
 log "checking imports"
 ( . "$venv/env.sh"
-  python3 -c "import rclpy; from cnc_msgs.srv import RunProgram; from cnc_msgs.msg import SpindleEncoder, ControllerStatus; from sensor_msgs.msg import JointState; from std_srvs.srv import Trigger" )
+  python3 -c "import rclpy; from cnc_msgs.srv import RunProgram; from cnc_msgs.msg import SpindleEncoder, ControllerStatus; from sensor_msgs.msg import JointState; from std_srvs.srv import Trigger; from diagnostic_msgs.msg import DiagnosticArray; from rcl_interfaces.msg import Log; from tf2_msgs.msg import TFMessage" )
 log "done: . $(realpath --relative-to="$PWD" "$venv/env.sh" 2>/dev/null || echo "$venv/env.sh") && python3 scripts/ros_peer/smoke.py"
