@@ -122,3 +122,14 @@ fn point_cloud2_schema_text() {
     assert!(status.contains("\nMSG: std_msgs/Header\n"));
     assert!(status.ends_with(d::TIME_MSG));
 }
+
+/// The test peer's tf2_msgs package (scripts/ros_peer/tf2_msgs: PyPI has
+/// no tf2_msgs wheel) builds the message from the same text as
+/// geometry2's, so its type and hash are upstream's.
+#[test]
+fn the_test_peers_tf_message_is_geometry2s() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../scripts/ros_peer/tf2_msgs/msg/TFMessage.msg");
+    let text = std::fs::read_to_string(path).unwrap();
+    assert_eq!(text, d::TF_MESSAGE_MSG);
+}
