@@ -18,13 +18,14 @@
 //! - `cnc_node: job` ([`JobWatch`]): state, job id, line, block, progress,
 //!   override, spindle, last error; ERROR while the last job is in ERROR.
 //!
-//! [`JobWatch`] also says what the job's log lines are (started, held,
-//! resumed, finished, aborted, failed), from the status the loop reports.
+//! [`JobWatch`] also says what the job's log lines are (held, resumed,
+//! finished, aborted, failed), from the status the loop reports (its
+//! start is the check worker's "accepted" line).
 
 use crate::controller::{State, Status};
 use cnc_core::Machine;
 use cnc_msgs::rosout::Level;
-use cnc_msgs::{DiagnosticStatus, KeyValue, SpindleEncoder};
+use cnc_msgs::{short_num as num, DiagnosticStatus, KeyValue, SpindleEncoder};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
@@ -167,23 +168,6 @@ pub struct LoopWindow {
     pub max_us: f64,
 }
 
-fn kv(key: &str, value: impl ToString) -> KeyValue {
-    KeyValue {
-        key: key.to_string(),
-        value: value.to_string(),
-    }
-}
-
-/// A number as a value: at most `digits` decimals, no trailing zeros.
-fn num(v: f64, digits: usize) -> String {
-    let s = format!("{v:.digits$}");
-    if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        s
-    }
-}
-
 /// The names of the node's statuses (`<node>: <what>`).
 pub const LOOP_NAME: &str = "cnc_node: control loop";
 pub const ENCODER_NAME: &str = "cnc_node: spindle encoder";
@@ -244,16 +228,16 @@ impl LoopWindow {
             message,
             hardware_id: hardware_id.to_string(),
             values: vec![
-                kv("period (s)", num(period_s, 3)),
-                kv("rate (Hz)", num(rate_hz, 3)),
-                kv("wake-ups", self.wakeups),
-                kv("cycles", self.cycles),
-                kv("lateness p50 (us)", num(self.p50_us, 0)),
-                kv("lateness p99 (us)", num(self.p99_us, 0)),
-                kv("lateness max (us)", num(self.max_us, 1)),
-                kv("late cycles", self.late_cycles),
-                kv("skipped cycles", self.skipped),
-                kv("samples dropped", self.dropped),
+                KeyValue::new("period (s)", num(period_s, 3)),
+                KeyValue::new("rate (Hz)", num(rate_hz, 3)),
+                KeyValue::new("wake-ups", self.wakeups),
+                KeyValue::new("cycles", self.cycles),
+                KeyValue::new("lateness p50 (us)", num(self.p50_us, 0)),
+                KeyValue::new("lateness p99 (us)", num(self.p99_us, 0)),
+                KeyValue::new("lateness max (us)", num(self.max_us, 1)),
+                KeyValue::new("late cycles", self.late_cycles),
+                KeyValue::new("skipped cycles", self.skipped),
+                KeyValue::new("samples dropped", self.dropped),
             ],
         }
     }
@@ -338,18 +322,18 @@ impl EncoderWatch {
         };
         let age = self.newest.as_ref().map(|_| now_ns - self.newest_ns);
         st.values = vec![
-            kv("age of last reading (ms)", age.map_or("none".into(), ms)),
-            kv("max age in period (ms)", ms(max_age)),
-            kv("readings per s", num(per_s, 1)),
-            kv("timeout (ms)", ms(timeout)),
+            KeyValue::new("age of last reading (ms)", age.map_or("none".into(), ms)),
+            KeyValue::new("max age in period (ms)", ms(max_age)),
+            KeyValue::new("readings per s", num(per_s, 1)),
+            KeyValue::new("timeout (ms)", ms(timeout)),
         ];
         if let Some(m) = &self.newest {
             st.values.extend([
-                kv("index seen", m.index_count > 0),
-                kv("index pulses", m.index_count),
-                kv("count", m.count),
-                kv("counts per rev", m.counts_per_rev),
-                kv(
+                KeyValue::new("index seen", m.index_count > 0),
+                KeyValue::new("index pulses", m.index_count),
+                KeyValue::new("count", m.count),
+                KeyValue::new("counts per rev", m.counts_per_rev),
+                KeyValue::new(
                     "speed (rpm)",
                     num(m.velocity * 60.0 / std::f64::consts::TAU, 1),
                 ),
@@ -418,7 +402,7 @@ impl JobWatch {
             }
             State::Running => {
                 self.started = Some((id, stamp_ns));
-                Some((Level::Info, format!("job {id} started")))
+                None
             }
             State::Hold => Some((Level::Info, format!("job {id} held at line {line}"))),
             State::Idle if s.last_error.is_empty() => {
@@ -448,15 +432,15 @@ impl JobWatch {
         };
         let state = state_name(s.state);
         st.values = vec![
-            kv("state", state),
-            kv("job id", s.job_id),
-            kv("line", s.source_line),
-            kv("block", s.block_number),
-            kv("progress (%)", num(s.progress * 100.0, 1)),
-            kv("feed override (%)", num(s.feed_override * 100.0, 1)),
-            kv("spindle (rpm)", num(s.spindle_rpm, 1)),
-            kv("tool", s.active_tool),
-            kv("last error", &s.last_error),
+            KeyValue::new("state", state),
+            KeyValue::new("job id", s.job_id),
+            KeyValue::new("line", s.source_line),
+            KeyValue::new("block", s.block_number),
+            KeyValue::new("progress (%)", num(s.progress * 100.0, 1)),
+            KeyValue::new("feed override (%)", num(s.feed_override * 100.0, 1)),
+            KeyValue::new("spindle (rpm)", num(s.spindle_rpm, 1)),
+            KeyValue::new("tool", s.active_tool),
+            KeyValue::new("last error", &s.last_error),
         ];
         st.message = match s.state {
             _ if s.job_id == 0 => "no job yet".to_string(),
@@ -670,10 +654,8 @@ mod tests {
         assert_eq!(w.diagnostic("").message, "no job yet");
         assert_eq!(w.status(&status(State::Idle, 0, 0, ""), 0), None);
         let s = 1_000_000_000;
-        assert_eq!(
-            w.status(&status(State::Running, 1, 1, ""), s),
-            Some((Level::Info, "job 1 started".into()))
-        );
+        // (the start is logged by the check worker: "job 1 accepted")
+        assert_eq!(w.status(&status(State::Running, 1, 1, ""), s), None);
         assert_eq!(w.status(&status(State::Running, 1, 2, ""), s + 1), None);
         let d = w.diagnostic("mill (/cnc)");
         assert_eq!(

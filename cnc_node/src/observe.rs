@@ -16,8 +16,9 @@
 //! - `/diagnostics` (`diagnostic_msgs/DiagnosticArray`) every
 //!   [`crate::diagnostics::PERIOD`]: the control loop, the spindle encoder,
 //!   the job;
-//! - the job's log lines (started, held, resumed, finished, aborted,
-//!   failed) on stderr and `/rosout`.
+//! - the job's log lines (held, resumed, finished, aborted, failed) on
+//!   stderr and `/rosout`; `log_run` logs the answer to `run_program`
+//!   (accepted, refused).
 
 use crate::controller::{State, Status, Tick};
 use crate::convert::{self, time_ns};
@@ -158,10 +159,11 @@ fn now_ns() -> i64 {
     time_ns(&ros::wall_stamp())
 }
 
-/// Logs the answer to a `run_program` request: the job accepted (INFO,
-/// as it is handed to the control loop, so before its start), a dry run
-/// checked (INFO), or the refusal with its message (ERROR: a program's
-/// errors by line and column; or the loop's, after the job was accepted).
+/// Logs the answer to a `run_program` request: the job accepted (INFO:
+/// checked and started by the control loop; the check worker logs it, so
+/// in a busy machine it may come a little after the job's first status),
+/// a dry run checked (INFO), or the refusal with its message (ERROR: a
+/// program's errors by line and column, a job running, ...).
 pub fn log_run(req: &cnc_msgs::RunProgramRequest, resp: &cnc_msgs::RunProgramResponse) {
     let what = if req.program_path.is_empty() {
         format!("a program of {} bytes", req.program.len())

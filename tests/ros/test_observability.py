@@ -2,7 +2,7 @@
 real nodes and a stock rclpy peer:
 
 - `/rosout` (rcl_interfaces/Log, rclcpp's QoS): the controller's job lines
-  (accepted, started, finished) and a refused program's errors by line and
+  (accepted, finished) and a refused program's errors by line and
   column, the simulator's lines, each with the node's logger name, level,
   file, function, line and stamp;
 - `/diagnostics` (diagnostic_msgs/DiagnosticArray, 1 Hz): the controller's
@@ -207,14 +207,15 @@ def node_log(r):
 def test_rosout_carries_the_job_lines_with_the_node_name_and_level(rig):
     peer = rig.peer
     t0 = time.time()
-    r = peer.run_program("N10 G01 X5 Y4 Z-1 F3000\nN20 G00 X0 Y0 Z0\nN30 M30\n")
+    # (a second's dwell: the check worker's "accepted", logged when the loop
+    # took the job, comes before the end even on a busy VM)
+    r = peer.run_program("N10 G01 X5 Y4 Z-1 F3000\nN15 G04 X1\nN20 G00 X0 Y0 Z0\nN30 M30\n")
     assert r.accepted, r.message
     job = r.job_id
     st = peer.final_status(job)
     assert st.state == IDLE, st.last_error
     lines = {}
     for what, pat in (("accepted", r"^job %d accepted: a program of \d+ bytes, estimated [0-9.]+ s$" % job),
-                      ("started", r"^job %d started$" % job),
                       ("finished", r"^job %d finished in [0-9.]+ s$" % job)):
         (m,) = peer.log_lines(lambda m, p=pat: re.match(p, m.msg), "the /rosout line 'job %d %s'" % (job, what))
         lines[what] = m
@@ -225,12 +226,9 @@ def test_rosout_carries_the_job_lines_with_the_node_name_and_level(rig):
         assert m.function.startswith("cnc_node"), m.function
         # stamped with the system clock when it was logged
         assert t0 - 1.0 <= ns_of(m.stamp) / 1e9 <= time.time() + 1.0, (m.stamp, t0)
-    # (accepted: by the check worker once the loop took the job, which may
-    # be after the DDS thread saw it start)
-    assert ns_of(lines["accepted"].stamp) <= ns_of(lines["finished"].stamp)
-    assert ns_of(lines["started"].stamp) <= ns_of(lines["finished"].stamp)
+    assert ns_of(lines["accepted"].stamp) < ns_of(lines["finished"].stamp)
     took = float(re.search(r"in ([0-9.]+) s", lines["finished"].msg).group(1))
-    assert 0.05 < took < r.estimated_duration + 5.0, (took, r.estimated_duration)
+    assert abs(took - r.estimated_duration) < 0.05, (took, r.estimated_duration)
     # the same lines on stderr, as before
     log = node_log(rig)
     assert "cnc_node: job %d accepted" % job in log and "cnc_node: job %d finished" % job in log, log[-2000:]

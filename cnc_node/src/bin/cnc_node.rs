@@ -609,9 +609,7 @@ fn check_worker(
     let mut next_id = 1u32;
     while let Ok((id, req)) = reqs.recv() {
         let resp = handle_run(&machine, &dir, &rec, &req, &mut next_id, &cmds, &here);
-        if resp.job_id == 0 {
-            observe::log_run(&req, &resp);
-        }
+        observe::log_run(&req, &resp);
         let _ = resps.send((id, fit_run_reply(resp)));
     }
 }
@@ -652,7 +650,6 @@ fn handle_run(
         .map(|r| r.file.display().to_string())
         .unwrap_or_default();
     let accepted = admitted.reply(job_id, recording);
-    observe::log_run(req, &accepted);
     let (tx, rx) = mpsc::channel();
     if cmds
         .send(Cmd::Start(admitted.job(job_id), recorder, tx))
