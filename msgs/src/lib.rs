@@ -369,6 +369,27 @@ ros_message!(
     KeyValue = "diagnostic_msgs/msg/KeyValue" { key: String = "string", value: String = "string" }
 );
 
+impl KeyValue {
+    /// `key` = `value` (as text).
+    pub fn new(key: &str, value: impl ToString) -> KeyValue {
+        KeyValue {
+            key: key.to_string(),
+            value: value.to_string(),
+        }
+    }
+}
+
+/// A number as diagnostics show it: at most `digits` decimals, no
+/// trailing zeros (`12.5`, `1000`, `0.8`).
+pub fn short_num(v: f64, digits: usize) -> String {
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
 ros_message!(
     /// `diagnostic_msgs/msg/DiagnosticStatus`: one component's level, message and values
     DiagnosticStatus = "diagnostic_msgs/msg/DiagnosticStatus" {

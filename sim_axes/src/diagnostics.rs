@@ -17,7 +17,7 @@
 //!
 //! Pure: the node hands in the times (s of its monotonic clock).
 
-use cnc_msgs::{DiagnosticStatus, KeyValue};
+use cnc_msgs::{short_num as num, DiagnosticStatus, KeyValue};
 
 /// A wake-up that runs this much simulated time at once is a stall, s.
 pub const STALL_S: f64 = 0.005;
@@ -54,22 +54,6 @@ pub struct SpindleState {
     pub rpm: f64,
     /// commanded speed, rpm
     pub command_rpm: f64,
-}
-
-fn kv(key: &str, value: impl ToString) -> KeyValue {
-    KeyValue {
-        key: key.to_string(),
-        value: value.to_string(),
-    }
-}
-
-fn num(v: f64, digits: usize) -> String {
-    let s = format!("{v:.digits$}");
-    if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        s
-    }
 }
 
 impl SimMonitor {
@@ -139,10 +123,10 @@ impl SimMonitor {
             LOOP_NAME,
             message,
             vec![
-                kv("steps", self.steps),
-                kv("stalls", self.stalls),
-                kv("longest stall (ms)", num(self.longest_stall_s * 1e3, 1)),
-                kv("skipped steps", self.skipped),
+                KeyValue::new("steps", self.steps),
+                KeyValue::new("stalls", self.stalls),
+                KeyValue::new("longest stall (ms)", num(self.longest_stall_s * 1e3, 1)),
+                KeyValue::new("skipped steps", self.skipped),
             ],
         )];
         let new_late = late.saturating_sub(self.late_at_start);
@@ -170,10 +154,10 @@ impl SimMonitor {
             SETPOINTS_NAME,
             message,
             vec![
-                kv("late setpoints", new_late),
-                kv("late setpoints since start", late),
-                kv("setpoint delay (ms)", num(delay_ms, 3)),
-                kv(
+                KeyValue::new("late setpoints", new_late),
+                KeyValue::new("late setpoints since start", late),
+                KeyValue::new("setpoint delay (ms)", num(delay_ms, 3)),
+                KeyValue::new(
                     "since last setpoint (ms)",
                     quiet.map_or("none".to_string(), |q| num(q * 1e3, 1)),
                 ),
@@ -200,10 +184,10 @@ impl SimMonitor {
                 SPINDLE_NAME,
                 message,
                 vec![
-                    kv("encoder published", sp.encoder_on),
-                    kv("stalled", sp.stalled),
-                    kv("speed (rpm)", num(sp.rpm, 1)),
-                    kv("command (rpm)", num(sp.command_rpm, 1)),
+                    KeyValue::new("encoder published", sp.encoder_on),
+                    KeyValue::new("stalled", sp.stalled),
+                    KeyValue::new("speed (rpm)", num(sp.rpm, 1)),
+                    KeyValue::new("command (rpm)", num(sp.command_rpm, 1)),
                 ],
             ));
         }

@@ -194,12 +194,6 @@ mod tests {
         assert_eq!(xs(&thin(&data[..24], 5_000, [1.0, 0.0, 0.0])), [0.0, 1.0]);
     }
 
-    fn points(data: &[u8]) -> Vec<f32> {
-        data.chunks(12)
-            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-            .collect()
-    }
-
     #[test]
     fn a_long_live_path_is_thinned_evenly_and_keeps_its_end() {
         // 250.5 s at 1 kHz: x = k / 1000 (m)
@@ -211,7 +205,7 @@ mod tests {
         }
         // 100 s, 200 s: the stride doubled twice
         assert_eq!(path.stride(), 4);
-        let xs = points(&path.finish());
+        let xs = xs(&path.finish());
         assert!(xs.len() as u64 <= TOOLPATH_MAX_POINTS);
         assert_eq!(xs.len() as u64, (n - 1) / 4 + 1 + 1);
         // the whole job: from the start, every 4th setpoint, and the last
