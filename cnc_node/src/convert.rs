@@ -9,7 +9,9 @@
 //!   epoch, unsigned, as recordings have them), [`time_ns`] (signed, the
 //!   controller's clock), and the [`header`] of every message.
 //! - The node's messages of a control cycle: [`joint_setpoints`] of a
-//!   [`Tick`], [`spindle_command`] (rad/s), [`status`] of a [`Status`].
+//!   [`Tick`], [`spindle_command`] (rad/s), [`status`] of a [`Status`];
+//!   the machine model's frames on `/tf` and `/tf_static`
+//!   ([`transforms`], of `urdf::Model`'s joints).
 //! - The messages a recording derives from samples and setpoints:
 //!   [`joint_state`] (with [`joint_velocities`]), [`sample_status`], the
 //!   tool's frame and pose ([`tool_position`], [`tool_tf`], [`tool_pose`])
@@ -195,6 +197,35 @@ pub fn tool_tf(ns: u64, [x, y, z]: [f64; 3]) -> TFMessage {
                 rotation: Quaternion::IDENTITY,
             },
         }],
+    }
+}
+
+/// `/tf` (or `/tf_static`) of frames given as (parent, child,
+/// translation m, rotation quaternion x, y, z, w), all stamped `stamp`:
+/// the machine model's joints (`urdf::Model::moving`, `fixed`).
+pub fn transforms<'a>(
+    stamp: Time,
+    frames: impl IntoIterator<Item = (&'a str, &'a str, [f64; 3], [f64; 4])>,
+) -> TFMessage {
+    TFMessage {
+        transforms: frames
+            .into_iter()
+            .map(
+                |(parent, child, [x, y, z], [qx, qy, qz, qw])| TransformStamped {
+                    header: header(stamp, parent),
+                    child_frame_id: child.to_string(),
+                    transform: Transform {
+                        translation: Vector3 { x, y, z },
+                        rotation: Quaternion {
+                            x: qx,
+                            y: qy,
+                            z: qz,
+                            w: qw,
+                        },
+                    },
+                },
+            )
+            .collect(),
     }
 }
 

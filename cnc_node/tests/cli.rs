@@ -135,7 +135,9 @@ fn simulate_with_mcap_and_csv_writes_the_golden_and_the_csv() {
     let lines: Vec<&str> = out.lines().collect();
     assert_eq!(lines.len(), 2, "{out}");
     assert!(
-        lines[0].contains("recorded 63527 messages on 10 topics to"),
+        // (19 784 setpoints and as many joint states and encoder readings,
+        // 1981 /tf and poses, the tool path growing each second: 19 + 1)
+        lines[0].contains("recorded 63546 messages on 10 topics to"),
         "{out}"
     );
     assert!(lines[1].contains("cycle time 19.783s"), "{out}");

@@ -143,7 +143,9 @@ fn mill_pocket_recording_reads_back() {
         k_last / 10 + 1 + u64::from(!k_last.is_multiple_of(10))
     );
     assert_eq!(count(topics::TOOL_POSE), count(topics::TF));
-    assert_eq!(count(topics::TOOLPATH), 1);
+    // the path so far every second (not at the last sample), the whole
+    // path at the end
+    assert_eq!(count(topics::TOOLPATH), (k_last - 1) / 1000 + 1);
     assert_eq!(count(topics::PROGRAM), 1);
     assert_eq!(count(topics::MACHINE_FILE), 1);
     assert_eq!(count(topics::SPINDLE_COMMAND), 2); // M03 S3000, M05
@@ -157,7 +159,7 @@ fn mill_pocket_recording_reads_back() {
     // the messages, in order
     let mut setpoints = Vec::new();
     let mut last_status = None;
-    let mut cloud = None;
+    let mut clouds: Vec<(u64, PointCloud2)> = Vec::new();
     let mut seq: BTreeMap<u16, u32> = BTreeMap::new();
     for msg in mcap::MessageStream::new(&bytes).unwrap() {
         let msg = msg.unwrap();
@@ -177,7 +179,7 @@ fn mill_pocket_recording_reads_back() {
                 setpoints.push(js.position);
             }
             topics::STATUS => last_status = Some(from_cdr::<ControllerStatus>(&msg.data).unwrap()),
-            topics::TOOLPATH => cloud = Some(from_cdr::<PointCloud2>(&msg.data).unwrap()),
+            topics::TOOLPATH => clouds.push((msg.log_time, from_cdr(&msg.data).unwrap())),
             topics::PROGRAM => {
                 assert_eq!(from_cdr::<StringMsg>(&msg.data).unwrap().data, text);
                 assert_eq!(msg.log_time, EPOCH_NS);
@@ -206,7 +208,26 @@ fn mill_pocket_recording_reads_back() {
     assert_eq!(st.progress, 1.0);
     assert_eq!((st.source_line, st.block_number), (sim.line, sim.block));
     assert!(sim.line >= 15, "{}", sim.line);
-    let cloud = cloud.unwrap();
+    let (_, cloud) = clouds.pop().unwrap();
+    let growing = clouds;
+    // the growing clouds: one a second, each the path up to its time
+    // (thinned to at most 5000 points) ending at that time's setpoint
+    assert_eq!(growing.len() as u64, (k_last - 1) / 1000);
+    for (i, (t, c)) in growing.iter().enumerate() {
+        let k = (i as u64 + 1) * 1000;
+        assert_eq!(*t, EPOCH_NS + k * 1_000_000);
+        assert_eq!(c.header.frame_id, "world");
+        assert!(c.width as usize <= record::GROWING_MAX_POINTS);
+        assert_eq!(c.data.len(), 12 * c.width as usize);
+        let x = |j: usize| f32::from_le_bytes(c.data[j..j + 4].try_into().unwrap());
+        let end = c.data.len() - 12;
+        let sp = &setpoints[k as usize];
+        assert_eq!(
+            (x(end), x(end + 4), x(end + 8)),
+            (sp[0] as f32, sp[1] as f32, sp[2] as f32)
+        );
+        assert_eq!((x(0), x(4), x(8)), (0.0, 0.0, 0.0));
+    }
     assert_eq!(cloud.header.frame_id, "world");
     assert_eq!(cloud.width as u64, samples);
     assert_eq!(cloud.data.len(), 12 * samples as usize);

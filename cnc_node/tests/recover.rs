@@ -122,10 +122,11 @@ fn cut_recordings_keep_every_complete_chunk() {
     let full = std::fs::read(&full_path).unwrap();
     let chunks = chunks(&full);
     // the schemas and channels, then message chunks of about CHUNK_SIZE
-    assert_eq!(chunks.len(), 8);
+    // (8 of them since the tool path grows every second in recordings)
+    assert_eq!(chunks.len(), 9);
     assert!(chunks[0].2.is_empty());
     let all = messages(&full);
-    assert_eq!(all.len(), 63_527);
+    assert_eq!(all.len(), 63_546);
     assert_eq!(
         chunks.iter().map(|c| c.2.len()).sum::<usize>(),
         all.len(),
@@ -426,7 +427,7 @@ fn a_killed_recording_is_recovered() {
     );
     let got = messages(&std::fs::read(&out).unwrap());
     let line = format!(
-        "long.mcap: recovered {} messages on 9 channels (10 defined)",
+        "long.mcap: recovered {} messages on 10 channels from",
         got.len()
     );
     assert!(stdout.contains(&line), "{stdout}");

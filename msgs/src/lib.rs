@@ -9,6 +9,7 @@ pub mod params;
 pub mod params_file;
 pub mod ros;
 pub mod ros_args;
+pub mod rosout;
 
 use serde::{Deserialize, Serialize};
 
@@ -367,5 +368,89 @@ ros_message!(
         row_step: u32 = "uint32",
         data: Vec<u8> = "uint8[]",
         is_dense: bool = "bool",
+    }
+);
+
+ros_message!(
+    /// `rcl_interfaces/msg/Log`: a line on `/rosout` (see [`rosout`])
+    Log = "rcl_interfaces/msg/Log" {
+        stamp: Time = "builtin_interfaces/Time",
+        level: u8 = "uint8",
+        name: String = "string",
+        msg: String = "string",
+        file: String = "string",
+        function: String = "string",
+        line: u32 = "uint32",
+    }
+);
+
+impl Log {
+    pub const DEBUG: u8 = 10;
+    pub const INFO: u8 = 20;
+    pub const WARN: u8 = 30;
+    pub const ERROR: u8 = 40;
+    pub const FATAL: u8 = 50;
+    /// (name, value) of the constants, as in the .msg file
+    pub const CONSTANTS: &'static [(&'static str, u8)] = &[
+        ("DEBUG", 10),
+        ("INFO", 20),
+        ("WARN", 30),
+        ("ERROR", 40),
+        ("FATAL", 50),
+    ];
+}
+
+ros_message!(
+    /// `diagnostic_msgs/msg/KeyValue`
+    KeyValue = "diagnostic_msgs/msg/KeyValue" { key: String = "string", value: String = "string" }
+);
+
+impl KeyValue {
+    /// `key` = `value` (as text).
+    pub fn new(key: &str, value: impl ToString) -> KeyValue {
+        KeyValue {
+            key: key.to_string(),
+            value: value.to_string(),
+        }
+    }
+}
+
+/// A number as diagnostics show it: at most `digits` decimals, no
+/// trailing zeros (`12.5`, `1000`, `0.8`).
+pub fn short_num(v: f64, digits: usize) -> String {
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+ros_message!(
+    /// `diagnostic_msgs/msg/DiagnosticStatus`: one component's level, message and values
+    DiagnosticStatus = "diagnostic_msgs/msg/DiagnosticStatus" {
+        level: u8 = "byte",
+        name: String = "string",
+        message: String = "string",
+        hardware_id: String = "string",
+        values: Vec<KeyValue> = "KeyValue[]",
+    }
+);
+
+impl DiagnosticStatus {
+    pub const OK: u8 = 0;
+    pub const WARN: u8 = 1;
+    pub const ERROR: u8 = 2;
+    pub const STALE: u8 = 3;
+    /// (name, value) of the constants, as in the .msg file
+    pub const CONSTANTS: &'static [(&'static str, u8)] =
+        &[("OK", 0), ("WARN", 1), ("ERROR", 2), ("STALE", 3)];
+}
+
+ros_message!(
+    /// `diagnostic_msgs/msg/DiagnosticArray` (the `/diagnostics` topic)
+    DiagnosticArray = "diagnostic_msgs/msg/DiagnosticArray" {
+        header: Header = "std_msgs/Header",
+        status: Vec<DiagnosticStatus> = "DiagnosticStatus[]",
     }
 );

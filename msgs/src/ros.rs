@@ -47,9 +47,16 @@ pub fn context(domain: u16, localhost_only: bool) -> Result<Context, String> {
 }
 
 /// A node `namespace/name`, with its spinner running on its own thread
-/// (graph and discovery information for `ros2 node list`).
+/// (graph and discovery information for `ros2 node list`). Its logs go to
+/// `/rosout` through [`crate::rosout`] (rclcpp's QoS), not through
+/// ros2-client's own rosout writer (keep last 1).
 pub fn node(ctx: &Context, namespace: &str, name: &str) -> Result<Node, String> {
-    node_with(ctx, namespace, name, NodeOptions::new().enable_rosout(true))
+    node_with(
+        ctx,
+        namespace,
+        name,
+        NodeOptions::new().enable_rosout(false),
+    )
 }
 
 /// [`node`] with these options.
@@ -156,13 +163,53 @@ fn split_type<T: crate::RosType>() -> (&'static str, &'static str) {
 }
 
 fn topic<T: crate::RosType>(node: &Node, ns: &str, base: &str) -> Result<rustdds::Topic, String> {
+    topic_with_qos::<T>(node, ns, base, &qos_default())
+}
+
+fn topic_with_qos<T: crate::RosType>(
+    node: &Node,
+    ns: &str,
+    base: &str,
+    qos: &QosProfile,
+) -> Result<rustdds::Topic, String> {
     let (pkg, ty) = split_type::<T>();
     node.create_topic(
         &remapped(ns, base, false)?,
         ros2_client::MessageTypeName::new(pkg, ty),
-        &qos_default(),
+        qos,
     )
     .map_err(|e| format!("topic {ns}/{base}: {e:?}"))
+}
+
+/// What `robot_state_publisher` gives `robot_description` and tf2's
+/// static broadcaster `/tf_static`: reliable, transient local, keep last
+/// 1, so a subscriber that joins later gets the last message.
+pub fn qos_latched() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::Fail)
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 1 })
+}
+
+/// What tf2's broadcaster gives `/tf`: reliable, volatile, keep last 100.
+pub fn qos_tf() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::Fail)
+        .durability(Durability::Volatile)
+        .history(History::KeepLast { depth: 100 })
+}
+
+/// A publisher of `ns/base` with QoS `qos` (`ns` `/` for a global topic
+/// such as `/tf`).
+pub fn publisher_with_qos<T: crate::RosType + serde::Serialize>(
+    node: &mut Node,
+    ns: &str,
+    base: &str,
+    qos: &QosProfile,
+) -> Result<ros2_client::Publisher<T>, String> {
+    let t = topic_with_qos::<T>(node, ns, base, qos)?;
+    node.create_publisher::<T>(&t, Some(qos.clone()))
+        .map_err(|e| format!("publisher {ns}/{base}: {e:?}"))
 }
 
 /// A publisher like [`publisher`] whose reliable send window holds
@@ -436,7 +483,7 @@ pub fn join(domain: u16, namespace: &str, name: &str) -> Result<(Context, Node),
         domain,
         namespace,
         name,
-        NodeOptions::new().enable_rosout(true),
+        NodeOptions::new().enable_rosout(false),
     )
 }
 

@@ -58,6 +58,16 @@ pub const MESSAGE_DEFINITIONS: &[(&str, &str)] = &[
     ("geometry_msgs/msg/Pose", std_defs::POSE_MSG),
     ("geometry_msgs/msg/PoseStamped", std_defs::POSE_STAMPED_MSG),
     ("tf2_msgs/msg/TFMessage", std_defs::TF_MESSAGE_MSG),
+    ("rcl_interfaces/msg/Log", std_defs::LOG_MSG),
+    (
+        "diagnostic_msgs/msg/DiagnosticArray",
+        std_defs::DIAGNOSTIC_ARRAY_MSG,
+    ),
+    (
+        "diagnostic_msgs/msg/DiagnosticStatus",
+        std_defs::DIAGNOSTIC_STATUS_MSG,
+    ),
+    ("diagnostic_msgs/msg/KeyValue", std_defs::KEY_VALUE_MSG),
     (
         "cnc_msgs/msg/ControllerStatus",
         definitions::CONTROLLER_STATUS_MSG,
@@ -247,6 +257,10 @@ with_schema!(
     PoseStamped,
     PointField,
     PointCloud2,
+    Log,
+    KeyValue,
+    DiagnosticStatus,
+    DiagnosticArray,
     ControllerStatus,
     SpindleEncoder,
 );

@@ -31,6 +31,10 @@ fn std_types_match_their_definitions() {
     check::<TFMessage>(d::TF_MESSAGE_MSG);
     check::<PointField>(d::POINT_FIELD_MSG);
     check::<PointCloud2>(d::POINT_CLOUD2_MSG);
+    check::<Log>(d::LOG_MSG);
+    check::<KeyValue>(d::KEY_VALUE_MSG);
+    check::<DiagnosticStatus>(d::DIAGNOSTIC_STATUS_MSG);
+    check::<DiagnosticArray>(d::DIAGNOSTIC_ARRAY_MSG);
     check::<ControllerStatus>(definitions::CONTROLLER_STATUS_MSG);
     check::<SpindleEncoder>(definitions::SPINDLE_ENCODER_MSG);
     let want: Pairs = PointField::CONSTANTS
@@ -38,6 +42,16 @@ fn std_types_match_their_definitions() {
         .map(|(n, v)| (n.to_string(), v.to_string()))
         .collect();
     assert_eq!(parse(d::POINT_FIELD_MSG).1, want);
+    let pairs = |c: &[(&str, u8)]| -> Pairs {
+        c.iter()
+            .map(|(n, v)| (n.to_string(), v.to_string()))
+            .collect()
+    };
+    assert_eq!(parse(d::LOG_MSG).1, pairs(Log::CONSTANTS));
+    assert_eq!(
+        parse(d::DIAGNOSTIC_STATUS_MSG).1,
+        pairs(DiagnosticStatus::CONSTANTS)
+    );
 }
 
 /// Splits a complete definition into (package-qualified name, text) sections.
@@ -107,4 +121,15 @@ fn point_cloud2_schema_text() {
     let status = ControllerStatus::schema();
     assert!(status.contains("\nMSG: std_msgs/Header\n"));
     assert!(status.ends_with(d::TIME_MSG));
+}
+
+/// The test peer's tf2_msgs package (scripts/ros_peer/tf2_msgs: PyPI has
+/// no tf2_msgs wheel) builds the message from the same text as
+/// geometry2's, so its type and hash are upstream's.
+#[test]
+fn the_test_peers_tf_message_is_geometry2s() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../scripts/ros_peer/tf2_msgs/msg/TFMessage.msg");
+    let text = std::fs::read_to_string(path).unwrap();
+    assert_eq!(text, d::TF_MESSAGE_MSG);
 }

@@ -1,15 +1,16 @@
 #!/usr/bin/env bash
 # Set up a stock ROS 2 (Kilted) peer from PyPI wheels, for interop tests of the
-# Rust controller: rclpy + rmw_fastrtps_cpp + std/sensor msgs, and our own
-# interface package msgs/ (cnc_msgs) built with plain cmake.
+# Rust controller: rclpy + rmw_fastrtps_cpp + std/sensor/diagnostic msgs, our own
+# interface package msgs/ (cnc_msgs) built with plain cmake, and tf2_msgs's
+# TFMessage (scripts/ros_peer/tf2_msgs: geometry2 has no wheel on PyPI) likewise.
 #
 #   scripts/ros_peer/setup.sh          # idempotent; re-runs take a few seconds
 #   . .venv-ros/env.sh                 # then: python3 scripts/ros_peer/smoke.py
 #
 # Creates (all gitignored, under the repo root):
 #   .venv-ros/                    Python 3.11 venv with the pinned wheels (requirements.txt)
-#   .venv-ros/build/cnc_msgs/     cmake build tree of msgs/
-#   .venv-ros/cnc_msgs_install/   install prefix of cnc_msgs (C/C++ libs, Python package, ament index)
+#   .venv-ros/build/cnc_msgs/     cmake build tree of msgs/ (build/tf2_msgs/: of tf2_msgs)
+#   .venv-ros/cnc_msgs_install/   install prefix of cnc_msgs and tf2_msgs (C/C++ libs, Python packages, ament index)
 #   .venv-ros/env.sh              environment for tests (PATH, PYTHONPATH, LD_LIBRARY_PATH, ...)
 #   .venv-ros/bin/ros2            the ROS 2 command line and launch (ros2cli, launch, launch_ros):
 #                                 from ../shared/vendor beside the repo when it is there (CI),
@@ -34,7 +35,6 @@ here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
 venv="$root/.venv-ros"
 prefix="$venv/cnc_msgs_install"
-build="$venv/build/cnc_msgs"
 req="$here/requirements.txt"
 py="${ROS_PEER_PYTHON:-python3}"
 force="${ROS_PEER_FORCE:-0}"
@@ -127,7 +127,7 @@ export PATH="$venv/bin:$PATH"
 export CMAKE_PREFIX_PATH="$venv"
 export AMENT_PREFIX_PATH="$venv"
 unset PYTHONPATH
-if [ "$force" = 1 ]; then rm -rf "$build" "$prefix"; fi
+if [ "$force" = 1 ]; then rm -rf "$venv/build" "$prefix"; fi
 mkdir -p "$venv/build"
 # interface package NAME from SRC: configured once in BUILD, built and installed into $prefix
 cmake_package() {  # cmake_package NAME SRC BUILD
@@ -149,6 +149,7 @@ cmake_package() {  # cmake_package NAME SRC BUILD
     || { cat "$logs.install.log" >&2; exit 1; }
 }
 cmake_package cnc_msgs "$root/msgs" "$build"
+cmake_package tf2_msgs "$here/tf2_msgs" "$venv/build/tf2_msgs"
 
 # ---------------------------------------------------------------- 5. ros2cli and launch
 # Not on PyPI. Unmodified upstream sources: ../shared/vendor (CI and our
@@ -239,7 +240,7 @@ EOF
 # ---------------------------------------------------------------- 8. check
 log "checking imports"
 ( . "$venv/env.sh"
-  python3 -c "import rclpy; from cnc_msgs.srv import RunProgram; from cnc_msgs.msg import SpindleEncoder, ControllerStatus; from cnc_msgs.action import ExecuteProgram; from sensor_msgs.msg import JointState; from std_srvs.srv import Trigger"
+  python3 -c "import rclpy; from cnc_msgs.srv import RunProgram; from cnc_msgs.msg import SpindleEncoder, ControllerStatus; from cnc_msgs.action import ExecuteProgram; from sensor_msgs.msg import JointState; from std_srvs.srv import Trigger; from diagnostic_msgs.msg import DiagnosticArray; from rcl_interfaces.msg import Log; from tf2_msgs.msg import TFMessage"
   if [ -x "$venv/bin/ros2" ]; then
     python3 -c "import launch_ros.actions"
     ros2 pkg prefix cnc_controller >/dev/null

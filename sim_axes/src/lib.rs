@@ -1,7 +1,8 @@
 //! Deterministic simulation of a machine tool's axes and spindle.
 //!
 //! Used by the offline `cnc simulate` command and by the simulator node. The crate does no
-//! I/O, reads no clocks, has no global state and no dependencies; stepping never allocates.
+//! I/O, reads no clocks and has no global state; stepping never allocates. (It uses the
+//! core's machine files and, for the node's `/diagnostics`, the message types.)
 //! Identical inputs (and spindle seeds) give bit-identical results on the same platform
 //! (the model uses `exp` and `sin` from the platform's math library).
 //!
@@ -67,6 +68,7 @@
 
 pub mod axis;
 pub mod clocked;
+pub mod diagnostics;
 pub mod machine;
 pub mod model;
 pub mod rng;

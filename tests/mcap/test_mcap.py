@@ -93,6 +93,7 @@ def test_every_message_decodes_with_mcap_ros2(recording):
     counts = collections.Counter()
     setpoints, actual, status, tf, poses = [], [], [], [], []
     cloud = program = machine = None
+    clouds = []  # (log time, cloud): the path so far every second, the whole path last
     for _, channel, m, msg in decoded(recording):
         topic = channel.topic
         counts[topic] += 1
@@ -119,6 +120,7 @@ def test_every_message_decodes_with_mcap_ros2(recording):
             poses.append(msg.pose.position)
         elif topic == "/cnc/toolpath":
             cloud = msg
+            clouds.append((m.log_time, msg))
         elif topic == "/cnc/program":
             program = msg.data
         elif topic == "/cnc/machine_file":
@@ -132,7 +134,10 @@ def test_every_message_decodes_with_mcap_ros2(recording):
     n = len(setpoints)
     assert n > 1000 and len(actual) == n
     assert counts["/cnc/spindle_command"] == 2
-    assert counts["/cnc/program"] == counts["/cnc/machine_file"] == counts["/cnc/toolpath"] == 1
+    assert counts["/cnc/program"] == counts["/cnc/machine_file"] == 1
+    # the tool path so far at 1 s, 2 s, ... (not at the last sample), then
+    # the whole path at the end
+    assert counts["/cnc/toolpath"] == (n - 2) // 1000 + 1
     assert len(tf) == len(poses) == (n - 1) // 10 + 1 + ((n - 1) % 10 != 0)
 
     for got, want in zip(setpoints[-1], END_M):
@@ -147,6 +152,14 @@ def test_every_message_decodes_with_mcap_ros2(recording):
     assert all(s.state == 1 for s in status[:-1])
     assert status[0].spindle_speed_command == 3000.0
 
+    for i, (t, c) in enumerate(clouds[:-1]):
+        k = (i + 1) * 1000
+        assert t == EPOCH_NS + k * DT_NS
+        assert 0 < c.width <= 5000 and c.point_step == 12
+        # from the start to where the tool is then
+        end = struct.unpack_from("<3f", bytes(c.data), 12 * (c.width - 1))
+        assert all(abs(g - w) < 1e-6 for g, w in zip(end, setpoints[k])), (end, setpoints[k])
+        assert struct.unpack_from("<3f", bytes(c.data), 0) == (0.0, 0.0, 0.0)
     assert cloud.width == n and cloud.height == 1 and cloud.point_step == 12
     assert [(f.name, f.offset, f.datatype) for f in cloud.fields] == [("x", 0, 7), ("y", 4, 7), ("z", 8, 7)]
     x, y, z = struct.unpack_from("<3f", bytes(cloud.data), 12 * (n - 1))
@@ -315,6 +328,53 @@ def test_rerun_converts_it(recording, tmp_path):
     assert "TextDocument:text" in comps["/cnc/machine_file"]
 
 
+def blueprint_views(rbl):
+    """(class, origin, name, contents query) of every view of a .rbl, and
+    its application id."""
+    import rerun.chunk
+    r = rerun.chunk.RrdReader(rbl)
+    (bp,) = r.blueprints()
+    views, queries = {}, {}
+    for ch in r.stream(store=bp).to_chunks():
+        rb = ch.to_record_batch()
+        col = {n.split(":")[-1]: rb.column(n)[0].as_py() for n in rb.schema.names if ":" in n}
+        path = ch.entity_path
+        if path.startswith("/view/") and "class_identifier" in col:
+            views[path] = (col["class_identifier"][0], col["space_origin"][0], col["display_name"][0])
+        elif path.startswith("/view/") and path.endswith("/ViewContents"):
+            queries[path.rsplit("/", 1)[0]] = col["query"]
+    return bp.application_id, sorted(v + (tuple(queries.get(p, ())),) for p, v in views.items())
+
+
+def test_the_rerun_blueprint_lays_out_rerun_s_own_conversion(recording, tmp_path):
+    """docs/rerun/cnc_mcap.rbl (scripts/rerun/mcap_blueprint.py) is for a
+    recording converted by Rerun's own MCAP loader with the application id
+    cnc_mcap (README): its views show entities the conversion has, the 3D
+    view the growing tool path, the tool and its frame."""
+    import rerun.chunk
+    committed = os.path.join(ROOT, "docs", "rerun", "cnc_mcap.rbl")
+    app, views = blueprint_views(committed)
+    # the committed file is what the script makes (ids aside)
+    fresh = str(tmp_path / "fresh.rbl")
+    subprocess.run([sys.executable, os.path.join(ROOT, "scripts", "rerun", "mcap_blueprint.py"), "-o", fresh],
+                   check=True, capture_output=True)
+    assert blueprint_views(fresh) == (app, views)
+    rrd = str(tmp_path / "mill_pocket_cnc_mcap.rrd")
+    subprocess.run(rerun_cmd() + ["mcap", "convert", recording, "--application-id", app, "-o", rrd], check=True)
+    (rec,) = rerun.chunk.RrdReader(rrd).recordings()
+    assert app == "cnc_mcap" and rec.application_id == app
+    entities = {ch.entity_path for ch in rerun.chunk.RrdReader(rrd).stream().to_chunks()}
+    kinds = {c for c, _, _, _ in views}
+    assert {"3D", "TimeSeries", "TextDocument", "Dataframe"} <= kinds, kinds
+    for cls, origin, name, query in views:
+        assert origin == "/" or origin in entities, (origin, sorted(entities))
+        for q in query:
+            if not q.startswith("$"):
+                assert q in entities, (q, name)
+    (q3d,) = [q for c, _, _, q in views if c == "3D"]
+    assert set(q3d) == {"/cnc/toolpath", "/cnc/tool_pose", "/tf"}
+
+
 def test_rosbags_reads_it_as_a_rosbag2_bag(recording):
     """rosbags (a pure-Python rosbag2 implementation, independent of ours and
     of the mcap packages) opens the file, reads the rosbag2 metadata and
@@ -361,7 +421,8 @@ def test_a_cut_recording_is_recovered_for_independent_readers(recording, tmp_pat
     out = tmp_path / "recovered.mcap"
     r = subprocess.run(cnc_cmd() + ["bag", "recover", str(cut), "-o", str(out)],
                        cwd=ROOT, check=True, capture_output=True, text=True)
-    m = re.search(r"recovered (\d+) messages on 9 channels \(10 defined\) from 3 complete chunks", r.stdout)
+    # (every channel has messages by then: the growing tool path since 1 s)
+    m = re.search(r"recovered (\d+) messages on 10 channels from 3 complete chunks", r.stdout)
     assert m, r.stdout
     assert f"dropped {c.chunk_length // 2} bytes of an unfinished chunk" in r.stdout, r.stdout
 

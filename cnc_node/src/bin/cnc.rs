@@ -142,6 +142,12 @@ enum Cmd {
         #[command(flatten)]
         at: Controller,
     },
+    /// Print the machine's URDF, as cnc_node publishes it (robot_description).
+    Urdf {
+        /// machine file, or a bundled machine: mill, lathe
+        #[arg(long, default_value = "mill")]
+        machine: String,
+    },
 }
 
 /// Which running controller a command talks to.
@@ -307,6 +313,7 @@ fn main() -> ExitCode {
                 ExitCode::SUCCESS
             })
         }
+        Cmd::Urdf { machine } => cnc_node::urdf::print(&machine).map(|()| ExitCode::SUCCESS),
         Cmd::Status { at } => cnc_node::client::status(&at.target()).map(|s| {
             println!("{}", fmt_status(&s));
             ExitCode::SUCCESS

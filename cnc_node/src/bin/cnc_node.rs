@@ -29,13 +29,13 @@
 
 use cnc_core::Machine;
 use cnc_msgs::ros;
-use cnc_msgs::ros_args::{log_enabled, Level};
 use cnc_msgs::*;
 use cnc_node::action::{Cycle, ExecuteProgram, GoalKey};
 use cnc_node::admit::{admit, fit_run_reply, recorder, RecordOpts, Refusal};
 use cnc_node::controller::{ActualSample, EncoderSample, Job, Place, State, Status, Tick};
 use cnc_node::convert::{self, stamp_ns, time_ns};
 use cnc_node::files::load_machine;
+use cnc_node::observe::{self, Observer};
 use cnc_node::params::{self as node_params, Args, Live, Setup};
 use cnc_node::record::JobRecorder;
 use std::path::{Path, PathBuf};
@@ -81,7 +81,7 @@ struct Out {
 
 fn main() {
     if let Err(e) = node_params::from_env().and_then(run) {
-        eprintln!("cnc_node: {e}");
+        ros_error!("{e}");
         std::process::exit(2);
     }
 }
@@ -119,11 +119,11 @@ fn run(setup: Setup) -> Result<(), String> {
     let dds_rt = ros::dds_priority(args.rt_priority);
     if dds_rt > 0 {
         if let Err(e) = ros::set_realtime(dds_rt) {
-            eprintln!("cnc_node: DDS threads stay at normal priority (SCHED_FIFO {dds_rt}: {e})");
+            ros_warn!("DDS threads stay at normal priority (SCHED_FIFO {dds_rt}: {e})");
         }
     }
     let no_own_params = ros2_client::NodeOptions::new()
-        .enable_rosout(true)
+        .enable_rosout(false)
         .start_parameter_services(false);
     let (ctx, mut node) =
         ros::join_with(domain, &args.namespace, &setup.start.name, no_own_params)?;
@@ -135,6 +135,7 @@ fn run(setup: Setup) -> Result<(), String> {
         &dir,
         machine_text.clone(),
     )?;
+    cnc_msgs::rosout::init(&ctx, &mut node, &args.namespace, &setup.start.name)?;
     let ns = args.namespace.as_str();
     // a subscriber that dies must not stop the setpoints for the others
     let window = ros::lease_window(machine.interpolation.rate_hz);
@@ -150,6 +151,7 @@ fn run(setup: Setup) -> Result<(), String> {
     let srv_abort = ros::server::<TriggerRequest, TriggerResponse>(&mut node, ns, "abort")?;
     let srv_hold = ros::server::<SetBoolRequest, SetBoolResponse>(&mut node, ns, "feed_hold")?;
     let sub_ovr = ros::subscription::<Float64>(&mut node, ns, "feed_override")?;
+    let mut obs = Observer::new(&mut node, ns, &machine)?;
 
     // where the machine stands (f64 bits per joint), for checks of new jobs
     let here: Arc<[AtomicU64; 3]> = Arc::new(Default::default());
@@ -207,13 +209,21 @@ fn run(setup: Setup) -> Result<(), String> {
             .spawn(move || {
                 if rt > 0 {
                     if let Err(e) = ros::lock_memory() {
-                        eprintln!("cnc_node: memory not locked (mlockall: {e})");
+                        ros_warn!("memory not locked (mlockall: {e})");
                     }
                     if let Err(e) = ros::set_realtime(rt) {
-                        eprintln!("cnc_node: control loop stays at normal priority (SCHED_FIFO {rt}: {e})");
+                        ros_warn!("control loop stays at normal priority (SCHED_FIFO {rt}: {e})");
                     }
                 }
-                control_loop(m, cmd_rx, (enc_rx, act_rx), out_tx, here, (state, checking), stats)
+                control_loop(
+                    m,
+                    cmd_rx,
+                    (enc_rx, act_rx),
+                    out_tx,
+                    here,
+                    (state, checking),
+                    stats,
+                )
             })
             .map_err(|e| e.to_string())?;
     }
@@ -233,20 +243,19 @@ fn run(setup: Setup) -> Result<(), String> {
     }
     let names: Vec<String> = machine.axes.iter().map(|a| a.name.clone()).collect();
     let mut action = ExecuteProgram::new(&mut node, ns, names.clone())?;
-    if log_enabled(Level::Info) {
-        eprintln!(
-            "cnc_node: {} ({}), {} Hz, domain {domain}, serving {}/run_program",
-            machine.name,
-            names.join(" "),
-            machine.interpolation.rate_hz,
-            ns.trim_end_matches('/')
-        );
-    }
+    ros_info!(
+        "{} ({}), {} Hz, domain {domain}, serving {}/run_program",
+        machine.name,
+        names.join(" "),
+        machine.interpolation.rate_hz,
+        ns.trim_end_matches('/')
+    );
     let mut last_spindle = f64::NAN;
     let mut spindle_sent = Instant::now();
     let mut recording: Option<(u32, Rec)> = None;
     let mut polled = Instant::now();
     loop {
+        obs.poll();
         // services and the override, every SERVICE_POLL (each look costs a
         // system call; a job's samples wake this thread every cycle)
         if polled.elapsed() >= SERVICE_POLL {
@@ -273,7 +282,7 @@ fn run(setup: Setup) -> Result<(), String> {
                     Ok(p) => {
                         let _ = cmd_tx.send(Cmd::Override(p));
                     }
-                    Err(e) => eprintln!("cnc_node: {e}"),
+                    Err(e) => ros_warn!("{e}"),
                 }
             }
         }
@@ -289,6 +298,7 @@ fn run(setup: Setup) -> Result<(), String> {
             }
         }
         while let Ok(m) = enc_rec_rx.try_recv() {
+            obs.encoder(&m);
             if let Some((_, rec)) = recording.as_mut() {
                 let _ = rec.encoder(&m);
             }
@@ -333,6 +343,7 @@ fn run(setup: Setup) -> Result<(), String> {
                 last_spindle = t.spindle_rpm;
                 convert::spindle_command(t.spindle_rpm)
             });
+            obs.sample(o.stamp, t, o.status.as_ref());
             let status = o.status.as_ref().map(|s| convert::status(s, o.stamp));
             if let Some((id, rec)) = recording.as_mut() {
                 let r = rec
@@ -433,16 +444,13 @@ fn ask(
 fn finish_recording(id: u32, rec: Rec, err: Option<String>) {
     let file = rec.file.clone();
     match err.map_or_else(|| rec.finish(), Err) {
-        Ok(s) => eprintln!(
-            "cnc_node: job {id} recorded to {} ({} messages, {} bytes)",
+        Ok(s) => ros_info!(
+            "job {id} recorded to {} ({} messages, {} bytes)",
             file.display(),
             s.messages,
             s.bytes
         ),
-        Err(e) => eprintln!(
-            "cnc_node: recording of job {id} to {} failed: {e}",
-            file.display()
-        ),
+        Err(e) => ros_error!("recording of job {id} to {} failed: {e}", file.display()),
     }
 }
 
@@ -463,6 +471,7 @@ fn check_worker(
         checking.store(true, Ordering::Relaxed);
         let resp = handle_run(&machine, &dir, &rec, &req, &mut next_id, &cmds, &here);
         checking.store(false, Ordering::Relaxed);
+        observe::log_run(&req, &resp);
         let _ = resps.send((id, fit_run_reply(resp)));
     }
 }

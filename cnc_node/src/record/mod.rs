@@ -40,8 +40,9 @@
 //!
 //! The parts: `writer` ([`Recorder`]: the MCAP file), `cdr` (the codec),
 //! `rosbag2` (its metadata and QoS YAML), `sim` ([`SimRecorder`]: the
-//! recording of an offline run) and `job` ([`JobRecorder`]: the node's
-//! live recording of a job). The ROS messages they record, their topics,
+//! recording of an offline run), `job` ([`JobRecorder`]: the node's
+//! live recording of a job) and `path` (the tool path growing over the
+//! recording, [`GrowingPath`], which both write). The ROS messages they record, their topics,
 //! frames and stamps are built in [`crate::convert`] (re-exported here:
 //! [`topics`], [`time_from_ns`], [`stamp_ns`], ...).
 //!
@@ -55,6 +56,7 @@
 //! ```
 mod cdr;
 mod job;
+mod path;
 mod rosbag2;
 mod sim;
 mod writer;
@@ -63,7 +65,8 @@ pub use crate::convert::{
     stamp_ns, time_from_ns, topics, POSE_EVERY, TOOLPATH_MAX_POINTS, TOOL_FRAME, WORLD_FRAME,
 };
 pub use cdr::{from_cdr, to_cdr, to_cdr_into, CDR_LE_HEADER};
-pub use job::{JobRecorder, LivePath};
+pub use job::JobRecorder;
+pub use path::{thin, GrowingPath, LivePath, GROWING_EVERY_NS, GROWING_MAX_POINTS, GROWING_STEPS};
 pub use rosbag2::{
     bag_metadata_yaml, qos_yaml, BagTopic, Qos, BAG_METADATA_VERSION, MESSAGE_ENCODING, ROS_DISTRO,
 };

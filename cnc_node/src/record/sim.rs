@@ -1,6 +1,7 @@
 //! Recordings of offline runs: [`SimRecorder`] is the [`Sink`] that
 //! records the steps of a run (`cnc simulate --mcap`, `cnc bag rerun`).
 
+use super::path::{GrowingPath, LivePath, GROWING_MAX_POINTS};
 use super::writer::{ChannelId, RecordSummary, Recorder, RecordingInfo};
 use crate::convert::{
     joint_state, joint_velocities, push_point, sample_status, spindle_command, time_from_ns,
@@ -32,7 +33,7 @@ pub const EPOCH_NS: u64 = 1_700_000_000_000_000_000;
 /// | `/cnc/status` | cnc_msgs/ControllerStatus | 10 Hz, on a line change, last sample (idle) |
 /// | `/tf` | tf2_msgs/TFMessage | `world` → `tool` every 10th and the last sample |
 /// | `/cnc/tool_pose` | geometry_msgs/PoseStamped | every 10th and the last sample |
-/// | `/cnc/toolpath` | sensor_msgs/PointCloud2 | once at the end: x, y, z float32, m |
+/// | `/cnc/toolpath` | sensor_msgs/PointCloud2 | the path so far every second (thinned to 5 000 points, [`GrowingPath`]) and the whole path at the end: x, y, z float32, m |
 /// | `/cnc/program`, `/cnc/machine_file` | std_msgs/String | once, at the first sample |
 ///
 /// Sample k is stamped [`EPOCH_NS`] + k·dt, so equal inputs give
@@ -125,6 +126,10 @@ pub struct SimRecorder<W: Write + Seek> {
     last_spindle: Option<f64>,
     last_line: Option<u32>,
     path: Vec<u8>,
+    /// the path so far for the growing clouds, thinned as it grows (so the
+    /// first seconds of a run record the same whatever its length)
+    so_far: LivePath,
+    growing: GrowingPath,
     last_ns: u64,
 }
 
@@ -184,6 +189,8 @@ impl<W: Write + Seek> SimRecorder<W> {
             path: Vec::with_capacity(
                 (points.div_ceil(path_every).min(TOOLPATH_MAX_POINTS) as usize + 1) * 12,
             ),
+            so_far: LivePath::default(),
+            growing: GrowingPath::default(),
             last_ns: EPOCH_NS,
         })
     }
@@ -260,6 +267,12 @@ impl<W: Write + Seek> SimRecorder<W> {
         }
         if s.k.is_multiple_of(self.path_every) || s.last {
             push_point(&mut self.path, p);
+        }
+        // the path so far (the whole path follows at the end)
+        self.so_far.push(s.k, p);
+        if self.growing.due(ns) && !s.last {
+            let cloud = toolpath_cloud(self.so_far.so_far(GROWING_MAX_POINTS, p), ns);
+            rec.write(self.toolpath, ns, &cloud)?;
         }
         Ok(())
     }

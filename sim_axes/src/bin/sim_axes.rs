@@ -43,11 +43,11 @@ mod params;
 use cnc_core::machine::MAX_SETPOINT_DELAY_MS;
 use cnc_msgs::params::Parameters;
 use cnc_msgs::ros::{self, Grid, WallClock};
-use cnc_msgs::ros_args::{log_enabled, Level};
 use cnc_msgs::{
-    Float64, Header, JointState, SetBoolRequest, SetBoolResponse, SetDelayRequest,
-    SetDelayResponse, SpindleEncoder, Time,
+    ros_error, ros_info, ros_warn, DiagnosticArray, Float64, Header, JointState, SetBoolRequest,
+    SetBoolResponse, SetDelayRequest, SetDelayResponse, SpindleEncoder, Time,
 };
+use sim_axes::diagnostics::{SimMonitor, SpindleState};
 use sim_axes::machine::{load_machine, model_for};
 use sim_axes::SetpointQueue;
 use std::time::Instant;
@@ -60,7 +60,7 @@ const MAX_BEHIND_S: f64 = 1.0;
 
 fn main() {
     if let Err(e) = params::from_env().and_then(run) {
-        eprintln!("sim_axes: {e}");
+        ros_error!("{e}");
         std::process::exit(2);
     }
 }
@@ -92,11 +92,11 @@ fn run(setup: params::Setup) -> Result<(), String> {
     let dds_rt = ros::dds_priority(a.rt_priority);
     if dds_rt > 0 {
         if let Err(e) = ros::set_realtime(dds_rt) {
-            eprintln!("sim_axes: DDS threads stay at normal priority (SCHED_FIFO {dds_rt}: {e})");
+            ros_warn!("DDS threads stay at normal priority (SCHED_FIFO {dds_rt}: {e})");
         }
     }
     let no_own_params = ros2_client::NodeOptions::new()
-        .enable_rosout(true)
+        .enable_rosout(false)
         .start_parameter_services(false);
     let (ctx, mut node) = ros::join_with(domain, &a.namespace, &setup.start.name, no_own_params)?;
     let (ripple, noise_rpm) = machine
@@ -116,6 +116,10 @@ fn run(setup: params::Setup) -> Result<(), String> {
             _ => Ok(()),
         }),
     )?;
+    cnc_msgs::rosout::init(&ctx, &mut node, &a.namespace, &setup.start.name)?;
+    let pub_diag = ros::publisher::<DiagnosticArray>(&mut node, "/", "diagnostics")?;
+    let mut mon = SimMonitor::default();
+    let hardware_id = format!("{} ({})", machine.name, a.namespace.trim_end_matches('/'));
     let cns = a.controller_namespace.as_str();
     let sub_set = ros::subscription::<JointState>(&mut node, cns, "joint_setpoints")?;
     let sub_spin = ros::subscription::<Float64>(&mut node, cns, "spindle_command")?;
@@ -157,11 +161,11 @@ fn run(setup: params::Setup) -> Result<(), String> {
     let mut encoder_on = true;
     if a.rt_priority > 0 {
         if let Err(e) = ros::lock_memory() {
-            eprintln!("sim_axes: memory not locked (mlockall: {e})");
+            ros_warn!("memory not locked (mlockall: {e})");
         }
         if let Err(e) = ros::set_realtime(a.rt_priority) {
-            eprintln!(
-                "sim_axes: loop stays at normal priority (SCHED_FIFO {}: {e})",
+            ros_warn!(
+                "loop stays at normal priority (SCHED_FIFO {}: {e})",
                 a.rt_priority
             );
         }
@@ -179,16 +183,15 @@ fn run(setup: params::Setup) -> Result<(), String> {
     let mut now_state: Vec<f64> = Vec::new();
     // the steps the last wait was for (more at rest, see the end)
     let mut intended = 1;
-    if log_enabled(Level::Info) {
-        eprintln!(
-            "sim_axes: {} ({}), {} Hz, setpoints applied {}, domain {domain}, {ns}/joint_states, {ns}/spindle_encoder, {ns}/encoder_enabled, {ns}/spindle_stalled, {ns}/setpoint_delay",
-            machine.name,
-            names.join(" "),
-            rate,
-            applied(delay_ms),
-            ns = a.namespace.trim_end_matches('/'),
-        );
-    }
+    let mut diag_at = Instant::now();
+    ros_info!(
+        "{} ({}), {} Hz, setpoints applied {}, domain {domain}, {ns}/joint_states, {ns}/spindle_encoder, {ns}/encoder_enabled, {ns}/spindle_stalled, {ns}/setpoint_delay",
+        machine.name,
+        names.join(" "),
+        rate,
+        applied(delay_ms),
+        ns = a.namespace.trim_end_matches('/'),
+    );
     loop {
         // something happens: setpoints every cycle (closer than half the
         // resting period), a changed setpoint, command or fault
@@ -213,6 +216,7 @@ fn run(setup: params::Setup) -> Result<(), String> {
                 last_pos[j] = p;
             }
             queue.push(t, joints());
+            mon.setpoint(start.elapsed().as_secs_f64());
         }
         while let Ok(Some((id, req))) = srv_delay.receive_request() {
             busy = true;
@@ -224,8 +228,8 @@ fn run(setup: params::Setup) -> Result<(), String> {
                         "setpoint_delay_ms",
                         ros2_client::ParameterValue::Double(req.delay_ms),
                     );
-                    eprintln!(
-                        "sim_axes: setpoint delay {was} ms -> {} ms (fault injection)",
+                    ros_warn!(
+                        "setpoint delay {was} ms -> {} ms (fault injection)",
                         req.delay_ms
                     );
                     SetDelayResponse {
@@ -288,18 +292,19 @@ fn run(setup: params::Setup) -> Result<(), String> {
         // (1: on time)
         let late = (due + 1).saturating_sub(intended);
         if late as f64 * dt > MAX_BEHIND_S {
-            eprintln!(
-                "sim_axes: the loop fell {:.0} ms behind; the simulation skips it",
+            ros_error!(
+                "the loop fell {:.0} ms behind; the simulation skips it",
                 due as f64 * dt * 1000.0
             );
+            mon.skipped(due - 1);
             grid.skip(due - 1);
             due = 1;
         }
         if late as f64 * dt >= STALL_WARN_S && last_warn.is_none_or(|w| w.elapsed().as_secs() >= 1)
         {
             // (a reader of the encoder sees these readings late)
-            eprintln!(
-                "sim_axes: stalled: {} steps ({:.0} ms) ran late at once",
+            ros_warn!(
+                "stalled: {} steps ({:.0} ms) ran late at once",
                 late,
                 late as f64 * dt * 1000.0
             );
@@ -308,6 +313,7 @@ fn run(setup: params::Setup) -> Result<(), String> {
         if busy {
             pace.busy(grid.next());
         }
+        mon.wake(due, late, dt);
         clock.update();
         // the encoder readings first (the controller waits for them), then
         // the joint states
@@ -359,13 +365,36 @@ fn run(setup: params::Setup) -> Result<(), String> {
             let _ = pub_js.publish(js);
         }
         if queue.late() > late_reported && last_late.is_none_or(|w| w.elapsed().as_secs() >= 1) {
-            eprintln!(
-                "sim_axes: {} setpoints arrived after their instant (stamp + {} ms) and were applied at once",
+            ros_warn!(
+                "{} setpoints arrived after their instant (stamp + {} ms) and were applied at once",
                 queue.late() - late_reported,
                 queue.delay_ns() as f64 * 1e-6
             );
             late_reported = queue.late();
             last_late = Some(Instant::now());
+        }
+        if diag_at.elapsed().as_secs_f64() >= 1.0 {
+            diag_at = Instant::now();
+            let spindle = model.spindle.as_ref().map(|sp| SpindleState {
+                encoder_on,
+                stalled: sp.stalled(),
+                rpm: sp.speed_rpm(),
+                command_rpm: spindle_rpm,
+            });
+            let status = mon.statuses(
+                start.elapsed().as_secs_f64(),
+                queue.late(),
+                queue.delay_ns() as f64 * 1e-6,
+                spindle,
+                &hardware_id,
+            );
+            let _ = pub_diag.publish(DiagnosticArray {
+                header: Header {
+                    stamp: ros::wall_stamp(),
+                    frame_id: String::new(),
+                },
+                status,
+            });
         }
         if a.duration
             .is_some_and(|d| start.elapsed().as_secs_f64() >= d)
@@ -400,13 +429,13 @@ fn set_parameter(
         ("ripple", Some(sp)) => {
             let n = sp.params().noise_rpm;
             if let Err(e) = sp.set_disturbances(x, n) {
-                eprintln!("sim_axes: ripple {x}: {e}");
+                ros_warn!("ripple {x}: {e}");
             }
         }
         ("noise_rpm", Some(sp)) => {
             let r = sp.params().ripple_fraction;
             if let Err(e) = sp.set_disturbances(r, x) {
-                eprintln!("sim_axes: noise_rpm {x}: {e}");
+                ros_warn!("noise_rpm {x}: {e}");
             }
         }
         _ => {}

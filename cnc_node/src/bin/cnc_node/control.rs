@@ -8,8 +8,10 @@ use super::{Cmd, Out, Rec};
 use cnc_core::Machine;
 use cnc_msgs::ros::{self, Grid, WallClock};
 use cnc_msgs::Time;
+use cnc_msgs::{ros_error, ros_info, ros_warn};
 use cnc_node::controller::{ActualSample, Controller, EncoderSample, Job};
 use cnc_node::convert::time_ns;
+use cnc_node::diagnostics::LOOP;
 use cnc_node::params::Live;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, Sender, SyncSender, TryRecvError};
@@ -134,11 +136,12 @@ pub(super) fn control_loop(
         }
         let mut due = grid.due(now);
         if (due + 1).saturating_sub(intended) as f64 * dt > MAX_BEHIND_S {
-            eprintln!(
-                "cnc_node: the control loop fell {:.0} ms behind; {} cycles skipped",
+            ros_error!(
+                "the control loop fell {:.0} ms behind; {} cycles skipped",
                 due as f64 * dt * 1000.0,
                 due - 1
             );
+            LOOP.skipped(due - 1);
             grid.skip(due - 1);
             due = 1;
         }
@@ -146,6 +149,11 @@ pub(super) fn control_loop(
             grid.skip(due - 1);
             due = 1;
         }
+        LOOP.wake(
+            now.saturating_duration_since(deadline),
+            due.min(CATCH_UP),
+            dt,
+        );
         clock.update();
         for _ in 0..due.min(CATCH_UP) {
             let n = grid.advance();
@@ -163,14 +171,14 @@ pub(super) fn control_loop(
         if let Some(every) = stats {
             if Instant::now() >= stats_due {
                 stats_due += every;
-                eprintln!(
-                    "cnc_node: loop lateness {}; wakes {} us early",
+                ros_info!(
+                    "loop lateness {}; wakes {} us early",
                     lateness.summary(),
                     grid.margin().as_micros()
                 );
                 if let Some(a) = &lp.enc_age {
                     if a.count() > 0 {
-                        eprintln!("cnc_node: encoder reading age {}", a.summary());
+                        ros_info!("encoder reading age {}", a.summary());
                     }
                 }
             }
@@ -220,7 +228,7 @@ impl Loop {
                 }
                 Ok(Cmd::Override(pct)) => {
                     if let Err(e) = self.ctl.set_feed_override(pct) {
-                        eprintln!("cnc_node: {e}");
+                        ros_warn!("{e}");
                     }
                 }
                 Err(TryRecvError::Empty) => break,
@@ -297,11 +305,9 @@ impl Loop {
         };
         if self.out.try_send(o).is_err() {
             self.dropped += 1;
+            LOOP.dropped(1);
             if self.dropped.is_power_of_two() {
-                eprintln!(
-                    "cnc_node: publisher queue full, {} samples dropped",
-                    self.dropped
-                );
+                ros_error!("publisher queue full, {} samples dropped", self.dropped);
             }
         }
         true
