@@ -148,7 +148,7 @@ cmake_package() {  # cmake_package NAME SRC BUILD
   cmake --install "$b" >"$logs.install.log" 2>&1 \
     || { cat "$logs.install.log" >&2; exit 1; }
 }
-cmake_package cnc_msgs "$root/msgs" "$build"
+cmake_package cnc_msgs "$root/msgs" "$venv/build/cnc_msgs"
 cmake_package tf2_msgs "$here/tf2_msgs" "$venv/build/tf2_msgs"
 
 # ---------------------------------------------------------------- 5. ros2cli and launch
