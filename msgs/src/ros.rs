@@ -11,6 +11,7 @@ use std::net::{IpAddr, Ipv4Addr};
 use std::time::Duration;
 
 mod pace;
+pub mod shutdown;
 mod timing;
 pub use pace::{Pace, LINGER_S, REST_RATE_HZ};
 pub use timing::{Grid, Lateness, WallClock, MAX_SPIN};

@@ -387,11 +387,26 @@ def test_ros2_launch_starts_both_with_a_params_file_and_runs_a_job(env, tmp_path
         log = launch.text()
         assert "[cnc_node-2] cnc_node: mill (x y z), 250 Hz" in log, log
         assert "setpoints applied 4 ms after their stamps" in log, log
-        # Ctrl-C ends the launch and both nodes
+        # Ctrl-C ends the launch and both nodes cleanly (exit status 0), a
+        # running job stopped under control and its recording closed
         if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+            req.program = "G01 X80 F600\nM30\n"
+            r2 = peer.call(peer.run, req)
+            assert r2.accepted, r2
+            peer.wait_for("job 2 running", lambda: any(
+                s.job_id == r2.job_id and s.state == 1 for s in list(peer.status)[-20:]), 10.0)
             launch.p.send_signal(signal.SIGINT)
             launch.p.wait(timeout=30)
-            assert "process has finished cleanly" in launch.text() or "exit code" in launch.text()
+            log = launch.text()
+            for node in ["cnc_node", "sim_axes"]:
+                assert re.search(r"\[%s-\d+\]: process has finished cleanly" % node, log), log
+            assert "cnc_node: SIGINT/SIGTERM: stopping" in log, log
+            assert "sim_axes: SIGINT/SIGTERM: shut down" in log, log
+            assert os.path.getsize(r2.recording) > 0
+            with open(r2.recording, "rb") as f:
+                data = f.read()
+            # a closed MCAP ends with its magic
+            assert data[:8] == b"\x89MCAP0\r\n" and data[-8:] == b"\x89MCAP0\r\n", len(data)
     finally:
         if peer:
             peer.close()

@@ -99,6 +99,9 @@ fn program_dir(args: &Args, m: &Machine) -> PathBuf {
 }
 
 fn run(setup: Setup) -> Result<(), String> {
+    if let Err(e) = ros::shutdown::catch_signals() {
+        ros_warn!("{e}");
+    }
     let args = &setup.args;
     let mut machine = load_machine(&args.machine)?;
     // recordings attach the machine file as written (or, for a bundled
@@ -254,7 +257,26 @@ fn run(setup: Setup) -> Result<(), String> {
     let mut spindle_sent = Instant::now();
     let mut recording: Option<(u32, Rec)> = None;
     let mut polled = Instant::now();
+    let mut stopping: Option<Instant> = None;
     loop {
+        // SIGINT/SIGTERM: a running job stops under control along its path
+        // and its recording is closed, then the node ends (exit status 0)
+        if ros::shutdown::requested() {
+            let since = *stopping.get_or_insert_with(|| {
+                ros_info!("SIGINT/SIGTERM: stopping");
+                let _ = ask(&cmd_tx, Cmd::Abort);
+                Instant::now()
+            });
+            let s = state.load(Ordering::Relaxed);
+            let moving = s == State::Running as u32 || s == State::Hold as u32;
+            if (!moving && recording.is_none()) || since.elapsed() >= SHUTDOWN_GRACE {
+                if let Some((id, rec)) = recording.take() {
+                    finish_recording(id, rec, None);
+                }
+                ros_info!("shut down");
+                return Ok(());
+            }
+        }
         obs.poll();
         // services and the override, every SERVICE_POLL (each look costs a
         // system call; a job's samples wake this thread every cycle)
@@ -410,6 +432,10 @@ fn drain<T>(rx: &Receiver<T>, wait: Duration, mut f: impl FnMut(T)) -> Result<()
     }
     Ok(())
 }
+
+/// How long a SIGINT/SIGTERM waits for a running job to stop (`ros2
+/// launch` sends SIGTERM 5 s after SIGINT).
+const SHUTDOWN_GRACE: Duration = Duration::from_secs(4);
 
 /// How often the DDS thread looks for service requests and the feed
 /// override.

@@ -66,6 +66,9 @@ fn main() {
 }
 
 fn run(setup: params::Setup) -> Result<(), String> {
+    if let Err(e) = ros::shutdown::catch_signals() {
+        ros_warn!("{e}");
+    }
     let a = &setup.args;
     let mut machine = load_machine(&a.machine)?;
     if let Some(s) = machine.spindle.as_mut() {
@@ -193,6 +196,10 @@ fn run(setup: params::Setup) -> Result<(), String> {
         ns = a.namespace.trim_end_matches('/'),
     );
     loop {
+        if ros::shutdown::requested() {
+            ros_info!("SIGINT/SIGTERM: shut down");
+            return Ok(());
+        }
         // something happens: setpoints every cycle (closer than half the
         // resting period), a changed setpoint, command or fault
         let mut busy = false;
