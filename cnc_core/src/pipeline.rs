@@ -20,6 +20,7 @@ use crate::comp::{block_name, Comp};
 use crate::dialect::Dialect;
 use crate::geom::{Geom, V3};
 use crate::interp::{Interpreter, Modal};
+use crate::limits::MovePrep;
 use crate::machine::Machine;
 use crate::plan::{Item, ItemSink, Lookahead, PlanLimits, Planner, Profile, Timeline};
 use crate::source::ProgramSource;
@@ -340,22 +341,20 @@ impl Estimate {
         }
     }
 
-    /// Plans a batch of events; nothing after the end counts.
-    /// `arc_tangents`: the start and end tangents of the arcs among them,
-    /// in order, as far as they have been computed already.
-    pub(crate) fn run(&mut self, events: &VecDeque<Event>, arc_tangents: &[(V3, V3)]) {
-        let mut arc_tangents = arc_tangents.iter();
+    /// Plans a batch of events; nothing after the end counts. `preps`:
+    /// what [`PlanLimits::prepare`] makes of the moves among them, in
+    /// order, as far as it has been computed already.
+    pub(crate) fn run(&mut self, events: &VecDeque<Event>, preps: &[MovePrep]) {
+        let mut preps = preps.iter();
         for ev in events {
             if self.totals.ended {
                 return;
             }
-            let tangents = match ev {
-                Event::Move {
-                    geom: Geom::Arc(_), ..
-                } => arc_tangents.next().copied(),
+            let prep = match ev {
+                Event::Move { .. } => preps.next(),
                 _ => None,
             };
-            self.look.push(ev, tangents, &mut self.totals);
+            self.look.push(ev, prep, &mut self.totals);
         }
     }
 
