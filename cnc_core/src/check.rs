@@ -123,7 +123,7 @@ fn report<T: ProgramSource>(
 struct Fed;
 
 impl ProgramSource for Fed {
-    fn read_line(&mut self, _buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError> {
+    fn append_line(&mut self, _buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError> {
         Ok(None)
     }
     fn seek(&mut self, _pos: SourcePos) -> Result<(), SourceError> {
@@ -166,20 +166,21 @@ struct Batch {
 
 impl Batch {
     /// Reads and parses up to `LINES` lines, as `Interpreter::step` would.
-    fn read<S: ProgramSource>(&mut self, src: &mut S, dialect: Dialect, line: &mut Vec<u8>) {
+    fn read<S: ProgramSource>(&mut self, src: &mut S, dialect: Dialect) {
         self.lines.clear();
         self.text.clear();
         self.words.clear();
         self.end = None;
         while self.lines.len() < LINES {
-            match src.read_line(line) {
+            let start = self.text.len();
+            match src.append_line(&mut self.text) {
                 Ok(Some(pos)) => {
                     let mut words = Appended {
                         start: self.words.len(),
                         words: &mut self.words,
                     };
+                    let line = &self.text[start..];
                     let parsed = parse_words(dialect, pos.line, line, &mut words, &mut false);
-                    self.text.extend_from_slice(line);
                     self.lines.push(ParsedLine {
                         pos,
                         text_end: self.text.len(),
@@ -192,6 +193,7 @@ impl Batch {
                     return;
                 }
                 Err(e) => {
+                    self.text.truncate(start);
                     self.end = Some(Err(e));
                     return;
                 }
@@ -280,13 +282,12 @@ fn check_concurrently<S: ProgramSource>(
         // the thread is waiting for it (a failed send means it panicked: `join` says so)
         let _ = start_tx.send(interp);
         plan.run(&first, &[]);
-        let mut line = Vec::with_capacity(256);
         let mut spare: Vec<Batch> = Vec::with_capacity(IN_FLIGHT);
         let (mut in_flight, mut reading) = (0, true);
         loop {
             let back = if reading && in_flight < IN_FLIGHT {
                 let mut batch = spare.pop().unwrap_or_default();
-                batch.read(&mut source, dialect, &mut line);
+                batch.read(&mut source, dialect);
                 reading = batch.end.is_none();
                 // never blocks: at most IN_FLIGHT batches are out
                 queued.fetch_add(1, Ordering::Relaxed);

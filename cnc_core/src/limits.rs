@@ -155,11 +155,12 @@ impl PlanLimits {
                         }
                     }
                 }
-                a.map(|a| MoveLimits {
+                let limits = |a: f64| MoveLimits {
                     vcap: f.min(vlim),
                     a,
                     vlim,
-                })
+                };
+                [limits(a[0]), limits(a[1])]
             }
             Geom::Arc(arc) => {
                 let (p, q, n) = arc.plane.axes();
@@ -178,7 +179,7 @@ impl PlanLimits {
                 let vc = f.min(vgeo) * c;
                 let needed = vc * vc / (apq * arc.radius);
                 let centripetal = |k: f64| (k * apq * arc.radius).sqrt() / c;
-                shares.map(|share| {
+                let limits = |share: f64| {
                     let normal_max = ARC_NORMAL_MAX * share;
                     let normal = needed.min(normal_max);
                     let mut a = (share * share - normal * normal).max(0.0).sqrt() * apq / c;
@@ -198,7 +199,8 @@ impl PlanLimits {
                         a,
                         vlim: vgeo.min(centripetal(normal_left)),
                     }
-                })
+                };
+                [limits(shares[0]), limits(shares[1])]
             }
         }
     }

@@ -148,11 +148,14 @@ pub(crate) fn parse_words(
         d.source = String::from_utf8_lossy(text).into_owned();
         d
     };
-    // A `%` line (ISO program start/end marker such as `%PART G71`) is skipped.
-    let first = text.iter().position(|b| !b.is_ascii_whitespace());
-    if let Some(f) = first {
-        if text[f] == b'%' {
-            return Ok(());
+    // A `%` line (ISO program start/end marker such as `%PART G71`) is
+    // skipped. (A line that starts with a letter, nearly all, is not one.)
+    if !text.first().is_some_and(u8::is_ascii_alphabetic) {
+        let first = text.iter().position(|b| !b.is_ascii_whitespace());
+        if let Some(f) = first {
+            if text[f] == b'%' {
+                return Ok(());
+            }
         }
     }
     let mut ended = false;
