@@ -229,7 +229,8 @@ impl Batch {
         };
         for ev in &self.events {
             if let Event::Move { geom, feed, .. } = ev {
-                self.preps.push(lim.prepare(geom, feed));
+                // (the check's estimate does not use the speed limit over the feed)
+                self.preps.push(lim.prepare(geom, feed, false));
             }
         }
     }

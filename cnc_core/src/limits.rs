@@ -4,7 +4,7 @@
 //! (`plan.rs`) so the check can compute it on another thread.
 
 use crate::canon::Feed;
-use crate::geom::{Geom, V3};
+use crate::geom::{Arc, Geom, V3};
 use crate::machine::Machine;
 use crate::shares::{ARC_NORMAL_MAX, KINK_SHARE, LINE_SHARE, SMOOTH_SHARE};
 
@@ -36,6 +36,24 @@ pub(crate) struct MovePrep {
     pub red: MoveLimits,
     /// the limits with the whole acceleration
     pub full: MoveLimits,
+}
+
+impl MovePrep {
+    /// A move of length 0 or less (or NaN): skipped by the planner.
+    fn skipped(length: f64) -> Self {
+        let none = MoveLimits {
+            vcap: 0.0,
+            a: 0.0,
+            vlim: 0.0,
+        };
+        MovePrep {
+            length,
+            t_start: V3::zeros(),
+            t_end: V3::zeros(),
+            red: none,
+            full: none,
+        }
+    }
 }
 
 /// Length of the vector of the finite components of `v` (the axes a
@@ -88,121 +106,119 @@ impl PlanLimits {
 
     /// Length, tangents and the limits for both shares of a move. (A
     /// line's tangent is its difference divided by its norm, which is the
-    /// length: what `normalize()` computes.)
+    /// length: what `normalize()` computes.) Without `vlim` an arc's
+    /// [`MoveLimits::vlim`] is not computed (NaN): the check does not use
+    /// it.
     #[inline]
-    pub(crate) fn prepare(&self, geom: &Geom, feed: &Feed) -> MovePrep {
-        let (length, line_dir) = match geom {
-            Geom::Line { start, end } => {
-                let d = end - start;
-                let len = d.norm();
-                (len, Some(d.unscale(len)))
-            }
-            Geom::Arc(a) => (a.length, None),
-        };
-        let none = MoveLimits {
-            vcap: 0.0,
-            a: 0.0,
-            vlim: 0.0,
-        };
-        if length <= 0.0 {
-            return MovePrep {
-                length,
-                t_start: V3::zeros(),
-                t_end: V3::zeros(),
-                red: none,
-                full: none,
-            };
-        }
-        let (t_start, t_end) = match line_dir {
-            Some(d) => (d, d),
-            None => (geom.start_tangent(), geom.end_tangent()),
-        };
-        let [red, full] = self.move_limits(geom, length, feed, [LINE_SHARE, 1.0]);
-        MovePrep {
-            length,
-            t_start,
-            t_end,
-            red,
-            full,
-        }
-    }
-
-    /// The limits of a move of length `len` that may use `share` of every
-    /// axis's acceleration, for two shares at once (what does not depend
-    /// on the share is computed once). On an arc the centripetal part
-    /// takes what the feed needs, up to [`ARC_NORMAL_MAX`]·share, and the
-    /// tangential part the rest, so their vector sum stays under the share
-    /// on every axis.
-    #[inline]
-    pub(crate) fn move_limits(
-        &self,
-        geom: &Geom,
-        len: f64,
-        feed: &Feed,
-        shares: [f64; 2],
-    ) -> [MoveLimits; 2] {
+    pub(crate) fn prepare(&self, geom: &Geom, feed: &Feed, vlim: bool) -> MovePrep {
         let f = feed.speed_mm_s();
         match geom {
             Geom::Line { start, end } => {
-                let mut vlim = f64::INFINITY;
-                let mut a = [f64::INFINITY; 2];
-                for i in 0..3 {
-                    let u = (end[i] - start[i]).abs() / len;
-                    if u > 0.0 {
-                        vlim = vlim.min(self.vmax[i] / u);
-                        for (a, share) in a.iter_mut().zip(shares) {
-                            *a = a.min(share * self.amax[i] / u);
-                        }
-                    }
+                let d = end - start;
+                let length = d.norm();
+                if length <= 0.0 {
+                    return MovePrep::skipped(length);
                 }
-                let limits = |a: f64| MoveLimits {
-                    vcap: f.min(vlim),
-                    a,
-                    vlim,
-                };
-                [limits(a[0]), limits(a[1])]
+                let t = d.unscale(length);
+                // |d| / length per axis is |t| (a quotient's sign is exact)
+                let [red, full] = self.line_limits(&t.abs(), f);
+                MovePrep {
+                    length,
+                    t_start: t,
+                    t_end: t,
+                    red,
+                    full,
+                }
             }
             Geom::Arc(arc) => {
-                let (p, q, n) = arc.plane.axes();
-                let c = arc.plane_fraction();
-                let h = if arc.length > 0.0 {
-                    arc.axial.abs() / arc.length
-                } else {
-                    0.0
-                };
-                let apq = self.amax[p].min(self.amax[q]);
-                let mut vgeo = self.vmax[p].min(self.vmax[q]) / c;
-                if h > 0.0 {
-                    vgeo = vgeo.min(self.vmax[n] / h);
+                if arc.length <= 0.0 {
+                    return MovePrep::skipped(arc.length);
                 }
-                // centripetal share the feed needs, and what is left
-                let vc = f.min(vgeo) * c;
-                let needed = vc * vc / (apq * arc.radius);
-                let centripetal = |k: f64| (k * apq * arc.radius).sqrt() / c;
-                let limits = |share: f64| {
-                    let normal_max = ARC_NORMAL_MAX * share;
-                    let normal = needed.min(normal_max);
-                    let mut a = (share * share - normal * normal).max(0.0).sqrt() * apq / c;
-                    if h > 0.0 {
-                        a = a.min(share * self.amax[n] / h);
-                    }
-                    // with the tangential acceleration taken, the centripetal
-                    // share left for speeds over the feed
-                    let tangential = a * c / apq;
-                    let normal_left = (share * share - tangential * tangential)
-                        .max(0.0)
-                        .sqrt()
-                        .min(normal_max)
-                        .max(normal);
-                    MoveLimits {
-                        vcap: f.min(vgeo).min(centripetal(normal)),
-                        a,
-                        vlim: vgeo.min(centripetal(normal_left)),
-                    }
-                };
-                [limits(shares[0]), limits(shares[1])]
+                let [red, full] = self.arc_limits(arc, f, vlim);
+                MovePrep {
+                    length: arc.length,
+                    t_start: geom.start_tangent(),
+                    t_end: geom.end_tangent(),
+                    red,
+                    full,
+                }
             }
         }
+    }
+
+    /// A line's limits with [`LINE_SHARE`] and the whole acceleration:
+    /// `u` holds |direction| per axis, `f` is the feed's speed. (What does
+    /// not depend on the share is computed once.)
+    #[inline]
+    fn line_limits(&self, u: &V3, f: f64) -> [MoveLimits; 2] {
+        let mut vlim = f64::INFINITY;
+        let mut a = [f64::INFINITY; 2];
+        for i in 0..3 {
+            let u = u[i];
+            if u > 0.0 {
+                vlim = vlim.min(self.vmax[i] / u);
+                a[0] = a[0].min(LINE_SHARE * self.amax[i] / u);
+                a[1] = a[1].min(1.0 * self.amax[i] / u);
+            }
+        }
+        let limits = |a: f64| MoveLimits {
+            vcap: f.min(vlim),
+            a,
+            vlim,
+        };
+        [limits(a[0]), limits(a[1])]
+    }
+
+    /// An arc's limits with [`LINE_SHARE`] and the whole acceleration, `f`
+    /// the feed's speed; `vlim` as at [`prepare`](Self::prepare). On an
+    /// arc the centripetal part takes what the feed needs, up to
+    /// [`ARC_NORMAL_MAX`]·share, and the tangential part the rest, so
+    /// their vector sum stays under the share on every axis.
+    #[inline]
+    fn arc_limits(&self, arc: &Arc, f: f64, vlim: bool) -> [MoveLimits; 2] {
+        let (p, q, n) = arc.plane.axes();
+        let c = arc.plane_fraction();
+        let h = if arc.length > 0.0 {
+            arc.axial.abs() / arc.length
+        } else {
+            0.0
+        };
+        let apq = self.amax[p].min(self.amax[q]);
+        let mut vgeo = self.vmax[p].min(self.vmax[q]) / c;
+        if h > 0.0 {
+            vgeo = vgeo.min(self.vmax[n] / h);
+        }
+        // centripetal share the feed needs, and what is left
+        let vc = f.min(vgeo) * c;
+        let needed = vc * vc / (apq * arc.radius);
+        let centripetal = |k: f64| (k * apq * arc.radius).sqrt() / c;
+        let limits = |share: f64| {
+            let normal_max = ARC_NORMAL_MAX * share;
+            let normal = needed.min(normal_max);
+            let mut a = (share * share - normal * normal).max(0.0).sqrt() * apq / c;
+            if h > 0.0 {
+                a = a.min(share * self.amax[n] / h);
+            }
+            // with the tangential acceleration taken, the centripetal
+            // share left for speeds over the feed
+            let vlim = if vlim {
+                let tangential = a * c / apq;
+                let normal_left = (share * share - tangential * tangential)
+                    .max(0.0)
+                    .sqrt()
+                    .min(normal_max)
+                    .max(normal);
+                vgeo.min(centripetal(normal_left))
+            } else {
+                f64::NAN
+            };
+            MoveLimits {
+                vcap: f.min(vgeo).min(centripetal(normal)),
+                a,
+                vlim,
+            }
+        };
+        [limits(LINE_SHARE), limits(1.0)]
     }
 
     /// The junction from unit tangent `t1` into `t2`: its own speed limit
@@ -231,8 +247,8 @@ mod tests {
     use super::*;
     use crate::geom::{Arc, Plane};
 
-    /// The limits for one share as they were computed before both shares
-    /// were computed together.
+    /// The limits for one share as the planner computed them before they
+    /// were prepared for both shares at once.
     fn one_share(lim: &PlanLimits, geom: &Geom, len: f64, feed: &Feed, share: f64) -> MoveLimits {
         let f = feed.speed_mm_s();
         match geom {
@@ -289,7 +305,7 @@ mod tests {
     }
 
     #[test]
-    fn both_shares_at_once_are_each_share_bit_for_bit() {
+    fn prepared_moves_are_each_share_bit_for_bit() {
         let mut x = 0x9E37_79B9_7F4A_7C15u64;
         let mut next = move || {
             x ^= x << 13;
@@ -325,13 +341,24 @@ mod tests {
                 let arc = Arc::new(start, end, center, plane, k % 2 == 0, (k % 5 == 0) as u32);
                 for geom in [Geom::Line { start, end }, Geom::Arc(arc)] {
                     let len = geom.length();
-                    let both = lim.move_limits(&geom, len, &feed, [LINE_SHARE, 1.0]);
                     let want = [LINE_SHARE, 1.0].map(|s| one_share(&lim, &geom, len, &feed, s));
-                    assert_eq!(
-                        format!("{both:?}"),
-                        format!("{want:?}"),
-                        "{geom:?} {feed:?}"
-                    );
+                    let p = lim.prepare(&geom, &feed, true);
+                    if len.is_nan() || len <= 0.0 {
+                        // skipped by the planner: nothing else counts
+                        assert_eq!(p.length.to_bits(), len.to_bits());
+                        continue;
+                    }
+                    let got = (p.length, p.t_start, p.t_end, [p.red, p.full]);
+                    let want = (len, geom.start_tangent(), geom.end_tangent(), want);
+                    assert_eq!(format!("{got:?}"), format!("{want:?}"), "{geom:?} {feed:?}");
+                    // without the speed limit over the feed: the rest the same
+                    let q = lim.prepare(&geom, &feed, false);
+                    for (q, p) in [(q.red, p.red), (q.full, p.full)] {
+                        assert_eq!(
+                            format!("{:?}", (q.vcap, q.a)),
+                            format!("{:?}", (p.vcap, p.a))
+                        );
+                    }
                 }
             }
         }

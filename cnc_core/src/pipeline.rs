@@ -305,6 +305,8 @@ pub(crate) struct Totals {
 impl ItemSink for Totals {
     /// only the profile counts: the queue keeps nothing else of a move
     type Kept = ();
+    /// only the durations count
+    const VLIM: bool = false;
     #[inline]
     fn keep(_: &Geom, _: Feed, _: Src) {}
     #[inline]

@@ -181,6 +181,9 @@ impl<K> QSeg<K> {
 pub(crate) trait ItemSink {
     /// What the queue keeps of a move.
     type Kept: Copy;
+    /// Whether the profiles' [`Profile::vlim`] is wanted (it is computed
+    /// only then).
+    const VLIM: bool = true;
     fn keep(geom: &Geom, feed: Feed, src: Src) -> Self::Kept;
     /// A move, with its final profile.
     fn planned(&mut self, kept: Self::Kept, profile: Profile);
@@ -249,7 +252,10 @@ impl<K: Copy> Lookahead<K> {
                 src,
             } => match prep {
                 Some(p) => self.push_move(geom, p, feed, src, out),
-                None => self.push_move(geom, &self.lim.prepare(geom, &feed), feed, src, out),
+                None => {
+                    let prep = self.lim.prepare(geom, &feed, O::VLIM);
+                    self.push_move(geom, &prep, feed, src, out)
+                }
             },
             Event::Dwell { seconds, src } => {
                 self.flush(out);
