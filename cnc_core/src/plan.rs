@@ -187,6 +187,24 @@ pub(crate) trait ItemSink {
     fn keep(geom: &Geom, feed: Feed, src: Src) -> Self::Kept;
     /// A move, with its final profile.
     fn planned(&mut self, kept: Self::Kept, profile: Profile);
+    /// A move whose profile is final: from `v0` to `v1` with limits `lim`
+    /// over `length`, `a_join` its [`Profile::a_join`]. (A sink may put
+    /// off computing the profile; the items stay in order.)
+    #[inline]
+    fn plan(
+        &mut self,
+        kept: Self::Kept,
+        v0: f64,
+        v1: f64,
+        lim: MoveLimits,
+        length: f64,
+        a_join: f64,
+    ) {
+        let mut profile = Profile::new(v0, v1, lim.vcap, lim.a, length);
+        profile.vlim = lim.vlim;
+        profile.a_join = a_join;
+        self.planned(kept, profile);
+    }
     /// Any other item.
     fn item(&mut self, item: Item);
 }
@@ -384,19 +402,17 @@ impl<K: Copy> Lookahead<K> {
                 None => return,
             };
             let lim = h.lim;
-            let mut profile = Profile::new(self.v_head, v1, lim.vcap, lim.a, h.length);
-            profile.vlim = lim.vlim;
             // (the next move's acceleration may still rise, never fall)
             let a_after = match self.queue.get(1) {
                 Some(nx) if v1 > 0.0 => nx.lim.a,
                 _ => f64::INFINITY,
             };
-            profile.a_join = lim.a.min(a_after).min(if self.v_head > 0.0 {
+            let a_join = lim.a.min(a_after).min(if self.v_head > 0.0 {
                 self.a_before
             } else {
                 f64::INFINITY
             });
-            out.planned(h.kept, profile);
+            out.plan(h.kept, self.v_head, v1, lim, h.length, a_join);
             self.a_before = lim.a;
             self.v_head = v1;
             self.queue.pop_front();
