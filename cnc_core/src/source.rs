@@ -189,6 +189,48 @@ impl<R: std::io::BufRead + std::io::Seek> ReaderSource<R> {
 
 impl<R: std::io::BufRead + std::io::Seek> ProgramSource for ReaderSource<R> {
     fn append_line(&mut self, buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError> {
+        // the usual case: the whole line, with its end, is in the reader's
+        // buffer (what the general loop below does with it, in one go)
+        let limit = self.max_line.saturating_add(2);
+        match self.reader.fill_buf() {
+            Ok(avail) => {
+                let room = &avail[..avail.len().min(limit)];
+                if let Some(i) = find_newline(room) {
+                    let mut end = i;
+                    while end > 0 && room[end - 1] == b'\r' {
+                        end -= 1;
+                    }
+                    buf.extend_from_slice(&room[..end]);
+                    self.reader.consume(i + 1);
+                    self.line += 1;
+                    let pos = SourcePos {
+                        offset: self.offset,
+                        line: self.line,
+                    };
+                    self.offset += i as u64 + 1;
+                    return Ok(Some(pos));
+                }
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(SourceError(e.to_string())),
+        }
+        self.append_line_slowly(buf)
+    }
+
+    fn seek(&mut self, pos: SourcePos) -> Result<(), SourceError> {
+        self.reader
+            .seek(std::io::SeekFrom::Start(pos.offset))
+            .map_err(|e| SourceError(e.to_string()))?;
+        self.offset = pos.offset;
+        self.line = pos.line.saturating_sub(1);
+        Ok(())
+    }
+}
+
+impl<R: std::io::BufRead + std::io::Seek> ReaderSource<R> {
+    /// [`ProgramSource::append_line`] in general: a line across the
+    /// reader's buffers, too long, or the last without a line end.
+    fn append_line_slowly(&mut self, buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError> {
         let start = buf.len();
         // `read_until(b'\n')` on `take(limit)`, searching the reader's
         // buffer directly
@@ -232,15 +274,6 @@ impl<R: std::io::BufRead + std::io::Seek> ProgramSource for ReaderSource<R> {
         self.offset += n;
         trim_line_end_from(buf, start);
         Ok(Some(pos))
-    }
-
-    fn seek(&mut self, pos: SourcePos) -> Result<(), SourceError> {
-        self.reader
-            .seek(std::io::SeekFrom::Start(pos.offset))
-            .map_err(|e| SourceError(e.to_string()))?;
-        self.offset = pos.offset;
-        self.line = pos.line.saturating_sub(1);
-        Ok(())
     }
 }
 
