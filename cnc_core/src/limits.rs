@@ -36,6 +36,9 @@ pub(crate) struct MovePrep {
     pub red: MoveLimits,
     /// the limits with the whole acceleration
     pub full: MoveLimits,
+    /// with `red` and with `full`: the largest speed from which the move
+    /// can stop over its length, √(2·a·length)
+    pub stop: [f64; 2],
 }
 
 impl MovePrep {
@@ -52,8 +55,15 @@ impl MovePrep {
             t_end: V3::zeros(),
             red: none,
             full: none,
+            stop: [0.0; 2],
         }
     }
+}
+
+/// √(2·a·length) with either limits' acceleration.
+#[inline]
+fn stops(red: &MoveLimits, full: &MoveLimits, length: f64) -> [f64; 2] {
+    [red, full].map(|l| (2.0 * l.a * length).sqrt())
 }
 
 /// Length of the vector of the finite components of `v` (the axes a
@@ -128,6 +138,7 @@ impl PlanLimits {
                     t_end: t,
                     red,
                     full,
+                    stop: stops(&red, &full, length),
                 }
             }
             Geom::Arc(arc) => {
@@ -141,6 +152,7 @@ impl PlanLimits {
                     t_end: geom.end_tangent(),
                     red,
                     full,
+                    stop: stops(&red, &full, arc.length),
                 }
             }
         }
@@ -348,8 +360,9 @@ mod tests {
                         assert_eq!(p.length.to_bits(), len.to_bits());
                         continue;
                     }
-                    let got = (p.length, p.t_start, p.t_end, [p.red, p.full]);
-                    let want = (len, geom.start_tangent(), geom.end_tangent(), want);
+                    let got = (p.length, p.t_start, p.t_end, [p.red, p.full], p.stop);
+                    let stop = want.map(|l| (2.0 * l.a * len).sqrt());
+                    let want = (len, geom.start_tangent(), geom.end_tangent(), want, stop);
                     assert_eq!(format!("{got:?}"), format!("{want:?}"), "{geom:?} {feed:?}");
                     // without the speed limit over the feed: the rest the same
                     let q = lim.prepare(&geom, &feed, false);

@@ -157,9 +157,12 @@ struct QSeg<K> {
     /// the limits in force ([`LINE_SHARE`](crate::shares::LINE_SHARE) until both junctions are known
     /// to be smooth)
     lim: MoveLimits,
-    /// the limits with the whole acceleration, while they may still be
-    /// taken (the entry junction is smooth, the exit one not yet known)
-    full: Option<MoveLimits>,
+    /// √(2·a·length) with `lim` (the speed from which it stops)
+    stop: f64,
+    /// the limits with the whole acceleration and their `stop`, while they
+    /// may still be taken (the entry junction is smooth, the exit one not
+    /// yet known)
+    full: Option<(MoveLimits, f64)>,
     /// largest entry speed the junction allows
     j: f64,
     /// what `j` becomes if the move takes its `full` limits
@@ -171,7 +174,7 @@ struct QSeg<K> {
 impl<K> QSeg<K> {
     /// Largest entry speed from which the move can stop at its end.
     fn entry_to_stop(&self) -> f64 {
-        self.j.min((2.0 * self.lim.a * self.length).sqrt())
+        self.j.min(self.stop)
     }
 }
 
@@ -327,11 +330,11 @@ impl<K: Copy> Lookahead<K> {
             prev.full = None;
             prev.j_max = prev.j;
         }
-        let full = (!kink).then_some(prep.full);
+        let full = (!kink).then_some((prep.full, prep.stop[1]));
         let (j, j_max) = match self.queue.back() {
             Some(prev) => {
                 let j = j_kink.min(prev.lim.vcap);
-                (j.min(red.vcap), j.min(full.map_or(red.vcap, |f| f.vcap)))
+                (j.min(red.vcap), j.min(full.map_or(red.vcap, |f| f.0.vcap)))
             }
             None => (self.v_head, self.v_head),
         };
@@ -341,6 +344,7 @@ impl<K: Copy> Lookahead<K> {
             t_end,
             length,
             lim: red,
+            stop: prep.stop[0],
             full,
             j,
             j_max,
@@ -359,10 +363,11 @@ impl<K: Copy> Lookahead<K> {
         let Some(t) = self.queue.back_mut() else {
             return;
         };
-        let Some(full) = t.full.take() else {
+        let Some((full, stop)) = t.full.take() else {
             return;
         };
         t.lim = full;
+        t.stop = stop;
         t.j = t.j_max;
         t.entry_b = t.entry_to_stop();
         // (the tail's own entry_b; the pass takes it from here)
