@@ -22,6 +22,7 @@ pub mod dialect;
 pub mod exec;
 pub mod geom;
 pub mod interp;
+pub mod limits;
 pub mod machine;
 pub mod parse;
 pub mod pipeline;

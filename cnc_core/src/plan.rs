@@ -7,9 +7,9 @@
 //! Limits are honoured at every *sample*, not only in continuous time: a
 //! junction with a small direction change (a kink) makes each axis's
 //! velocity jump, and the sampled acceleration of that jump is Δv/dt. The
-//! planner therefore reserves [`KINK_SHARE`] of every axis's acceleration
+//! planner therefore reserves [`KINK_SHARE`](crate::shares::KINK_SHARE) of every axis's acceleration
 //! for such jumps in the two moves that meet at a kink, and plans their
-//! path acceleration with the rest ([`LINE_SHARE`]). A move whose
+//! path acceleration with the rest ([`LINE_SHARE`](crate::shares::LINE_SHARE)). A move whose
 //! junctions are both tangent or stops has no jump to make room for and
 //! uses the whole acceleration. A queue's tail does not know its next
 //! junction yet; it is planned with the smaller share and raised when the
@@ -20,8 +20,8 @@ use crate::canon::ThreadMove;
 use crate::canon::{Event, Feed, Src};
 use crate::geom::V3;
 use crate::geom::{ceil, Geom};
-use crate::machine::Machine;
-use crate::shares::{ARC_NORMAL_MAX, KINK_SHARE, LINE_SHARE, SMOOTH_SHARE};
+pub use crate::limits::PlanLimits;
+use crate::limits::{MoveLimits, MovePrep};
 use std::collections::VecDeque;
 
 /// A trapezoidal (or triangular) speed profile over one move.
@@ -147,18 +147,6 @@ pub enum Item {
     },
 }
 
-/// Speed cap, path acceleration and geometric speed limit of a move
-/// planned with one acceleration share.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct MoveLimits {
-    /// speed cap at the programmed feed
-    pub vcap: f64,
-    /// path acceleration
-    pub a: f64,
-    /// speed cap at any feed, with acceleration `a` ([`Profile::vlim`])
-    pub vlim: f64,
-}
-
 #[derive(Clone, Copy, Debug)]
 struct QSeg<K> {
     /// what the sink keeps of the move
@@ -166,12 +154,15 @@ struct QSeg<K> {
     /// unit tangent at the end (for the junction with the next move)
     t_end: V3,
     length: f64,
-    /// the limits in force ([`LINE_SHARE`] until both junctions are known
+    /// the limits in force ([`LINE_SHARE`](crate::shares::LINE_SHARE) until both junctions are known
     /// to be smooth)
     lim: MoveLimits,
-    /// the limits with the whole acceleration, while they may still be
-    /// taken (the entry junction is smooth, the exit one not yet known)
-    full: Option<MoveLimits>,
+    /// √(2·a·length) with `lim` (the speed from which it stops)
+    stop: f64,
+    /// the limits with the whole acceleration and their `stop`, while they
+    /// may still be taken (the entry junction is smooth, the exit one not
+    /// yet known)
+    full: Option<(MoveLimits, f64)>,
     /// largest entry speed the junction allows
     j: f64,
     /// what `j` becomes if the move takes its `full` limits
@@ -183,139 +174,7 @@ struct QSeg<K> {
 impl<K> QSeg<K> {
     /// Largest entry speed from which the move can stop at its end.
     fn entry_to_stop(&self) -> f64 {
-        self.j.min((2.0 * self.lim.a * self.length).sqrt())
-    }
-}
-
-/// Length of the vector of the finite components of `v` (the axes a
-/// machine has).
-fn finite_norm(v: &V3) -> f64 {
-    v.iter()
-        .filter(|x| x.is_finite())
-        .map(|x| x * x)
-        .sum::<f64>()
-        .sqrt()
-}
-
-/// Planner settings derived from the machine file.
-#[derive(Clone, Copy, Debug)]
-pub struct PlanLimits {
-    pub vmax: V3,
-    pub amax: V3,
-    pub dt: f64,
-    pub exact_stop_cos: f64,
-    pub lookahead: usize,
-    /// jerk filter length, samples (1: none); see
-    /// [`Machine::smoothing_samples`]
-    pub smooth: usize,
-    /// per axis, the largest change of the unit tangent at a junction
-    /// that counts as smooth ([`SMOOTH_SHARE`] at the fastest speed)
-    pub smooth_turn: V3,
-}
-
-impl PlanLimits {
-    pub fn from_machine(m: &Machine) -> Self {
-        let (vmax, amax, dt) = (m.vmax(), m.amax(), m.dt());
-        // the fastest path speed: every axis at its limit
-        let top = finite_norm(&vmax);
-        PlanLimits {
-            vmax,
-            amax,
-            dt,
-            exact_stop_cos: m.planner.exact_stop_angle_deg.to_radians().cos(),
-            lookahead: m.planner.lookahead_blocks,
-            smooth: m.smoothing_samples(),
-            smooth_turn: amax.map(|a| SMOOTH_SHARE * a * dt / top),
-        }
-    }
-
-    /// The largest path acceleration any move may have: every axis at its
-    /// limit, mm/s².
-    pub fn max_path_acceleration(&self) -> f64 {
-        finite_norm(&self.amax)
-    }
-
-    /// The limits of a move of length `len` that may use `share` of every
-    /// axis's acceleration. On an arc the centripetal part takes what the
-    /// feed needs, up to [`ARC_NORMAL_MAX`]·share, and the tangential part
-    /// the rest, so their vector sum stays under the share on every axis.
-    #[inline]
-    pub(crate) fn move_limits(&self, geom: &Geom, len: f64, feed: &Feed, share: f64) -> MoveLimits {
-        let f = feed.speed_mm_s();
-        match geom {
-            Geom::Line { start, end } => {
-                let mut vlim = f64::INFINITY;
-                let mut a = f64::INFINITY;
-                for i in 0..3 {
-                    let u = (end[i] - start[i]).abs() / len;
-                    if u > 0.0 {
-                        vlim = vlim.min(self.vmax[i] / u);
-                        a = a.min(share * self.amax[i] / u);
-                    }
-                }
-                MoveLimits {
-                    vcap: f.min(vlim),
-                    a,
-                    vlim,
-                }
-            }
-            Geom::Arc(arc) => {
-                let (p, q, n) = arc.plane.axes();
-                let c = arc.plane_fraction();
-                let h = if arc.length > 0.0 {
-                    arc.axial.abs() / arc.length
-                } else {
-                    0.0
-                };
-                let apq = self.amax[p].min(self.amax[q]);
-                let mut vgeo = self.vmax[p].min(self.vmax[q]) / c;
-                if h > 0.0 {
-                    vgeo = vgeo.min(self.vmax[n] / h);
-                }
-                // centripetal share the feed needs, and what is left
-                let normal_max = ARC_NORMAL_MAX * share;
-                let vc = f.min(vgeo) * c;
-                let normal = (vc * vc / (apq * arc.radius)).min(normal_max);
-                let centripetal = |k: f64| (k * apq * arc.radius).sqrt() / c;
-                let mut a = (share * share - normal * normal).max(0.0).sqrt() * apq / c;
-                if h > 0.0 {
-                    a = a.min(share * self.amax[n] / h);
-                }
-                // with the tangential acceleration taken, the centripetal
-                // share left for speeds over the feed
-                let tangential = a * c / apq;
-                let normal_left = (share * share - tangential * tangential)
-                    .max(0.0)
-                    .sqrt()
-                    .min(normal_max)
-                    .max(normal);
-                MoveLimits {
-                    vcap: f.min(vgeo).min(centripetal(normal)),
-                    a,
-                    vlim: vgeo.min(centripetal(normal_left)),
-                }
-            }
-        }
-    }
-
-    /// The junction from unit tangent `t1` into `t2`: its own speed limit
-    /// (0: an exact stop; ∞: smooth) and whether it is a kink, a velocity
-    /// jump that needs [`KINK_SHARE`] in both moves.
-    #[inline]
-    fn junction(&self, t1: &V3, t2: &V3) -> (f64, bool) {
-        if t1.dot(t2) < self.exact_stop_cos {
-            return (0.0, false);
-        }
-        let mut v = f64::INFINITY;
-        let mut kink = false;
-        for i in 0..3 {
-            let d = (t2[i] - t1[i]).abs();
-            if d > self.smooth_turn[i] {
-                kink = true;
-                v = v.min(KINK_SHARE * self.amax[i] * self.dt / d);
-            }
-        }
-        (v, kink)
+        self.j.min(self.stop)
     }
 }
 
@@ -325,9 +184,30 @@ impl PlanLimits {
 pub(crate) trait ItemSink {
     /// What the queue keeps of a move.
     type Kept: Copy;
+    /// Whether the profiles' [`Profile::vlim`] is wanted (it is computed
+    /// only then).
+    const VLIM: bool = true;
     fn keep(geom: &Geom, feed: Feed, src: Src) -> Self::Kept;
     /// A move, with its final profile.
     fn planned(&mut self, kept: Self::Kept, profile: Profile);
+    /// A move whose profile is final: from `v0` to `v1` with limits `lim`
+    /// over `length`, `a_join` its [`Profile::a_join`]. (A sink may put
+    /// off computing the profile; the items stay in order.)
+    #[inline]
+    fn plan(
+        &mut self,
+        kept: Self::Kept,
+        v0: f64,
+        v1: f64,
+        lim: MoveLimits,
+        length: f64,
+        a_join: f64,
+    ) {
+        let mut profile = Profile::new(v0, v1, lim.vcap, lim.a, length);
+        profile.vlim = lim.vlim;
+        profile.a_join = a_join;
+        self.planned(kept, profile);
+    }
     /// Any other item.
     fn item(&mut self, item: Item);
 }
@@ -376,14 +256,14 @@ impl<K: Copy> Lookahead<K> {
         }
     }
 
-    /// Feeds one event in. `tangents`: the move's start and end tangents
-    /// if the caller has them already (the check computes those of arcs on
+    /// Feeds one event in. `prep`: what [`PlanLimits::prepare`] makes of
+    /// the move, if the caller has it already (the check computes it on
     /// another thread).
     #[inline]
     pub(crate) fn push<O: ItemSink<Kept = K>>(
         &mut self,
         ev: &Event,
-        tangents: Option<(V3, V3)>,
+        prep: Option<&MovePrep>,
         out: &mut O,
     ) {
         match *ev {
@@ -391,7 +271,13 @@ impl<K: Copy> Lookahead<K> {
                 ref geom,
                 feed,
                 src,
-            } => self.push_move(geom, tangents, feed, src, out),
+            } => match prep {
+                Some(p) => self.push_move(geom, p, feed, src, out),
+                None => {
+                    let prep = self.lim.prepare(geom, &feed, O::VLIM);
+                    self.push_move(geom, &prep, feed, src, out)
+                }
+            },
             Event::Dwell { seconds, src } => {
                 self.flush(out);
                 out.item(Item::Dwell { seconds, src });
@@ -415,32 +301,21 @@ impl<K: Copy> Lookahead<K> {
         }
     }
 
+    #[inline]
     fn push_move<O: ItemSink<Kept = K>>(
         &mut self,
         geom: &Geom,
-        tangents: Option<(V3, V3)>,
+        prep: &MovePrep,
         feed: Feed,
         src: Src,
         out: &mut O,
     ) {
-        // The tangents are computed once per move, as the geometry would:
-        // a line's tangent is `normalize()`, i.e. the difference divided by
-        // its norm, which is the length.
-        let (length, line_dir) = match geom {
-            Geom::Line { start, end } => {
-                let d = end - start;
-                let len = d.norm();
-                (len, Some(d.unscale(len)))
-            }
-            Geom::Arc(a) => (a.length, None),
-        };
+        let length = prep.length;
         if length <= 0.0 {
             return;
         }
-        let red = self.lim.move_limits(geom, length, &feed, LINE_SHARE);
-        let t2 = line_dir
-            .or(tangents.map(|t| t.0))
-            .unwrap_or_else(|| geom.start_tangent());
+        let red = prep.red;
+        let t2 = prep.t_start;
         // the entry junction; a smooth one lets the move before take its
         // whole acceleration (its exit is now known) and this one keep the
         // chance of it
@@ -455,22 +330,21 @@ impl<K: Copy> Lookahead<K> {
             prev.full = None;
             prev.j_max = prev.j;
         }
-        let full = (!kink).then(|| self.lim.move_limits(geom, length, &feed, 1.0));
+        let full = (!kink).then_some((prep.full, prep.stop[1]));
         let (j, j_max) = match self.queue.back() {
             Some(prev) => {
                 let j = j_kink.min(prev.lim.vcap);
-                (j.min(red.vcap), j.min(full.map_or(red.vcap, |f| f.vcap)))
+                (j.min(red.vcap), j.min(full.map_or(red.vcap, |f| f.0.vcap)))
             }
             None => (self.v_head, self.v_head),
         };
-        let t_end = line_dir
-            .or(tangents.map(|t| t.1))
-            .unwrap_or_else(|| geom.end_tangent());
+        let t_end = prep.t_end;
         let mut seg = QSeg {
             kept: O::keep(geom, feed, src),
             t_end,
             length,
             lim: red,
+            stop: prep.stop[0],
             full,
             j,
             j_max,
@@ -489,10 +363,11 @@ impl<K: Copy> Lookahead<K> {
         let Some(t) = self.queue.back_mut() else {
             return;
         };
-        let Some(full) = t.full.take() else {
+        let Some((full, stop)) = t.full.take() else {
             return;
         };
         t.lim = full;
+        t.stop = stop;
         t.j = t.j_max;
         t.entry_b = t.entry_to_stop();
         // (the tail's own entry_b; the pass takes it from here)
@@ -532,19 +407,17 @@ impl<K: Copy> Lookahead<K> {
                 None => return,
             };
             let lim = h.lim;
-            let mut profile = Profile::new(self.v_head, v1, lim.vcap, lim.a, h.length);
-            profile.vlim = lim.vlim;
             // (the next move's acceleration may still rise, never fall)
             let a_after = match self.queue.get(1) {
                 Some(nx) if v1 > 0.0 => nx.lim.a,
                 _ => f64::INFINITY,
             };
-            profile.a_join = lim.a.min(a_after).min(if self.v_head > 0.0 {
+            let a_join = lim.a.min(a_after).min(if self.v_head > 0.0 {
                 self.a_before
             } else {
                 f64::INFINITY
             });
-            out.planned(h.kept, profile);
+            out.plan(h.kept, self.v_head, v1, lim, h.length, a_join);
             self.a_before = lim.a;
             self.v_head = v1;
             self.queue.pop_front();

@@ -93,6 +93,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
     }
 
     /// G10/G11 polar lines and G12/G13/G15 polar arcs about the pole.
+    #[inline(never)]
     pub(super) fn exec_polar(&mut self, w: &Words, src: Src) {
         let motion = self.modal.motion;
         let (p, q, n) = self.modal.plane.axes();

@@ -1,0 +1,379 @@
+//! The planner's limits: its settings from the machine file, and what it
+//! works out of one move alone (length, tangents, speed cap and
+//! acceleration for both acceleration shares), apart from the look-ahead
+//! (`plan.rs`) so the check can compute it on another thread.
+
+use crate::canon::Feed;
+use crate::geom::{Arc, Geom, V3};
+use crate::machine::Machine;
+use crate::shares::{ARC_NORMAL_MAX, KINK_SHARE, LINE_SHARE, SMOOTH_SHARE};
+
+/// Speed cap, path acceleration and geometric speed limit of a move
+/// planned with one acceleration share.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct MoveLimits {
+    /// speed cap at the programmed feed
+    pub vcap: f64,
+    /// path acceleration
+    pub a: f64,
+    /// speed cap at any feed, with acceleration `a`
+    /// ([`Profile::vlim`](crate::plan::Profile::vlim))
+    pub vlim: f64,
+}
+
+/// What the planner needs of a move before it looks at its neighbours:
+/// a function of the move and the limits alone, so whichever thread has
+/// time may compute it (the same bits either way).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct MovePrep {
+    /// path length (a move of length 0 or less is skipped: the rest is
+    /// then not computed)
+    pub length: f64,
+    /// unit tangents at the start and the end
+    pub t_start: V3,
+    pub t_end: V3,
+    /// the limits with [`LINE_SHARE`] of the acceleration (next to a kink)
+    pub red: MoveLimits,
+    /// the limits with the whole acceleration
+    pub full: MoveLimits,
+    /// with `red` and with `full`: the largest speed from which the move
+    /// can stop over its length, √(2·a·length)
+    pub stop: [f64; 2],
+}
+
+impl MovePrep {
+    /// A move of length 0 or less (or NaN): skipped by the planner.
+    fn skipped(length: f64) -> Self {
+        let none = MoveLimits {
+            vcap: 0.0,
+            a: 0.0,
+            vlim: 0.0,
+        };
+        MovePrep {
+            length,
+            t_start: V3::zeros(),
+            t_end: V3::zeros(),
+            red: none,
+            full: none,
+            stop: [0.0; 2],
+        }
+    }
+}
+
+/// √(2·a·length) with either limits' acceleration.
+#[inline]
+fn stops(red: &MoveLimits, full: &MoveLimits, length: f64) -> [f64; 2] {
+    [red, full].map(|l| (2.0 * l.a * length).sqrt())
+}
+
+/// Length of the vector of the finite components of `v` (the axes a
+/// machine has).
+fn finite_norm(v: &V3) -> f64 {
+    v.iter()
+        .filter(|x| x.is_finite())
+        .map(|x| x * x)
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// Planner settings derived from the machine file.
+#[derive(Clone, Copy, Debug)]
+pub struct PlanLimits {
+    pub vmax: V3,
+    pub amax: V3,
+    pub dt: f64,
+    pub exact_stop_cos: f64,
+    pub lookahead: usize,
+    /// jerk filter length, samples (1: none); see
+    /// [`Machine::smoothing_samples`]
+    pub smooth: usize,
+    /// per axis, the largest change of the unit tangent at a junction
+    /// that counts as smooth ([`SMOOTH_SHARE`] at the fastest speed)
+    pub smooth_turn: V3,
+}
+
+impl PlanLimits {
+    pub fn from_machine(m: &Machine) -> Self {
+        let (vmax, amax, dt) = (m.vmax(), m.amax(), m.dt());
+        // the fastest path speed: every axis at its limit
+        let top = finite_norm(&vmax);
+        PlanLimits {
+            vmax,
+            amax,
+            dt,
+            exact_stop_cos: m.planner.exact_stop_angle_deg.to_radians().cos(),
+            lookahead: m.planner.lookahead_blocks,
+            smooth: m.smoothing_samples(),
+            smooth_turn: amax.map(|a| SMOOTH_SHARE * a * dt / top),
+        }
+    }
+
+    /// The largest path acceleration any move may have: every axis at its
+    /// limit, mm/s².
+    pub fn max_path_acceleration(&self) -> f64 {
+        finite_norm(&self.amax)
+    }
+
+    /// Length, tangents and the limits for both shares of a move. (A
+    /// line's tangent is its difference divided by its norm, which is the
+    /// length: what `normalize()` computes.) Without `vlim` an arc's
+    /// [`MoveLimits::vlim`] is not computed (NaN): the check does not use
+    /// it.
+    #[inline]
+    pub(crate) fn prepare(&self, geom: &Geom, feed: &Feed, vlim: bool) -> MovePrep {
+        let f = feed.speed_mm_s();
+        match geom {
+            Geom::Line { start, end } => {
+                let d = end - start;
+                let length = d.norm();
+                if length <= 0.0 {
+                    return MovePrep::skipped(length);
+                }
+                let t = d.unscale(length);
+                // |d| / length per axis is |t| (a quotient's sign is exact)
+                let [red, full] = self.line_limits(&t.abs(), f);
+                MovePrep {
+                    length,
+                    t_start: t,
+                    t_end: t,
+                    red,
+                    full,
+                    stop: stops(&red, &full, length),
+                }
+            }
+            Geom::Arc(arc) => {
+                if arc.length <= 0.0 {
+                    return MovePrep::skipped(arc.length);
+                }
+                let [red, full] = self.arc_limits(arc, f, vlim);
+                MovePrep {
+                    length: arc.length,
+                    t_start: geom.start_tangent(),
+                    t_end: geom.end_tangent(),
+                    red,
+                    full,
+                    stop: stops(&red, &full, arc.length),
+                }
+            }
+        }
+    }
+
+    /// A line's limits with [`LINE_SHARE`] and the whole acceleration:
+    /// `u` holds |direction| per axis, `f` is the feed's speed. (What does
+    /// not depend on the share is computed once.)
+    #[inline]
+    fn line_limits(&self, u: &V3, f: f64) -> [MoveLimits; 2] {
+        let mut vlim = f64::INFINITY;
+        let mut a = [f64::INFINITY; 2];
+        for i in 0..3 {
+            let u = u[i];
+            if u > 0.0 {
+                vlim = vlim.min(self.vmax[i] / u);
+                a[0] = a[0].min(LINE_SHARE * self.amax[i] / u);
+                a[1] = a[1].min(1.0 * self.amax[i] / u);
+            }
+        }
+        let limits = |a: f64| MoveLimits {
+            vcap: f.min(vlim),
+            a,
+            vlim,
+        };
+        [limits(a[0]), limits(a[1])]
+    }
+
+    /// An arc's limits with [`LINE_SHARE`] and the whole acceleration, `f`
+    /// the feed's speed; `vlim` as at [`prepare`](Self::prepare). On an
+    /// arc the centripetal part takes what the feed needs, up to
+    /// [`ARC_NORMAL_MAX`]·share, and the tangential part the rest, so
+    /// their vector sum stays under the share on every axis.
+    #[inline]
+    fn arc_limits(&self, arc: &Arc, f: f64, vlim: bool) -> [MoveLimits; 2] {
+        let (p, q, n) = arc.plane.axes();
+        let c = arc.plane_fraction();
+        let h = if arc.length > 0.0 {
+            arc.axial.abs() / arc.length
+        } else {
+            0.0
+        };
+        let apq = self.amax[p].min(self.amax[q]);
+        let mut vgeo = self.vmax[p].min(self.vmax[q]) / c;
+        if h > 0.0 {
+            vgeo = vgeo.min(self.vmax[n] / h);
+        }
+        // centripetal share the feed needs, and what is left
+        let vc = f.min(vgeo) * c;
+        let needed = vc * vc / (apq * arc.radius);
+        let centripetal = |k: f64| (k * apq * arc.radius).sqrt() / c;
+        let limits = |share: f64| {
+            let normal_max = ARC_NORMAL_MAX * share;
+            let normal = needed.min(normal_max);
+            let mut a = (share * share - normal * normal).max(0.0).sqrt() * apq / c;
+            if h > 0.0 {
+                a = a.min(share * self.amax[n] / h);
+            }
+            // with the tangential acceleration taken, the centripetal
+            // share left for speeds over the feed
+            let vlim = if vlim {
+                let tangential = a * c / apq;
+                let normal_left = (share * share - tangential * tangential)
+                    .max(0.0)
+                    .sqrt()
+                    .min(normal_max)
+                    .max(normal);
+                vgeo.min(centripetal(normal_left))
+            } else {
+                f64::NAN
+            };
+            MoveLimits {
+                vcap: f.min(vgeo).min(centripetal(normal)),
+                a,
+                vlim,
+            }
+        };
+        [limits(LINE_SHARE), limits(1.0)]
+    }
+
+    /// The junction from unit tangent `t1` into `t2`: its own speed limit
+    /// (0: an exact stop; ∞: smooth) and whether it is a kink, a velocity
+    /// jump that needs [`KINK_SHARE`] in both moves.
+    #[inline]
+    pub(crate) fn junction(&self, t1: &V3, t2: &V3) -> (f64, bool) {
+        if t1.dot(t2) < self.exact_stop_cos {
+            return (0.0, false);
+        }
+        let mut v = f64::INFINITY;
+        let mut kink = false;
+        for i in 0..3 {
+            let d = (t2[i] - t1[i]).abs();
+            if d > self.smooth_turn[i] {
+                kink = true;
+                v = v.min(KINK_SHARE * self.amax[i] * self.dt / d);
+            }
+        }
+        (v, kink)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::{Arc, Plane};
+
+    /// The limits for one share as the planner computed them before they
+    /// were prepared for both shares at once.
+    fn one_share(lim: &PlanLimits, geom: &Geom, len: f64, feed: &Feed, share: f64) -> MoveLimits {
+        let f = feed.speed_mm_s();
+        match geom {
+            Geom::Line { start, end } => {
+                let mut vlim = f64::INFINITY;
+                let mut a = f64::INFINITY;
+                for i in 0..3 {
+                    let u = (end[i] - start[i]).abs() / len;
+                    if u > 0.0 {
+                        vlim = vlim.min(lim.vmax[i] / u);
+                        a = a.min(share * lim.amax[i] / u);
+                    }
+                }
+                MoveLimits {
+                    vcap: f.min(vlim),
+                    a,
+                    vlim,
+                }
+            }
+            Geom::Arc(arc) => {
+                let (p, q, n) = arc.plane.axes();
+                let c = arc.plane_fraction();
+                let h = if arc.length > 0.0 {
+                    arc.axial.abs() / arc.length
+                } else {
+                    0.0
+                };
+                let apq = lim.amax[p].min(lim.amax[q]);
+                let mut vgeo = lim.vmax[p].min(lim.vmax[q]) / c;
+                if h > 0.0 {
+                    vgeo = vgeo.min(lim.vmax[n] / h);
+                }
+                let normal_max = ARC_NORMAL_MAX * share;
+                let vc = f.min(vgeo) * c;
+                let normal = (vc * vc / (apq * arc.radius)).min(normal_max);
+                let centripetal = |k: f64| (k * apq * arc.radius).sqrt() / c;
+                let mut a = (share * share - normal * normal).max(0.0).sqrt() * apq / c;
+                if h > 0.0 {
+                    a = a.min(share * lim.amax[n] / h);
+                }
+                let tangential = a * c / apq;
+                let normal_left = (share * share - tangential * tangential)
+                    .max(0.0)
+                    .sqrt()
+                    .min(normal_max)
+                    .max(normal);
+                MoveLimits {
+                    vcap: f.min(vgeo).min(centripetal(normal)),
+                    a,
+                    vlim: vgeo.min(centripetal(normal_left)),
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn prepared_moves_are_each_share_bit_for_bit() {
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for m in [Machine::builtin_mill(), Machine::builtin_lathe()] {
+            let lim = PlanLimits::from_machine(&m);
+            for k in 0..20_000 {
+                let start = V3::new(next() * 100.0, next() * 100.0, next() * 20.0);
+                let mut end = V3::new(next() * 100.0, next() * 100.0, next() * 20.0);
+                // axis-parallel and flat moves too
+                for i in 0..3 {
+                    if k % (i + 2) == 0 {
+                        end[i] = start[i];
+                    }
+                }
+                let feed = match k % 4 {
+                    0 => Feed::Rapid,
+                    1 => Feed::PerMin(next() * 20_000.0),
+                    2 => Feed::PerRev {
+                        mm_per_rev: next(),
+                        rpm: next() * 3000.0,
+                    },
+                    _ => Feed::PerMin(next() * 100.0),
+                };
+                let plane = [Plane::XY, Plane::ZX, Plane::YZ][k % 3];
+                let (p, q, _) = plane.axes();
+                let mut center = start;
+                center[p] += next() * 10.0 - 5.0;
+                center[q] += next() * 10.0 - 5.0;
+                let arc = Arc::new(start, end, center, plane, k % 2 == 0, (k % 5 == 0) as u32);
+                for geom in [Geom::Line { start, end }, Geom::Arc(arc)] {
+                    let len = geom.length();
+                    let want = [LINE_SHARE, 1.0].map(|s| one_share(&lim, &geom, len, &feed, s));
+                    let p = lim.prepare(&geom, &feed, true);
+                    if len.is_nan() || len <= 0.0 {
+                        // skipped by the planner: nothing else counts
+                        assert_eq!(p.length.to_bits(), len.to_bits());
+                        continue;
+                    }
+                    let got = (p.length, p.t_start, p.t_end, [p.red, p.full], p.stop);
+                    let stop = want.map(|l| (2.0 * l.a * len).sqrt());
+                    let want = (len, geom.start_tangent(), geom.end_tangent(), want, stop);
+                    assert_eq!(format!("{got:?}"), format!("{want:?}"), "{geom:?} {feed:?}");
+                    // without the speed limit over the feed: the rest the same
+                    let q = lim.prepare(&geom, &feed, false);
+                    for (q, p) in [(q.red, p.red), (q.full, p.full)] {
+                        assert_eq!(
+                            format!("{:?}", (q.vcap, q.a)),
+                            format!("{:?}", (p.vcap, p.a))
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
