@@ -380,7 +380,16 @@ impl<K: Copy> Lookahead<K> {
         for k in (0..from).rev() {
             let next_b = self.queue[k + 1].entry_b;
             let s = &mut self.queue[k];
-            let nb = s.j.min((next_b * next_b + 2.0 * s.lim.a * s.length).sqrt());
+            // (at or under its junction's speed it has nothing to gain;
+            // from rest, √(2·a·length) is its stopping speed)
+            if s.j <= s.entry_b {
+                break;
+            }
+            let nb = s.j.min(if next_b == 0.0 {
+                s.stop
+            } else {
+                (next_b * next_b + 2.0 * s.lim.a * s.length).sqrt()
+            });
             if nb <= s.entry_b {
                 break;
             }
@@ -394,7 +403,12 @@ impl<K: Copy> Lookahead<K> {
             let v1 = match self.queue.get(1) {
                 Some(nx) => {
                     // (only here: a lone head waits without it)
-                    let reach = (self.v_head * self.v_head + 2.0 * h.lim.a * h.length).sqrt();
+                    // (from rest: the move's stopping speed, √(2·a·length))
+                    let reach = if self.v_head == 0.0 {
+                        h.stop
+                    } else {
+                        (self.v_head * self.v_head + 2.0 * h.lim.a * h.length).sqrt()
+                    };
                     // (final unless the next move may still take its whole
                     // acceleration and with it a faster entry)
                     let final_exit = nx.entry_b >= nx.j_max || reach <= nx.entry_b;
