@@ -188,13 +188,30 @@ impl PlanLimits {
     /// their vector sum stays under the share on every axis.
     #[inline]
     fn arc_limits(&self, arc: &Arc, f: f64, vlim: bool) -> [MoveLimits; 2] {
-        let (p, q, n) = arc.plane.axes();
-        let c = arc.plane_fraction();
-        let h = if arc.length > 0.0 {
-            arc.axial.abs() / arc.length
+        // A flat arc's length is its length in the plane, r·|sweep|, and
+        // its plane fraction r·|sweep| / length is then exactly 1: the
+        // limits with the literal 1, which the compiler takes out of its
+        // divisions and products (x / 1 and x · 1 are x), and no axial
+        // fraction |axial| / length (0).
+        let plane_len = arc.radius * arc.sweep.abs();
+        if arc.axial == 0.0 && arc.length == plane_len && plane_len.is_finite() && plane_len != 0.0
+        {
+            self.arc_limits_with(arc, f, vlim, 1.0, 0.0)
         } else {
-            0.0
-        };
+            let h = if arc.length > 0.0 {
+                arc.axial.abs() / arc.length
+            } else {
+                0.0
+            };
+            self.arc_limits_with(arc, f, vlim, arc.plane_fraction(), h)
+        }
+    }
+
+    /// [`arc_limits`](Self::arc_limits) with the arc's plane fraction `c`
+    /// and axial fraction `h`.
+    #[inline(always)]
+    fn arc_limits_with(&self, arc: &Arc, f: f64, vlim: bool, c: f64, h: f64) -> [MoveLimits; 2] {
+        let (p, q, n) = arc.plane.axes();
         let apq = self.amax[p].min(self.amax[q]);
         let mut vgeo = self.vmax[p].min(self.vmax[q]) / c;
         if h > 0.0 {
@@ -325,6 +342,7 @@ mod tests {
             x ^= x << 17;
             (x >> 11) as f64 / (1u64 << 53) as f64
         };
+        let mut flat = 0;
         for m in [Machine::builtin_mill(), Machine::builtin_lathe()] {
             let lim = PlanLimits::from_machine(&m);
             for k in 0..20_000 {
@@ -351,6 +369,8 @@ mod tests {
                 center[p] += next() * 10.0 - 5.0;
                 center[q] += next() * 10.0 - 5.0;
                 let arc = Arc::new(start, end, center, plane, k % 2 == 0, (k % 5 == 0) as u32);
+                // (flat arcs take their own way through the limits)
+                flat += (arc.axial == 0.0 && arc.length == arc.radius * arc.sweep.abs()) as usize;
                 for geom in [Geom::Line { start, end }, Geom::Arc(arc)] {
                     let len = geom.length();
                     let want = [LINE_SHARE, 1.0].map(|s| one_share(&lim, &geom, len, &feed, s));
@@ -375,5 +395,6 @@ mod tests {
                 }
             }
         }
+        assert!(flat > 1000, "{flat} flat arcs");
     }
 }

@@ -56,10 +56,16 @@ impl Profile {
         let peak = ((2.0 * a * length + v0 * v0 + v1 * v1) * 0.5).sqrt();
         let vp = peak.min(vcap).max(v0).max(v1);
         let d_acc = ((vp * vp - v0 * v0) / (2.0 * a)).max(0.0);
-        let d_dec = ((vp * vp - v1 * v1) / (2.0 * a)).max(0.0);
-        let d_cruise = (length - d_acc - d_dec).max(0.0);
         let t_acc = (vp - v0) / a;
-        let t_dec = (vp - v1) / a;
+        // (from rest to rest, say: the same speeds, the same ramps)
+        let same = v1.to_bits() == v0.to_bits();
+        let d_dec = if same {
+            d_acc
+        } else {
+            ((vp * vp - v1 * v1) / (2.0 * a)).max(0.0)
+        };
+        let d_cruise = (length - d_acc - d_dec).max(0.0);
+        let t_dec = if same { t_acc } else { (vp - v1) / a };
         let t_cruise = if vp > 0.0 { d_cruise / vp } else { 0.0 };
         Profile {
             v0,
@@ -650,6 +656,48 @@ mod tests {
         let p = Profile::new(50.0, 20.0, 100.0, 1000.0, 30.0);
         assert!((p.v_at(0.0) - 50.0).abs() < 1e-12 && (p.v_at(p.duration) - 20.0).abs() < 1e-12);
         assert!((p.s_at(p.duration - 1e-12) - 30.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn equal_speeds_share_their_ramps_bit_for_bit() {
+        // the profile as computed before equal entry and exit speeds
+        // shared their ramps
+        let reference = |v0: f64, v1: f64, vcap: f64, a: f64, length: f64| {
+            let peak = ((2.0 * a * length + v0 * v0 + v1 * v1) * 0.5).sqrt();
+            let vp = peak.min(vcap).max(v0).max(v1);
+            let d_acc = ((vp * vp - v0 * v0) / (2.0 * a)).max(0.0);
+            let d_dec = ((vp * vp - v1 * v1) / (2.0 * a)).max(0.0);
+            let d_cruise = (length - d_acc - d_dec).max(0.0);
+            let t_acc = (vp - v0) / a;
+            let t_dec = (vp - v1) / a;
+            let t_cruise = if vp > 0.0 { d_cruise / vp } else { 0.0 };
+            [
+                t_acc,
+                t_cruise,
+                t_dec,
+                d_acc,
+                d_cruise,
+                t_acc + t_cruise + t_dec,
+            ]
+        };
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for k in 0..50_000 {
+            let (vcap, a, length) = (next() * 300.0, 10.0 + next() * 3000.0, next() * 20.0);
+            let v0 = [0.0, -0.0, next() * vcap][k % 3];
+            let v1 = if k % 2 == 0 { v0 } else { next() * vcap };
+            let p = Profile::new(v0, v1, vcap, a, length);
+            let got = [
+                p.t_acc, p.t_cruise, p.t_dec, p.d_acc, p.d_cruise, p.duration,
+            ];
+            let want = reference(v0, v1, vcap, a, length);
+            assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits), "{v0} {v1}");
+        }
     }
 
     #[test]
