@@ -287,6 +287,40 @@ pub fn subscription<T: crate::RosType + 'static>(
         .map_err(|e| format!("subscription {ns}/{base}: {e:?}"))
 }
 
+/// A subscription to a stream published every control cycle (setpoints,
+/// joint states, encoder readings) with best-effort reliability, as
+/// ROS's sensor-data profile, keep last [`STREAM_DEPTH`].
+///
+/// The publishers stay reliable (rclpy's default), so any subscriber
+/// matches them; a reliable reader answers every sample's piggybacked
+/// HEARTBEAT with an ACKNACK, which at 1 kHz doubled both nodes' DDS
+/// wake-ups. A sample lost on the way is not repaired: the next one
+/// comes a cycle later, and a repair would arrive later than it.
+pub fn subscription_stream<T: crate::RosType + 'static>(
+    node: &mut Node,
+    ns: &str,
+    base: &str,
+) -> Result<ros2_client::Subscription<T>, String> {
+    let t = topic::<T>(node, ns, base)?;
+    node.create_subscription::<T>(&t, Some(qos_stream()))
+        .map_err(|e| format!("subscription {ns}/{base}: {e:?}"))
+}
+
+/// The QoS of [`subscription_stream`]: best effort, volatile, keep last
+/// [`STREAM_DEPTH`].
+pub fn qos_stream() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability_best_effort()
+        .durability(Durability::Volatile)
+        .history(History::KeepLast {
+            depth: STREAM_DEPTH,
+        })
+}
+
+/// Samples a stream subscription holds until they are taken: 100 cycles
+/// at 1 kHz.
+pub const STREAM_DEPTH: usize = 100;
+
 /// A service server `ns/base` (Fast DDS request/reply mapping).
 pub fn server<Req, Resp>(
     node: &mut Node,
