@@ -402,6 +402,18 @@ mod tests {
     }
 
     #[test]
+    fn both_nodes_dds_threads_share_one_priority_below_their_loops() {
+        use crate::ros::dds_priority;
+        // the defaults: controller 80, simulator 70
+        assert_eq!(dds_priority(80), 60);
+        assert_eq!(dds_priority(70), 60);
+        assert_eq!(dds_priority(99), 60);
+        // a loop set lower keeps its DDS threads below it
+        assert_eq!(dds_priority(50), 49);
+        assert_eq!(dds_priority(0), 0);
+    }
+
+    #[test]
     fn a_grid_without_spin_never_wakes_early_and_keeps_no_margin() {
         let o = Instant::now() + Duration::from_millis(1);
         let mut g = Grid::new(o, 0.001).without_spin();
