@@ -4,6 +4,9 @@
 usage:
   analyse.py PROGRAM SAMPLES [--json OUT.json] [--limits config/mill.toml]
   analyse.py --table MANIFEST.tsv        (markdown table of many runs)
+  analyse.py --jerk-table MANIFEST.tsv   (bench/motion/jerk.sh: a sixth column
+                                          names the machine file of each run;
+                                          adds the curvature bound)
   analyse.py --explain
 
 PROGRAM is the G-code that was run (either dialect: "(...)", ";..." and
@@ -91,6 +94,7 @@ def parse_program(path):
     segs = []
     pos = [0.0, 0.0, 0.0]
     mode = None
+    feed = None
     with open(path) as f:
         for ln, raw in enumerate(f, 1):
             s = strip_comments(raw).upper().strip()
@@ -115,6 +119,8 @@ def parse_program(path):
                     w[letter] = v
                 else:
                     raise SystemExit(f"{path}:{ln}: word {letter}{num} is not understood")
+            if "F" in w:
+                feed = w["F"] / 60.0
             if not any(k in w for k in "XYZ"):
                 continue
             if mode is None:
@@ -122,7 +128,7 @@ def parse_program(path):
             end = [w.get("X", pos[0]), w.get("Y", pos[1]), w.get("Z", pos[2])]
             if mode in (0, 1):
                 if end != pos:
-                    segs.append(dict(kind="line", a=tuple(pos), b=tuple(end), line=ln, rapid=mode == 0))
+                    segs.append(dict(kind="line", a=tuple(pos), b=tuple(end), line=ln, rapid=mode == 0, f=feed))
             else:
                 if "I" not in w and "J" not in w:
                     raise SystemExit(f"{path}:{ln}: arc without I/J")
@@ -139,7 +145,7 @@ def parse_program(path):
                 if abs(sweep) < 1e-12 or (abs(end[0] - pos[0]) < 1e-9 and abs(end[1] - pos[1]) < 1e-9):
                     sweep = -2 * math.pi if cw else 2 * math.pi
                 segs.append(dict(kind="arc", a=tuple(pos), b=tuple(end), line=ln, rapid=False,
-                                 c=(cx, cy), r0=r0, r1=r1, a0=a0, sweep=sweep))
+                                 c=(cx, cy), r0=r0, r1=r1, a0=a0, sweep=sweep, f=feed))
             pos = end
     return segs
 
@@ -274,6 +280,124 @@ def read_limits(path):
     return {a["name"]: (a["max_velocity_mm_s"], a["max_acceleration_mm_s2"]) for a in m["axis"]}
 
 
+# ------------------------------------------------------- curvature bound --
+
+SHARP_DEG = 10.0   # a junction turning this much or more is a corner (blended within P)
+FIT_MM = 2.0       # a polyline's curvature: the circle through points this far along either side
+
+
+def _circle_curvature(p, q, r):
+    """1/R of the circle through three points (0 for collinear ones)."""
+    a, b, c = math.dist(p, q), math.dist(q, r), math.dist(p, r)
+    u = [q[k] - p[k] for k in range(3)]
+    v = [r[k] - p[k] for k in range(3)]
+    cr = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+    area2 = math.sqrt(sum(x * x for x in cr))
+    return 0.0 if a * b * c == 0 else 2.0 * area2 / (a * b * c)
+
+
+def curvature_bound(segs, vmax, amax, jmax, tol):
+    """Lower bound of the motion time, s: the integral of ds / min(F,
+    sqrt(a/kappa), cbrt(j/kappa^2)) over the program's path (rapids at the
+    axes' speed), accelerations along the path ignored. kappa: lines 0, arcs
+    1/R (the XY radius); a junction turning SHARP_DEG or more is a corner,
+    rounded by the largest arc within the tolerance P and half of either
+    line (the arc replaces the lines' tangent lengths); a run of lines
+    turning less per junction is a polyline whose curvature at a vertex is
+    that of the circle through the vertex and the polyline's points FIT_MM
+    along either side (within the run; this averages the vertices' rounding
+    out), each half line taking its vertex's curvature. a, j: the smallest
+    acceleration and jerk limit of the axes (jmax None: no jerk limit)."""
+    amin = min(amax)
+    def speed(f, kappa):
+        v = f
+        if kappa > 0:
+            v = min(v, math.sqrt(amin / kappa))
+            if jmax:
+                v = min(v, (jmax / (kappa * kappa)) ** (1.0 / 3.0))
+        return v
+    def cap(s):
+        d = [s["b"][k] - s["a"][k] for k in range(3)]
+        L = math.sqrt(sum(x * x for x in d)) or 1.0
+        top = min(vmax[k] / (abs(d[k]) / L) for k in range(3) if d[k] != 0) if any(d) else vmax[0]
+        return top if s["rapid"] or s["f"] is None else min(s["f"], top)
+    def tdir(s, end):
+        if s["kind"] == "line":
+            d = [s["b"][k] - s["a"][k] for k in range(3)]
+        else:
+            ang = s["a0"] + (s["sweep"] if end else 0.0)
+            sg = 1.0 if s["sweep"] > 0 else -1.0
+            r = s["r1"] if end else s["r0"]
+            d = [-sg * math.sin(ang) * r * abs(s["sweep"]), sg * math.cos(ang) * r * abs(s["sweep"]),
+                 s["b"][2] - s["a"][2]]
+        n = math.sqrt(sum(x * x for x in d)) or 1.0
+        return [x / n for x in d]
+    n = len(segs)
+    L = [seg_length(s) for s in segs]
+    # turn at the junction before segment i (None: no junction, a rapid)
+    turn = [None] * n
+    for i in range(1, n):
+        if segs[i]["rapid"] or segs[i - 1]["rapid"]:
+            continue
+        t1, t2 = tdir(segs[i - 1], True), tdir(segs[i], False)
+        turn[i] = math.acos(max(-1.0, min(1.0, sum(a * b for a, b in zip(t1, t2)))))
+    sharp = math.radians(SHARP_DEG)
+    poly = lambda i: segs[i]["kind"] == "line" and not segs[i]["rapid"]
+    # polyline vertex curvature at the junction before segment i (lines on both sides)
+    kv = [None] * n
+    for i in range(1, n):
+        if turn[i] is None or turn[i] >= sharp or not (poly(i) and poly(i - 1)):
+            continue
+        # walk back and forward FIT_MM within the run
+        q = segs[i]["a"]
+        j, acc = i - 1, 0.0
+        while True:
+            acc += L[j]
+            if acc >= FIT_MM or j == 0 or not poly(j - 1) or turn[j] is None or turn[j] >= sharp:
+                break
+            j -= 1
+        p0 = segs[j]["a"]
+        k, acc = i, 0.0
+        while True:
+            acc += L[k]
+            if acc >= FIT_MM or k + 1 >= n or not poly(k + 1) or turn[k + 1] is None or turn[k + 1] >= sharp:
+                break
+            k += 1
+        p2 = segs[k]["b"]
+        if j == i - 1 and k == i:
+            continue  # an isolated kink: a corner
+        kv[i] = _circle_curvature(p0, q, p2)
+    total = 0.0
+    cut = [0.0] * n  # tangent length taken off each end of a line by corner arcs
+    cut_end = [0.0] * n
+    for i in range(1, n):
+        th = turn[i]
+        if th is None or th <= 1e-12 or kv[i] is not None:
+            continue
+        if not (segs[i - 1]["kind"] == "line" and segs[i]["kind"] == "line"):
+            continue  # a kink at an arc: passed at the arc's own limit
+        half = 0.5 * min(L[i - 1], L[i])
+        r = half / math.tan(0.5 * th) if th < math.pi - 1e-9 else 0.0
+        if tol > 0 and th < math.pi - 1e-9:
+            r = min(r, tol / (1.0 / math.cos(0.5 * th) - 1.0))
+        if r <= 0:
+            continue
+        cut_end[i - 1] = r * math.tan(0.5 * th)
+        cut[i] = r * math.tan(0.5 * th)
+        total += r * th / speed(min(cap(segs[i - 1]), cap(segs[i])), 1.0 / r)
+    for i, s in enumerate(segs):
+        f = cap(s)
+        if s["kind"] == "arc":
+            r = 0.5 * (s["r0"] + s["r1"])
+            total += L[i] / speed(f, 1.0 / r if r > 0 else 0.0)
+            continue
+        body = max(0.0, L[i] - cut[i] - cut_end[i])
+        k0 = kv[i] if kv[i] is not None else 0.0
+        k1 = kv[i + 1] if i + 1 < n and kv[i + 1] is not None else 0.0
+        total += 0.5 * body / speed(f, k0) + 0.5 * body / speed(f, k1)
+    return total
+
+
 # ----------------------------------------------------------------- analyse --
 
 def analyse(prog, samples, limits):
@@ -346,6 +470,56 @@ def analyse(prog, samples, limits):
     return res
 
 
+def read_machine(path):
+    """Per-axis (velocity, acceleration, jerk or None) of a machine file."""
+    import tomllib
+    with open(path, "rb") as f:
+        m = tomllib.load(f)
+    return {a["name"]: (a["max_velocity_mm_s"], a["max_acceleration_mm_s2"], a.get("max_jerk_mm_s3"))
+            for a in m["axis"]}
+
+
+def jerk_table(manifest):
+    """The table of bench/motion/jerk.sh: manifest lines of six columns,
+    the sixth the machine file whose limits (and jerk) the run had; the
+    LinuxCNC row (jerk column "none": 2.9 has no jerk limit) is the
+    reference of the ratio column."""
+    rows, ref = [], {}
+    for ln in open(manifest):
+        if not ln.strip() or ln.startswith("#"):
+            continue
+        label, ctrl, mode, prog, samples, mfile = ln.rstrip("\n").split("\t")
+        lim = read_machine(mfile)
+        r = analyse(prog, samples, {k: v[:2] for k, v in lim.items()})
+        jerk = r_j = None
+        if not ctrl.startswith("LinuxCNC"):
+            r_j = [v[2] for v in lim.values() if v[2]]
+            jerk = min(r_j) if r_j else None
+        tol = float(mode.split("P")[1].split()[0]) if "G64 P" in mode else 0.0
+        segs = parse_program(prog)
+        r["bound_s"] = curvature_bound(segs, [lim[k][0] for k in "xyz"], [lim[k][1] for k in "xyz"], jerk, tol)
+        r.update(label=label, controller=ctrl, mode=mode, jerk=jerk, limits_file=mfile)
+        if ctrl.startswith("LinuxCNC"):
+            ref[label] = r["cycle_s"]
+        rows.append(r)
+        print(f"analysed {label} / {ctrl} {mode} j={jerk}: {r['cycle_s']:.3f} s, bound {r['bound_s']:.3f} s, "
+              f"max dev {r['max_dev_mm']:.4f} mm", file=sys.stderr)
+    L = rows[0]["limits"] if rows else {}
+    print("| program | controller | jerk m/s³ | mode | cycle time s | × LinuxCNC | curvature bound s "
+          "| max deviation mm (line) | max \\|v\\| X / Y / Z mm/s | max \\|a\\| X / Y / Z mm/s² "
+          "| max \\|j\\| X / Y / Z m/s³ | end error mm |")
+    print("|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for r in rows:
+        v, a, j = r["max_vel_mm_s"], r["max_acc_mm_s2"], r["max_jerk_m_s3"]
+        ratio = f"{r['cycle_s'] / ref[r['label']]:.3f}" if r["label"] in ref else "–"
+        jj = "none" if r["jerk"] is None else f"{r['jerk'] / 1000:g}"
+        print(f"| {r['label']} | {r['controller']} | {jj} | {r['mode']} | {r['cycle_s']:.3f} | {ratio} "
+              f"| {r['bound_s']:.3f} | {r['max_dev_mm']:.5f} ({r['max_dev_line']}) "
+              f"| {v['x']:.1f} / {v['y']:.1f} / {v['z']:.1f} | {a['x']:.0f} / {a['y']:.0f} / {a['z']:.0f} "
+              f"| {j['x']:.0f} / {j['y']:.0f} / {j['z']:.0f} | {r['end_error_mm']:.6f} |")
+    return rows
+
+
 def table(manifest, limits_path):
     limits = read_limits(limits_path)
     rows = []
@@ -388,6 +562,13 @@ def main(argv):
         del argv[i:i + 2]
     if "--explain" in argv:
         print(EXPLAIN)
+        return
+    if "--jerk-table" in argv:
+        i = argv.index("--jerk-table")
+        rows = jerk_table(argv[i + 1])
+        if "--json" in argv:
+            with open(argv[argv.index("--json") + 1], "w") as f:
+                json.dump(rows, f, indent=1)
         return
     if "--table" in argv:
         i = argv.index("--table")
