@@ -22,6 +22,7 @@ pub mod dialect;
 pub mod exec;
 pub mod geom;
 pub mod interp;
+pub mod jerk;
 pub mod machine;
 pub mod parse;
 pub mod pipeline;
@@ -29,6 +30,7 @@ pub mod plan;
 pub mod shares;
 pub mod source;
 pub mod thread;
+pub mod timeline;
 pub mod travel;
 
 pub use check::{check, CheckReport};

@@ -21,8 +21,9 @@ use crate::dialect::Dialect;
 use crate::geom::{Geom, V3};
 use crate::interp::{Interpreter, Modal};
 use crate::machine::Machine;
-use crate::plan::{Item, ItemSink, Lookahead, PlanLimits, Planner, Profile, Timeline};
+use crate::plan::{Item, ItemSink, Lookahead, PlanLimits, Planner, Profile};
 use crate::source::ProgramSource;
+use crate::timeline::Timeline;
 use crate::travel::{self, Travel};
 use std::collections::VecDeque;
 
@@ -365,6 +366,8 @@ impl Estimate {
         if !self.totals.ended {
             self.look.flush(&mut self.totals);
         }
+        // (moves as they came in, not the pieces of split lines)
+        self.totals.moves -= self.look.extra.min(self.totals.moves);
         self.totals
     }
 }

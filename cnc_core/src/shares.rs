@@ -23,3 +23,17 @@ pub const SPEED_MARGIN: f64 = 1.05;
 /// Share of an axis's acceleration a thread's run-in, deceleration and
 /// runout use (the rest absorbs the spindle's speed ripple).
 pub const THREAD_SHARE: f64 = 0.8;
+
+/// Jerk (issue 17, [`crate::jerk`]): share of each axis's jerk limit the
+/// path-parameter filter (the S-curve of the speed profile) uses.
+pub const S_FILTER_SHARE: f64 = 0.5;
+/// Share of the jerk limit for changes of the normal acceleration (arcs'
+/// centripetal acceleration coming and going at curvature steps, the
+/// velocity jumps of kinks): the XYZ filter spreads them over its window.
+pub const NORMAL_JERK_SHARE: f64 = 0.4;
+/// What is left, for the turn of the tangential acceleration on arcs.
+pub const TURN_JERK_SHARE: f64 = 1.0 - S_FILTER_SHARE - NORMAL_JERK_SHARE;
+/// Largest distance, mm, by which the XYZ filter may move a setpoint off
+/// a curve (programmed arcs and blend arcs): the planner caps the normal
+/// acceleration for it. Also what a G61 path may deviate.
+pub const XYZ_FILTER_ERROR_MM: f64 = 0.001;

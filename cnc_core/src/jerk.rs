@@ -1,0 +1,280 @@
+//! Jerk limitation (issue 17): the budget that sizes the two setpoint
+//! filters and the planner's caps, and the filters themselves.
+//!
+//! 1. The **path filter** is a moving average of M_s samples over the path
+//!    length s the planner's trapezoid profiles give at each tick; the
+//!    setpoint is the path at the filtered s̃, so it stays exactly on the
+//!    (blended) path. Its tangential jerk is at most 2a/(M_s·dt) ≤
+//!    [`S_FILTER_SHARE`]·j.
+//! 2. The **XYZ filter**, a moving average of M_f samples of those
+//!    points, spreads the steps of the normal acceleration (a line meeting
+//!    an arc, a kink's velocity jump) over M_f·dt. For a moving average the
+//!    filtered sampled jerk is (A_k − A_{k−M_f})/(M_f·dt), A the input's
+//!    sampled acceleration; the planner keeps every normal acceleration
+//!    under `a_n` = [`NORMAL_JERK_SHARE`]·j·M_f·dt/2 (so any two differ by
+//!    at most the share's part), the turn of the tangential acceleration on
+//!    arcs, a_t·v·κ, under [`TURN_JERK_SHARE`]·j, and the path filter
+//!    takes the rest. The XYZ filter moves a point of a curve by at most
+//!    the chord's sagitta a_n·((M_f−1)·dt)²/8; M_f is chosen so that this
+//!    is [`XYZ_FILTER_ERROR_MM`] with the largest `a_n`.
+//! 3. The path filter delays s̃ behind s by up to (M_s−1)·dt: the speed
+//!    and acceleration s̃ has at a point are those the profile had within
+//!    `lag_distance` of it. The planner therefore applies each speed and
+//!    acceleration cap over that distance on either side (and splits long
+//!    lines so that only their ends take a neighbour's cap).
+
+use crate::geom::{Geom, V3};
+use crate::shares::{NORMAL_JERK_SHARE, S_FILTER_SHARE, TURN_JERK_SHARE, XYZ_FILTER_ERROR_MM};
+use std::collections::VecDeque;
+
+/// Longest XYZ filter, samples.
+const MAX_XYZ_SAMPLES: usize = 1000;
+
+/// What a machine's jerk limit leaves the planner and the filters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct JerkBudget {
+    pub dt: f64,
+    /// path filter length, samples (1: none)
+    pub m_s: usize,
+    /// XYZ filter length, samples (1: none)
+    pub m_f: usize,
+    /// the least jerk limit of the axes, mm/s³ (∞: none)
+    pub j: f64,
+    /// the largest normal acceleration (centripetal, or a kink's velocity
+    /// jump over one sample) anywhere on the path, mm/s² (∞: no cap)
+    pub a_n: f64,
+}
+
+impl JerkBudget {
+    /// No jerk limit: no filters, no caps.
+    pub fn none(dt: f64) -> Self {
+        JerkBudget {
+            dt,
+            m_s: 1,
+            m_f: 1,
+            j: f64::INFINITY,
+            a_n: f64::INFINITY,
+        }
+    }
+
+    /// The budget for jerk limit `j` (mm/s³, the least of the axes'), with
+    /// a path filter of `m_s` samples.
+    pub fn new(dt: f64, m_s: usize, j: Option<f64>) -> Self {
+        let Some(j) = j.filter(|j| j.is_finite() && *j > 0.0) else {
+            return JerkBudget::none(dt);
+        };
+        // the XYZ filter: the longest normal acceleration both the jerk and
+        // the deviation allow
+        let (mut best_m, mut best_a) = (1, 0.0);
+        for m in 2..=MAX_XYZ_SAMPLES {
+            let w = (m - 1) as f64 * dt;
+            let by_jerk = NORMAL_JERK_SHARE * j * m as f64 * dt / 2.0;
+            let by_error = 8.0 * XYZ_FILTER_ERROR_MM / (w * w);
+            let a = by_jerk.min(by_error);
+            if a > best_a {
+                best_m = m;
+                best_a = a;
+            }
+            if by_error < by_jerk {
+                break;
+            }
+        }
+        JerkBudget {
+            dt,
+            m_s: m_s.max(1),
+            m_f: best_m,
+            j,
+            a_n: best_a,
+        }
+    }
+
+    /// Whether there is a jerk limit.
+    #[inline]
+    pub fn limited(&self) -> bool {
+        self.j.is_finite()
+    }
+
+    /// How long the path filter's window is, s.
+    #[inline]
+    pub fn lag_s(&self) -> f64 {
+        (self.m_s.saturating_sub(1)) as f64 * self.dt
+    }
+
+    /// How far, along the path, a speed or acceleration cap reaches on
+    /// either side when the profile runs at up to `v` mm/s.
+    #[inline]
+    pub fn lag_distance(&self, v: f64) -> f64 {
+        self.lag_s() * v
+    }
+
+    /// Ticks the setpoints hold still after each stop so that both filters
+    /// settle on the stop point.
+    pub fn hold_ticks(&self) -> u64 {
+        (self.m_s - 1 + self.m_f - 1) as u64
+    }
+
+    /// The largest distance by which the XYZ filter moves a setpoint off
+    /// the path, mm: the sagitta of a curve with the normal acceleration
+    /// `a_n` over the filter's window (straight lines are not moved;
+    /// kinks' velocity jumps are normal accelerations of one sample and
+    /// count in the same bound).
+    pub fn error_mm(&self) -> f64 {
+        if self.m_f <= 1 || !self.a_n.is_finite() {
+            return 0.0;
+        }
+        let w = (self.m_f - 1) as f64 * self.dt;
+        self.a_n * w * w / 8.0
+    }
+
+    /// An arc's speed cap and tangential acceleration cap for curvature
+    /// `kappa` (1/mm): the normal acceleration within `a_n`, the turn of
+    /// the tangential acceleration a_t·v·κ within its share.
+    pub fn arc_caps(&self, kappa: f64) -> (f64, f64) {
+        if !self.limited() || kappa <= 0.0 {
+            return (f64::INFINITY, f64::INFINITY);
+        }
+        let v = (self.a_n / kappa).sqrt();
+        (v, TURN_JERK_SHARE * self.j / (v * kappa))
+    }
+
+    /// The speed cap of a kink whose unit tangent changes by `d` on some
+    /// axis: its velocity jump over one sample within `a_n`.
+    pub fn kink_cap(&self, d: f64) -> f64 {
+        if !self.limited() || d <= 0.0 {
+            return f64::INFINITY;
+        }
+        self.a_n * self.dt / d
+    }
+
+    /// The path filter's tangential jerk share, mm/s³.
+    pub fn s_share(&self) -> f64 {
+        S_FILTER_SHARE * self.j
+    }
+}
+
+/// The curvature of a move (1/mm): 0 for lines; an arc's in-plane
+/// curvature scaled by its plane fraction squared (a helix).
+pub fn curvature(g: &Geom) -> f64 {
+    match g {
+        Geom::Line { .. } => 0.0,
+        Geom::Arc(a) if a.radius > 0.0 => {
+            let c = a.plane_fraction();
+            c * c / a.radius
+        }
+        Geom::Arc(_) => 0.0,
+    }
+}
+
+/// The moving average of the path length: the last M_s raw values, the
+/// moves they may fall on (with the path length at their starts), and the
+/// raw path speeds.
+#[derive(Clone, Debug)]
+pub(crate) struct PathFilter {
+    s: Vec<f64>,
+    speed: Vec<f64>,
+    i: usize,
+    /// (path length at the start, move): the moves the window reaches
+    segs: VecDeque<(f64, Geom)>,
+}
+
+impl PathFilter {
+    pub(crate) fn new(m: usize, s0: f64, at: V3) -> Self {
+        let mut segs = VecDeque::with_capacity(16);
+        segs.push_back((s0, Geom::Line { start: at, end: at }));
+        PathFilter {
+            s: vec![s0; m.max(1)],
+            speed: vec![0.0; m.max(1)],
+            i: 0,
+            segs,
+        }
+    }
+
+    /// Forgets the past: standing at `p`, path length `s0`.
+    pub(crate) fn reset(&mut self, s0: f64, p: V3, v: f64) {
+        self.s.fill(s0);
+        self.speed.fill(v);
+        self.segs.clear();
+        self.segs.push_back((s0, Geom::Line { start: p, end: p }));
+    }
+
+    /// A move starts at path length `s0`.
+    pub(crate) fn add_move(&mut self, s0: f64, g: Geom) {
+        self.segs.push_back((s0, g));
+    }
+
+    /// Every slot holds the same path length.
+    pub(crate) fn settled(&self) -> bool {
+        self.s.iter().all(|x| *x == self.s[0])
+    }
+
+    /// Adds a raw path length and speed; the filtered position (`raw`
+    /// itself once settled: exactly the raw point) and speed.
+    pub(crate) fn push(&mut self, s: f64, v: f64, raw: V3) -> (V3, f64) {
+        self.s[self.i] = s;
+        self.speed[self.i] = v;
+        self.i = (self.i + 1) % self.s.len();
+        let n = self.s.len() as f64;
+        let speed = self.speed.iter().sum::<f64>() / n;
+        if self.settled() {
+            return (raw, speed);
+        }
+        let sf = self.s.iter().sum::<f64>() / n;
+        // the oldest value is the least (s never decreases): moves ending
+        // before it are behind the window
+        let oldest = self.s[self.i];
+        while self.segs.len() > 1 && self.segs[1].0 <= oldest.min(sf) {
+            self.segs.pop_front();
+        }
+        let k = self.segs.partition_point(|(s0, _)| *s0 <= sf);
+        let p = match self.segs.get(k.saturating_sub(1)) {
+            Some((s0, g)) => g.eval(sf - s0),
+            None => raw,
+        };
+        (p, speed)
+    }
+}
+
+/// A moving average of the last M setpoints (and path speeds).
+#[derive(Clone, Debug)]
+pub(crate) struct Smoother {
+    pos: Vec<V3>,
+    speed: Vec<f64>,
+    /// where the next sample goes
+    i: usize,
+}
+
+impl Smoother {
+    pub(crate) fn new(m: usize, at: V3) -> Self {
+        Smoother {
+            pos: vec![at; m.max(1)],
+            speed: vec![0.0; m.max(1)],
+            i: 0,
+        }
+    }
+
+    /// Forgets the past: every slot holds `p` (bypassed samples).
+    pub(crate) fn reset(&mut self, p: V3, v: f64) {
+        self.pos.fill(p);
+        self.speed.fill(v);
+    }
+
+    /// Adds a sample; the filtered position and speed. A full window of
+    /// equal positions gives that position exactly.
+    pub(crate) fn push(&mut self, p: V3, v: f64) -> (V3, f64) {
+        self.pos[self.i] = p;
+        self.speed[self.i] = v;
+        self.i = (self.i + 1) % self.pos.len();
+        let n = self.pos.len() as f64;
+        let avg = if self.settled() {
+            p
+        } else {
+            self.pos.iter().fold(V3::zeros(), |acc, q| acc + q) / n
+        };
+        (avg, self.speed.iter().sum::<f64>() / n)
+    }
+
+    /// Every slot holds the same position.
+    pub(crate) fn settled(&self) -> bool {
+        self.pos.iter().all(|q| *q == self.pos[0])
+    }
+}
