@@ -23,6 +23,7 @@ pub mod exec;
 pub mod geom;
 pub mod interp;
 pub mod jerk;
+pub mod limits;
 pub mod machine;
 pub mod parse;
 pub mod pipeline;

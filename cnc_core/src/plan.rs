@@ -19,9 +19,9 @@
 use crate::canon::{Event, Feed, Src, ThreadMove};
 use crate::geom::Geom;
 use crate::geom::V3;
-use crate::jerk::{curvature, JerkBudget};
-use crate::machine::Machine;
-use crate::shares::{ARC_NORMAL_MAX, KINK_SHARE, LINE_SHARE, SMOOTH_SHARE};
+use crate::limits::MoveLimits;
+pub use crate::limits::PlanLimits;
+use crate::shares::LINE_SHARE;
 use std::collections::VecDeque;
 
 /// A trapezoidal (or triangular) speed profile over one move.
@@ -147,18 +147,6 @@ pub enum Item {
     },
 }
 
-/// Speed cap, path acceleration and geometric speed limit of a move
-/// planned with one acceleration share.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct MoveLimits {
-    /// speed cap at the programmed feed
-    pub vcap: f64,
-    /// path acceleration
-    pub a: f64,
-    /// speed cap at any feed, with acceleration `a` ([`Profile::vlim`])
-    pub vlim: f64,
-}
-
 #[derive(Clone, Copy, Debug)]
 struct QSeg<K> {
     /// what the sink keeps of the move
@@ -194,8 +182,14 @@ impl<K> QSeg<K> {
     }
 }
 
-/// Jerk: a long line's end pieces halve this many times towards its ends.
+/// Jerk: a long move's end pieces halve this many times towards its ends,
+/// down to this length (mm).
 const SPLIT_LEVELS: usize = 6;
+const MIN_PIECE_MM: f64 = 0.02;
+/// Jerk: the queue waits for the path filter's reach behind its head up to
+/// this many times `lookahead_blocks` (pieces of split moves, short lines),
+/// then commits the head anyway.
+const REACH_QUEUE: usize = 64;
 
 /// Lowers a queued move's speed and acceleration caps (jerk: a
 /// neighbour's caps within the path filter's reach).
@@ -207,145 +201,6 @@ fn cap<K>(s: &mut QSeg<K>, v: f64, a: f64) {
     }
     s.j = s.j.min(v);
     s.j_max = s.j_max.min(v);
-}
-
-/// Length of the vector of the finite components of `v` (the axes a
-/// machine has).
-fn finite_norm(v: &V3) -> f64 {
-    v.iter()
-        .filter(|x| x.is_finite())
-        .map(|x| x * x)
-        .sum::<f64>()
-        .sqrt()
-}
-
-/// Planner settings derived from the machine file.
-#[derive(Clone, Copy, Debug)]
-pub struct PlanLimits {
-    pub vmax: V3,
-    pub amax: V3,
-    pub dt: f64,
-    pub exact_stop_cos: f64,
-    pub lookahead: usize,
-    /// the jerk budget: filters and caps ([`crate::jerk`])
-    pub jerk: JerkBudget,
-    /// the fastest path speed, every axis at its limit, mm/s
-    pub top: f64,
-    /// per axis, the largest change of the unit tangent at a junction
-    /// that counts as smooth ([`SMOOTH_SHARE`] at the fastest speed)
-    pub smooth_turn: V3,
-}
-
-impl PlanLimits {
-    pub fn from_machine(m: &Machine) -> Self {
-        let (vmax, amax, dt) = (m.vmax(), m.amax(), m.dt());
-        // the fastest path speed: every axis at its limit
-        let top = finite_norm(&vmax);
-        PlanLimits {
-            vmax,
-            amax,
-            dt,
-            exact_stop_cos: m.planner.exact_stop_angle_deg.to_radians().cos(),
-            lookahead: m.planner.lookahead_blocks,
-            jerk: m.jerk_budget(),
-            top,
-            smooth_turn: amax.map(|a| SMOOTH_SHARE * a * dt / top),
-        }
-    }
-
-    /// The largest path acceleration any move may have: every axis at its
-    /// limit, mm/s².
-    pub fn max_path_acceleration(&self) -> f64 {
-        finite_norm(&self.amax)
-    }
-
-    /// The limits of a move of length `len` that may use `share` of every
-    /// axis's acceleration. On an arc the centripetal part takes what the
-    /// feed needs, up to [`ARC_NORMAL_MAX`]·share, and the tangential part
-    /// the rest, so their vector sum stays under the share on every axis.
-    #[inline]
-    pub(crate) fn move_limits(&self, geom: &Geom, len: f64, feed: &Feed, share: f64) -> MoveLimits {
-        let f = feed.speed_mm_s();
-        match geom {
-            Geom::Line { start, end } => {
-                let mut vlim = f64::INFINITY;
-                let mut a = f64::INFINITY;
-                for i in 0..3 {
-                    let u = (end[i] - start[i]).abs() / len;
-                    if u > 0.0 {
-                        vlim = vlim.min(self.vmax[i] / u);
-                        a = a.min(share * self.amax[i] / u);
-                    }
-                }
-                MoveLimits {
-                    vcap: f.min(vlim),
-                    a,
-                    vlim,
-                }
-            }
-            Geom::Arc(arc) => {
-                let (p, q, n) = arc.plane.axes();
-                let c = arc.plane_fraction();
-                let h = if arc.length > 0.0 {
-                    arc.axial.abs() / arc.length
-                } else {
-                    0.0
-                };
-                let apq = self.amax[p].min(self.amax[q]);
-                let mut vgeo = self.vmax[p].min(self.vmax[q]) / c;
-                if h > 0.0 {
-                    vgeo = vgeo.min(self.vmax[n] / h);
-                }
-                // centripetal share the feed needs, and what is left
-                let normal_max = ARC_NORMAL_MAX * share;
-                let vc = f.min(vgeo) * c;
-                let normal = (vc * vc / (apq * arc.radius)).min(normal_max);
-                let centripetal = |k: f64| (k * apq * arc.radius).sqrt() / c;
-                let mut a = (share * share - normal * normal).max(0.0).sqrt() * apq / c;
-                if h > 0.0 {
-                    a = a.min(share * self.amax[n] / h);
-                }
-                // with the tangential acceleration taken, the centripetal
-                // share left for speeds over the feed
-                let tangential = a * c / apq;
-                let normal_left = (share * share - tangential * tangential)
-                    .max(0.0)
-                    .sqrt()
-                    .min(normal_max)
-                    .max(normal);
-                // jerk: the normal acceleration and the turn of the
-                // tangential one within their budgets
-                let (vj, aj) = self.jerk.arc_caps(curvature(geom));
-                MoveLimits {
-                    vcap: f.min(vgeo).min(centripetal(normal)).min(vj),
-                    a: a.min(aj),
-                    vlim: vgeo.min(centripetal(normal_left)).min(vj),
-                }
-            }
-        }
-    }
-
-    /// The junction from unit tangent `t1` into `t2`: its own speed limit
-    /// (0: an exact stop; ∞: smooth) and whether it is a kink, a velocity
-    /// jump that needs [`KINK_SHARE`] in both moves.
-    #[inline]
-    fn junction(&self, t1: &V3, t2: &V3) -> (f64, bool) {
-        if t1.dot(t2) < self.exact_stop_cos {
-            return (0.0, false);
-        }
-        let mut v = f64::INFINITY;
-        let mut kink = false;
-        for i in 0..3 {
-            let d = (t2[i] - t1[i]).abs();
-            if d > self.smooth_turn[i] {
-                kink = true;
-                v = v
-                    .min(KINK_SHARE * self.amax[i] * self.dt / d)
-                    .min(self.jerk.kink_cap(d));
-            }
-        }
-        (v, kink)
-    }
 }
 
 /// Where the look-ahead hands its finished items, and what its queue keeps
@@ -397,6 +252,11 @@ pub(crate) struct Lookahead<K> {
     queued: f64,
     /// pushing the pieces of a split line
     splitting: bool,
+    /// planning everything to a stop
+    flushing: bool,
+    /// jerk: the queue's length behind its next head before the head is
+    /// committed: the stop margin twice and the braking from the top speed
+    reach_room: f64,
     /// moves planned beyond those that came in (the pieces of split
     /// lines): what a count of programmed moves takes off
     pub(crate) extra: u64,
@@ -411,7 +271,10 @@ impl<K: Copy> Lookahead<K> {
             a_before: f64::INFINITY,
             queued: 0.0,
             splitting: false,
+            flushing: false,
             extra: 0,
+            reach_room: 2.0 * lim.jerk.lag_distance(lim.top)
+                + lim.top * lim.top / (2.0 * lim.amax.min()),
         }
     }
 
@@ -487,7 +350,7 @@ impl<K: Copy> Lookahead<K> {
                     .vlim
                     .min(self.lim.top),
             );
-            let least = reach / f64::from(1u32 << SPLIT_LEVELS);
+            let least = (reach / f64::from(1u32 << SPLIT_LEVELS)).max(MIN_PIECE_MM);
             if least > 0.0 && length > 3.0 * least {
                 // (a shorter move: pieces up to a third of it)
                 let r = reach.min(length / 3.0);
@@ -559,11 +422,13 @@ impl<K: Copy> Lookahead<K> {
             own_a: full.map_or(red.a, |f| f.a),
             j_in: if self.queue.is_empty() { 0.0 } else { j_kink },
         };
-        let smeared = self.lim.jerk.limited() && self.smear(&mut seg);
+        if self.lim.jerk.limited() {
+            self.smear(&mut seg);
+        }
         seg.entry_b = seg.entry_to_stop();
         self.queued += length;
         self.queue.push_back(seg);
-        if smeared {
+        if self.lim.jerk.limited() {
             self.recompute();
         } else {
             self.backward_pass(self.queue.len() - 1);
@@ -624,6 +489,16 @@ impl<K: Copy> Lookahead<K> {
         changed
     }
 
+    /// Jerk: how far before the tail's end the queue plans its stop: the
+    /// farthest a move still to come may reach back with its caps.
+    fn margin(&self) -> f64 {
+        if self.flushing {
+            // (nothing comes after: the tail stops at its end)
+            return 0.0;
+        }
+        self.lim.jerk.lag_distance(self.lim.top)
+    }
+
     /// Every entry limit again from the tail back (after caps fell).
     fn recompute(&mut self) {
         let n = self.queue.len();
@@ -633,13 +508,20 @@ impl<K: Copy> Lookahead<K> {
             s.j = s.j.min(before);
             s.j_max = s.j_max.min(before);
         }
+        // the stop is planned `margin` before the tail's end: what a move
+        // still to come may cap (speeds and accelerations over at most
+        // lag·top behind it) is not used for braking
+        let mut margin = self.margin();
         let mut next_b = 0.0;
         for k in (0..n).rev() {
             let s = &mut self.queue[k];
-            s.entry_b = if k + 1 == n {
-                s.entry_to_stop()
+            s.entry_b = if margin >= s.length {
+                margin -= s.length;
+                0.0
             } else {
-                s.j.min((next_b * next_b + 2.0 * s.lim.a * s.length).sqrt())
+                let room = s.length - margin;
+                margin = 0.0;
+                s.j.min((next_b * next_b + 2.0 * s.lim.a * room).sqrt())
             };
             next_b = s.entry_b;
         }
@@ -657,6 +539,10 @@ impl<K: Copy> Lookahead<K> {
         };
         t.lim = full;
         t.j = t.j_max;
+        if self.lim.jerk.limited() {
+            self.recompute();
+            return;
+        }
         t.entry_b = t.entry_to_stop();
         // (the tail's own entry_b; the pass takes it from here)
         self.backward_pass(n - 1);
@@ -686,10 +572,13 @@ impl<K: Copy> Lookahead<K> {
                     // (final unless the next move may still take its whole
                     // acceleration and with it a faster entry)
                     let final_exit = nx.entry_b >= nx.j_max || reach <= nx.entry_b;
-                    // (jerk: not while a move still to come may cap it)
+                    // (jerk: not while a move still to come may cap the
+                    // next one, whose entry this fixes)
                     let covered = !self.lim.jerk.limited()
-                        || self.queued - h.length >= self.lim.jerk.lag_distance(self.lim.top);
-                    if !(all || (final_exit && covered) || self.queue.len() > self.lim.lookahead) {
+                        || self.queued - h.length - nx.length >= self.reach_room;
+                    let full = self.queue.len() > self.lim.lookahead;
+                    let overfull = self.queue.len() > REACH_QUEUE * self.lim.lookahead;
+                    if !(all || (final_exit || full) && covered || overfull) {
                         return;
                     }
                     nx.entry_b.min(reach)
@@ -725,8 +614,13 @@ impl<K: Copy> Lookahead<K> {
     /// Plans everything queued to a stop.
     pub(crate) fn flush(&mut self, out: &mut impl ItemSink<Kept = K>) {
         // the tail's exit is a stop: smooth
+        self.flushing = true;
         self.upgrade_tail();
+        if self.lim.jerk.limited() {
+            self.recompute();
+        }
         self.commit(true, out);
+        self.flushing = false;
     }
 }
 

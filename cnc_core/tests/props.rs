@@ -328,7 +328,8 @@ proptest! {
 
     /// Jerk-limited motion: for any jerk limit from 20 to 1000 m/s³ (a
     /// path filter of 8 to 400 samples, an XYZ filter of 4 to 14), path
-    /// tolerance (G61, P0.001 and 0.001..0.2 mm) and feed, with a feed
+    /// tolerance (G61, P0.001 and 0.001..0.2 mm), look-ahead (200 or 2-11
+    /// blocks) and feed, with a feed
     /// hold or an override of 5-200 %
     /// for a while somewhere, no
     /// axis exceeds its velocity, acceleration or jerk at any sample; no
@@ -343,6 +344,7 @@ proptest! {
         feed in 100.0..20000.0f64,
         jerk in 2.0e4..1.0e6f64,
         tol in prop_oneof![Just(0.0), Just(0.001), 0.001..0.2f64],
+        look in prop_oneof![Just(200usize), 2usize..12],
         hold in prop::option::of((
             10usize..3000,
             1usize..3000,
@@ -353,6 +355,9 @@ proptest! {
         for a in &mut m.axes {
             a.max_jerk_mm_s3 = Some(jerk);
         }
+        // (a short look-ahead: the queue commits moves before it knows
+        // what comes within the path filter's reach)
+        m.planner.lookahead_blocks = look;
         let (text, end, els) = program_path(&moves, feed, tol);
         let r = check(StrSource::new(&text), Dialect::Cnc836, &m);
         prop_assume!(r.ok());
