@@ -502,20 +502,27 @@ impl<K: Copy> Lookahead<K> {
     /// Every entry limit again from the tail back (after caps fell).
     fn recompute(&mut self) {
         let n = self.queue.len();
-        for k in 1..n {
-            let before = self.queue[k - 1].lim.vcap;
-            let s = &mut self.queue[k];
-            s.j = s.j.min(before);
-            s.j_max = s.j_max.min(before);
-        }
         // the stop is planned `margin` before the tail's end: what a move
         // still to come may cap (speeds and accelerations over at most
         // lag·top behind it) is not used for braking
         let mut margin = self.margin();
+        // (caps changed within the reach behind the tail's start, the
+        // margin within its own length: before both, an unchanged limit
+        // leaves every one before it unchanged)
+        let tail = self.queue.back().map_or(0.0, |t| t.length);
+        let settled = margin + tail + self.lim.jerk.lag_distance(self.lim.top);
+        let mut dist = 0.0;
         let mut next_b = 0.0;
         for k in (0..n).rev() {
+            let before = if k > 0 {
+                self.queue[k - 1].lim.vcap
+            } else {
+                f64::INFINITY
+            };
             let s = &mut self.queue[k];
-            s.entry_b = if margin >= s.length {
+            s.j = s.j.min(before);
+            s.j_max = s.j_max.min(before);
+            let b = if margin >= s.length {
                 margin -= s.length;
                 0.0
             } else {
@@ -523,7 +530,13 @@ impl<K: Copy> Lookahead<K> {
                 margin = 0.0;
                 s.j.min((next_b * next_b + 2.0 * s.lim.a * room).sqrt())
             };
-            next_b = s.entry_b;
+            let same = b == s.entry_b;
+            s.entry_b = b;
+            next_b = b;
+            dist += s.length;
+            if same && dist > settled {
+                break;
+            }
         }
     }
 
