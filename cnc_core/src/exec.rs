@@ -10,14 +10,15 @@
 //! limits and the tool stays on the path. With σ = 1 the virtual counter is
 //! the tick index and the samples are exactly those of an unscaled run.
 //!
-//! Jerk: every sample passes a moving average over the last M positions
-//! ([`Machine::smoothing_samples`]), which turns the planner's
-//! acceleration-limited setpoints into jerk-limited ones (a trapezoid
-//! convolved with a rectangle is an S-curve). After each stop the
-//! setpoints hold still for M − 1 ticks ([`Timeline::hold`]), so that the
+//! Jerk ([`crate::jerk`]): the setpoint is the path at a moving average of
+//! the planned path length over the last M_s samples (a trapezoid convolved
+//! with a rectangle is an S-curve; the point stays on the path), then a
+//! moving average of the last M_f such points spreads the steps of the
+//! normal acceleration. After each stop the setpoints hold still for
+//! M_s + M_f − 2 ticks ([`crate::timeline::Timeline::hold`]), so that the
 //! filtered path reaches every stop point exactly; the check counts those
-//! ticks too. G33 samples bypass the filter: they follow the spindle angle,
-//! and a filter's delay would shift the groove with the speed.
+//! ticks too. G33 samples bypass both filters: they follow the spindle
+//! angle, and a filter's delay would shift the groove with the speed.
 //!
 //! Spindle-synchronized motion (see [`crate::thread`]): G33 blocks are a
 //! function of the spindle angle and G95 moves scale their virtual time by

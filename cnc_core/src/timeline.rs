@@ -26,7 +26,7 @@ pub struct Timeline {
     /// rotation)
     pub theta0: f64,
     /// ticks the setpoints hold still after each stop, so that the jerk
-    /// filter settles on the stop point (M − 1 for an M-sample filter)
+    /// filters settle on the stop point (M_s + M_f − 2)
     pub hold: u64,
 }
 
