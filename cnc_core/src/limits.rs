@@ -1,12 +1,14 @@
-//! What the planner may spend on a move and a junction: the axis limits
-//! shared out ([`crate::shares`]) and, under a jerk limit, the caps of
-//! [`crate::jerk`].
+//! The planner's limits: its settings from the machine file, and what it
+//! works out of one move alone (length, tangents, speed cap and
+//! acceleration for both acceleration shares, and under a jerk limit the
+//! caps of [`crate::jerk`]), apart from the look-ahead (`plan.rs`) so the
+//! check can compute it on another thread.
 
 use crate::canon::Feed;
-use crate::geom::{Geom, V3};
-use crate::jerk::{curvature, JerkBudget};
+use crate::geom::{Arc, Geom, V3};
+use crate::jerk::JerkBudget;
 use crate::machine::Machine;
-use crate::shares::{ARC_NORMAL_MAX, KINK_SHARE, SMOOTH_SHARE};
+use crate::shares::{ARC_NORMAL_MAX, KINK_SHARE, LINE_SHARE, SMOOTH_SHARE};
 
 /// Speed cap, path acceleration and geometric speed limit of a move
 /// planned with one acceleration share.
@@ -16,8 +18,54 @@ pub(crate) struct MoveLimits {
     pub vcap: f64,
     /// path acceleration
     pub a: f64,
-    /// speed cap at any feed, with acceleration `a` ([`Profile::vlim`])
+    /// speed cap at any feed, with acceleration `a`
+    /// ([`Profile::vlim`](crate::plan::Profile::vlim))
     pub vlim: f64,
+}
+
+/// What the planner needs of a move before it looks at its neighbours:
+/// a function of the move and the limits alone, so whichever thread has
+/// time may compute it (the same bits either way).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct MovePrep {
+    /// path length (a move of length 0 or less is skipped: the rest is
+    /// then not computed)
+    pub length: f64,
+    /// unit tangents at the start and the end
+    pub t_start: V3,
+    pub t_end: V3,
+    /// the limits with [`LINE_SHARE`] of the acceleration (next to a kink)
+    pub red: MoveLimits,
+    /// the limits with the whole acceleration
+    pub full: MoveLimits,
+    /// with `red` and with `full`: the largest speed from which the move
+    /// can stop over its length, √(2·a·length)
+    pub stop: [f64; 2],
+}
+
+impl MovePrep {
+    /// A move of length 0 or less (or NaN): skipped by the planner.
+    fn skipped(length: f64) -> Self {
+        let none = MoveLimits {
+            vcap: 0.0,
+            a: 0.0,
+            vlim: 0.0,
+        };
+        MovePrep {
+            length,
+            t_start: V3::zeros(),
+            t_end: V3::zeros(),
+            red: none,
+            full: none,
+            stop: [0.0; 2],
+        }
+    }
+}
+
+/// √(2·a·length) with either limits' acceleration.
+#[inline]
+fn stops(red: &MoveLimits, full: &MoveLimits, length: f64) -> [f64; 2] {
+    [red, full].map(|l| (2.0 * l.a * length).sqrt())
 }
 
 /// Length of the vector of the finite components of `v` (the axes a
@@ -70,70 +118,154 @@ impl PlanLimits {
         finite_norm(&self.amax)
     }
 
-    /// The limits of a move of length `len` that may use `share` of every
-    /// axis's acceleration. On an arc the centripetal part takes what the
-    /// feed needs, up to [`ARC_NORMAL_MAX`]·share, and the tangential part
-    /// the rest, so their vector sum stays under the share on every axis.
+    /// Length, tangents and the limits for both shares of a move. (A
+    /// line's tangent is its difference divided by its norm, which is the
+    /// length: what `normalize()` computes.) Without `vlim` an arc's
+    /// [`MoveLimits::vlim`] is not computed (NaN): the check does not use
+    /// it, unless there is a jerk limit (the planner caps its neighbours
+    /// with it).
     #[inline]
-    pub(crate) fn move_limits(&self, geom: &Geom, len: f64, feed: &Feed, share: f64) -> MoveLimits {
+    pub(crate) fn prepare(&self, geom: &Geom, feed: &Feed, vlim: bool) -> MovePrep {
+        let vlim = vlim || self.jerk.limited();
         let f = feed.speed_mm_s();
         match geom {
             Geom::Line { start, end } => {
-                let mut vlim = f64::INFINITY;
-                let mut a = f64::INFINITY;
-                for i in 0..3 {
-                    let u = (end[i] - start[i]).abs() / len;
-                    if u > 0.0 {
-                        vlim = vlim.min(self.vmax[i] / u);
-                        a = a.min(share * self.amax[i] / u);
-                    }
+                let d = end - start;
+                let length = d.norm();
+                if length <= 0.0 {
+                    return MovePrep::skipped(length);
                 }
-                MoveLimits {
-                    vcap: f.min(vlim),
-                    a,
-                    vlim,
+                let t = d.unscale(length);
+                // |d| / length per axis is |t| (a quotient's sign is exact)
+                let [red, full] = self.line_limits(&t.abs(), f);
+                MovePrep {
+                    length,
+                    t_start: t,
+                    t_end: t,
+                    red,
+                    full,
+                    stop: stops(&red, &full, length),
                 }
             }
             Geom::Arc(arc) => {
-                let (p, q, n) = arc.plane.axes();
-                let c = arc.plane_fraction();
-                let h = if arc.length > 0.0 {
-                    arc.axial.abs() / arc.length
-                } else {
-                    0.0
-                };
-                let apq = self.amax[p].min(self.amax[q]);
-                let mut vgeo = self.vmax[p].min(self.vmax[q]) / c;
-                if h > 0.0 {
-                    vgeo = vgeo.min(self.vmax[n] / h);
+                if arc.length <= 0.0 {
+                    return MovePrep::skipped(arc.length);
                 }
-                // centripetal share the feed needs, and what is left
-                let normal_max = ARC_NORMAL_MAX * share;
-                let vc = f.min(vgeo) * c;
-                let normal = (vc * vc / (apq * arc.radius)).min(normal_max);
-                let centripetal = |k: f64| (k * apq * arc.radius).sqrt() / c;
-                let mut a = (share * share - normal * normal).max(0.0).sqrt() * apq / c;
-                if h > 0.0 {
-                    a = a.min(share * self.amax[n] / h);
+                let [red, full] = self.arc_limits(arc, f, vlim);
+                MovePrep {
+                    length: arc.length,
+                    t_start: geom.start_tangent(),
+                    t_end: geom.end_tangent(),
+                    red,
+                    full,
+                    stop: stops(&red, &full, arc.length),
                 }
-                // with the tangential acceleration taken, the centripetal
-                // share left for speeds over the feed
+            }
+        }
+    }
+
+    /// A line's limits with [`LINE_SHARE`] and the whole acceleration:
+    /// `u` holds |direction| per axis, `f` is the feed's speed. (What does
+    /// not depend on the share is computed once.)
+    #[inline]
+    fn line_limits(&self, u: &V3, f: f64) -> [MoveLimits; 2] {
+        let mut vlim = f64::INFINITY;
+        let mut a = [f64::INFINITY; 2];
+        for i in 0..3 {
+            let u = u[i];
+            if u > 0.0 {
+                vlim = vlim.min(self.vmax[i] / u);
+                a[0] = a[0].min(LINE_SHARE * self.amax[i] / u);
+                a[1] = a[1].min(1.0 * self.amax[i] / u);
+            }
+        }
+        let limits = |a: f64| MoveLimits {
+            vcap: f.min(vlim),
+            a,
+            vlim,
+        };
+        [limits(a[0]), limits(a[1])]
+    }
+
+    /// An arc's limits with [`LINE_SHARE`] and the whole acceleration, `f`
+    /// the feed's speed; `vlim` as at [`prepare`](Self::prepare). On an
+    /// arc the centripetal part takes what the feed needs, up to
+    /// [`ARC_NORMAL_MAX`]·share, and the tangential part the rest, so
+    /// their vector sum stays under the share on every axis.
+    #[inline]
+    fn arc_limits(&self, arc: &Arc, f: f64, vlim: bool) -> [MoveLimits; 2] {
+        // A flat arc's length is its length in the plane, r·|sweep|, and
+        // its plane fraction r·|sweep| / length is then exactly 1: the
+        // limits with the literal 1, which the compiler takes out of its
+        // divisions and products (x / 1 and x · 1 are x), and no axial
+        // fraction |axial| / length (0).
+        let plane_len = arc.radius * arc.sweep.abs();
+        if arc.axial == 0.0 && arc.length == plane_len && plane_len.is_finite() && plane_len != 0.0
+        {
+            self.arc_limits_with(arc, f, vlim, 1.0, 0.0)
+        } else {
+            let h = if arc.length > 0.0 {
+                arc.axial.abs() / arc.length
+            } else {
+                0.0
+            };
+            self.arc_limits_with(arc, f, vlim, arc.plane_fraction(), h)
+        }
+    }
+
+    /// [`arc_limits`](Self::arc_limits) with the arc's plane fraction `c`
+    /// and axial fraction `h`.
+    #[inline(always)]
+    fn arc_limits_with(&self, arc: &Arc, f: f64, vlim: bool, c: f64, h: f64) -> [MoveLimits; 2] {
+        let (p, q, n) = arc.plane.axes();
+        let apq = self.amax[p].min(self.amax[q]);
+        let mut vgeo = self.vmax[p].min(self.vmax[q]) / c;
+        if h > 0.0 {
+            vgeo = vgeo.min(self.vmax[n] / h);
+        }
+        // centripetal share the feed needs, and what is left
+        let vc = f.min(vgeo) * c;
+        let needed = vc * vc / (apq * arc.radius);
+        let centripetal = |k: f64| (k * apq * arc.radius).sqrt() / c;
+        // jerk: the normal acceleration and the turn of the tangential one
+        // within their budgets (the curvature of a helix is c²/r)
+        let (vj, aj) = if self.jerk.limited() {
+            let kappa = if arc.radius > 0.0 {
+                c * c / arc.radius
+            } else {
+                0.0
+            };
+            self.jerk.arc_caps(kappa)
+        } else {
+            (f64::INFINITY, f64::INFINITY)
+        };
+        let limits = |share: f64| {
+            let normal_max = ARC_NORMAL_MAX * share;
+            let normal = needed.min(normal_max);
+            let mut a = (share * share - normal * normal).max(0.0).sqrt() * apq / c;
+            if h > 0.0 {
+                a = a.min(share * self.amax[n] / h);
+            }
+            // with the tangential acceleration taken, the centripetal
+            // share left for speeds over the feed
+            let vlim = if vlim {
                 let tangential = a * c / apq;
                 let normal_left = (share * share - tangential * tangential)
                     .max(0.0)
                     .sqrt()
                     .min(normal_max)
                     .max(normal);
-                // jerk: the normal acceleration and the turn of the
-                // tangential one within their budgets
-                let (vj, aj) = self.jerk.arc_caps(curvature(geom));
-                MoveLimits {
-                    vcap: f.min(vgeo).min(centripetal(normal)).min(vj),
-                    a: a.min(aj),
-                    vlim: vgeo.min(centripetal(normal_left)).min(vj),
-                }
+                vgeo.min(centripetal(normal_left)).min(vj)
+            } else {
+                f64::NAN
+            };
+            MoveLimits {
+                vcap: f.min(vgeo).min(centripetal(normal)).min(vj),
+                a: a.min(aj),
+                vlim,
             }
-        }
+        };
+        [limits(LINE_SHARE), limits(1.0)]
     }
 
     /// The junction from unit tangent `t1` into `t2`: its own speed limit
@@ -156,5 +288,137 @@ impl PlanLimits {
             }
         }
         (v, kink)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::{Arc, Plane};
+
+    /// The limits for one share as the planner computed them before they
+    /// were prepared for both shares at once.
+    fn one_share(lim: &PlanLimits, geom: &Geom, len: f64, feed: &Feed, share: f64) -> MoveLimits {
+        let f = feed.speed_mm_s();
+        match geom {
+            Geom::Line { start, end } => {
+                let mut vlim = f64::INFINITY;
+                let mut a = f64::INFINITY;
+                for i in 0..3 {
+                    let u = (end[i] - start[i]).abs() / len;
+                    if u > 0.0 {
+                        vlim = vlim.min(lim.vmax[i] / u);
+                        a = a.min(share * lim.amax[i] / u);
+                    }
+                }
+                MoveLimits {
+                    vcap: f.min(vlim),
+                    a,
+                    vlim,
+                }
+            }
+            Geom::Arc(arc) => {
+                let (p, q, n) = arc.plane.axes();
+                let c = arc.plane_fraction();
+                let h = if arc.length > 0.0 {
+                    arc.axial.abs() / arc.length
+                } else {
+                    0.0
+                };
+                let apq = lim.amax[p].min(lim.amax[q]);
+                let mut vgeo = lim.vmax[p].min(lim.vmax[q]) / c;
+                if h > 0.0 {
+                    vgeo = vgeo.min(lim.vmax[n] / h);
+                }
+                let normal_max = ARC_NORMAL_MAX * share;
+                let vc = f.min(vgeo) * c;
+                let normal = (vc * vc / (apq * arc.radius)).min(normal_max);
+                let centripetal = |k: f64| (k * apq * arc.radius).sqrt() / c;
+                let mut a = (share * share - normal * normal).max(0.0).sqrt() * apq / c;
+                if h > 0.0 {
+                    a = a.min(share * lim.amax[n] / h);
+                }
+                let tangential = a * c / apq;
+                let normal_left = (share * share - tangential * tangential)
+                    .max(0.0)
+                    .sqrt()
+                    .min(normal_max)
+                    .max(normal);
+                MoveLimits {
+                    vcap: f.min(vgeo).min(centripetal(normal)),
+                    a,
+                    vlim: vgeo.min(centripetal(normal_left)),
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn prepared_moves_are_each_share_bit_for_bit() {
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut flat = 0;
+        for m in [Machine::builtin_mill(), Machine::builtin_lathe()] {
+            // (the shares alone: no jerk caps)
+            let lim = PlanLimits {
+                jerk: JerkBudget::none(m.dt()),
+                ..PlanLimits::from_machine(&m)
+            };
+            for k in 0..20_000 {
+                let start = V3::new(next() * 100.0, next() * 100.0, next() * 20.0);
+                let mut end = V3::new(next() * 100.0, next() * 100.0, next() * 20.0);
+                // axis-parallel and flat moves too
+                for i in 0..3 {
+                    if k % (i + 2) == 0 {
+                        end[i] = start[i];
+                    }
+                }
+                let feed = match k % 4 {
+                    0 => Feed::Rapid,
+                    1 => Feed::PerMin(next() * 20_000.0),
+                    2 => Feed::PerRev {
+                        mm_per_rev: next(),
+                        rpm: next() * 3000.0,
+                    },
+                    _ => Feed::PerMin(next() * 100.0),
+                };
+                let plane = [Plane::XY, Plane::ZX, Plane::YZ][k % 3];
+                let (p, q, _) = plane.axes();
+                let mut center = start;
+                center[p] += next() * 10.0 - 5.0;
+                center[q] += next() * 10.0 - 5.0;
+                let arc = Arc::new(start, end, center, plane, k % 2 == 0, (k % 5 == 0) as u32);
+                // (flat arcs take their own way through the limits)
+                flat += (arc.axial == 0.0 && arc.length == arc.radius * arc.sweep.abs()) as usize;
+                for geom in [Geom::Line { start, end }, Geom::Arc(arc)] {
+                    let len = geom.length();
+                    let want = [LINE_SHARE, 1.0].map(|s| one_share(&lim, &geom, len, &feed, s));
+                    let p = lim.prepare(&geom, &feed, true);
+                    if len.is_nan() || len <= 0.0 {
+                        // skipped by the planner: nothing else counts
+                        assert_eq!(p.length.to_bits(), len.to_bits());
+                        continue;
+                    }
+                    let got = (p.length, p.t_start, p.t_end, [p.red, p.full], p.stop);
+                    let stop = want.map(|l| (2.0 * l.a * len).sqrt());
+                    let want = (len, geom.start_tangent(), geom.end_tangent(), want, stop);
+                    assert_eq!(format!("{got:?}"), format!("{want:?}"), "{geom:?} {feed:?}");
+                    // without the speed limit over the feed: the rest the same
+                    let q = lim.prepare(&geom, &feed, false);
+                    for (q, p) in [(q.red, p.red), (q.full, p.full)] {
+                        assert_eq!(
+                            format!("{:?}", (q.vcap, q.a)),
+                            format!("{:?}", (p.vcap, p.a))
+                        );
+                    }
+                }
+            }
+        }
+        assert!(flat > 1000, "{flat} flat arcs");
     }
 }

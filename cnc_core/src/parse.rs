@@ -148,11 +148,14 @@ pub(crate) fn parse_words(
         d.source = String::from_utf8_lossy(text).into_owned();
         d
     };
-    // A `%` line (ISO program start/end marker such as `%PART G71`) is skipped.
-    let first = text.iter().position(|b| !b.is_ascii_whitespace());
-    if let Some(f) = first {
-        if text[f] == b'%' {
-            return Ok(());
+    // A `%` line (ISO program start/end marker such as `%PART G71`) is
+    // skipped. (A line that starts with a letter, nearly all, is not one.)
+    if !text.first().is_some_and(u8::is_ascii_alphabetic) {
+        let first = text.iter().position(|b| !b.is_ascii_whitespace());
+        if let Some(f) = first {
+            if text[f] == b'%' {
+                return Ok(());
+            }
         }
     }
     let mut ended = false;
@@ -161,68 +164,18 @@ pub(crate) fn parse_words(
         // A word, the common case, first: a letter is never blank, a
         // comment or the block end, so testing it first changes nothing.
         if c.is_ascii_alphabetic() && !ended {
-            let start = i;
-            let letter = c.to_ascii_uppercase();
-            i += 1;
-            let num_start = i;
-            if i < n && (text[i] == b'+' || text[i] == b'-') {
-                i += 1;
-            }
-            let digits_start = i;
-            // digits [. digits]: where it ends, all digits as one integer
-            // (meaningful only for up to 19 digits), how many digits, how
-            // many after the point, and whether there is a point
-            let (end, mantissa, digits, frac_digits, dot) = lex_number(text, i);
-            i = end;
-            if digits == 0 {
-                let what = if i < n {
-                    format!("'{}'", char_at(text, i))
-                } else {
-                    "the end of the line".to_string()
-                };
-                let at = if i > digits_start { digits_start } else { i };
-                return Err(err(
-                    at.min(n.saturating_sub(1)).max(start),
-                    1,
-                    format!(
-                        "expected a number after address '{}', found {what}",
-                        letter as char
-                    ),
-                ));
-            }
-            let value = match exact_decimal(mantissa, digits, frac_digits) {
-                Some(v) if text[num_start] == b'-' => -v,
-                Some(v) => v,
-                // Safe: the slice holds only ASCII sign, digits and one dot.
-                None => std::str::from_utf8(&text[num_start..i])
-                    .unwrap_or("0")
-                    .parse()
-                    .unwrap_or(f64::INFINITY),
-            };
-            if !value.is_finite() || value.abs() > MAX_NUMBER {
-                return Err(err(
-                    start,
-                    i - start,
-                    format!(
-                        "number out of range after '{}': at most {} in magnitude",
-                        letter as char, MAX_NUMBER as u64
-                    ),
-                ));
-            }
-            let word = Word {
-                letter,
-                value,
-                col: start as u32 + 1,
-                len: (i - start) as u32,
-                integer: !dot,
+            let (word, end) = match lex_word(text, i) {
+                Some(w) => w,
+                None => lex_word_slowly(text, i).map_err(|(at, len, msg)| err(at, len, msg))?,
             };
             if !words.add(word) {
                 return Err(err(
-                    start,
-                    i - start,
+                    i,
+                    end - i,
                     format!("too many words in one block (at most {MAX_WORDS})"),
                 ));
             }
+            i = end;
             continue;
         }
         if c == b' ' || c == b'\t' || c == b'\r' {
@@ -265,6 +218,105 @@ pub(crate) fn parse_words(
         ));
     }
     Ok(())
+}
+
+/// The word at `start` (a letter) and where it ends, when it is one of
+/// the usual kind: a sign, at most 9 digits before the point and 19 in all,
+/// a mantissa an `f64` holds exactly. Anything else is left to
+/// [`lex_word_slowly`], which gives the same word for these.
+#[inline(always)]
+fn lex_word(text: &[u8], start: usize) -> Option<(Word, usize)> {
+    // (an ASCII letter: clearing bit 5 makes it upper case)
+    let letter = text[start] & !0x20;
+    let mut i = start + 1;
+    let mut neg = false;
+    match text.get(i) {
+        Some(b'-') => {
+            neg = true;
+            i += 1;
+        }
+        Some(b'+') => i += 1,
+        _ => {}
+    }
+    let (end, mantissa, digits, frac_digits, dot) = lex_number(text, i);
+    let int_digits = digits - frac_digits;
+    // 1..=19 digits, at most 9 before the point (so at most 10^9 in
+    // magnitude: within MAX_NUMBER), the mantissa exact in an f64
+    if digits.wrapping_sub(1) >= 19 || int_digits > 9 || mantissa > 1 << 53 {
+        return None;
+    }
+    let v = mantissa as f64 / EXACT_POW10[frac_digits as usize];
+    let word = Word {
+        letter,
+        value: if neg { -v } else { v },
+        col: start as u32 + 1,
+        len: (end - start) as u32,
+        integer: !dot,
+    };
+    Some((word, end))
+}
+
+/// The word at `start` (a letter) and where it ends, or an error: (column
+/// index, length, message).
+#[cold]
+#[inline(never)]
+fn lex_word_slowly(text: &[u8], start: usize) -> Result<(Word, usize), (usize, usize, String)> {
+    let n = text.len();
+    let letter = text[start].to_ascii_uppercase();
+    let mut i = start + 1;
+    let num_start = i;
+    if i < n && (text[i] == b'+' || text[i] == b'-') {
+        i += 1;
+    }
+    let digits_start = i;
+    // digits [. digits]: where it ends, all digits as one integer
+    // (meaningful only for up to 19 digits), how many digits, how
+    // many after the point, and whether there is a point
+    let (end, mantissa, digits, frac_digits, dot) = lex_number(text, i);
+    i = end;
+    if digits == 0 {
+        let what = if i < n {
+            format!("'{}'", char_at(text, i))
+        } else {
+            "the end of the line".to_string()
+        };
+        let at = if i > digits_start { digits_start } else { i };
+        return Err((
+            at.min(n.saturating_sub(1)).max(start),
+            1,
+            format!(
+                "expected a number after address '{}', found {what}",
+                letter as char
+            ),
+        ));
+    }
+    let value = match exact_decimal(mantissa, digits, frac_digits) {
+        Some(v) if text[num_start] == b'-' => -v,
+        Some(v) => v,
+        // Safe: the slice holds only ASCII sign, digits and one dot.
+        None => std::str::from_utf8(&text[num_start..i])
+            .unwrap_or("0")
+            .parse()
+            .unwrap_or(f64::INFINITY),
+    };
+    if !value.is_finite() || value.abs() > MAX_NUMBER {
+        return Err((
+            start,
+            i - start,
+            format!(
+                "number out of range after '{}': at most {} in magnitude",
+                letter as char, MAX_NUMBER as u64
+            ),
+        ));
+    }
+    let word = Word {
+        letter,
+        value,
+        col: start as u32 + 1,
+        len: (i - start) as u32,
+        integer: !dot,
+    };
+    Ok((word, i))
 }
 
 /// A lexed number: (end, mantissa, digits, fraction digits, has a point).
@@ -513,6 +565,44 @@ mod tests {
                 ),
             }
         }
+    }
+
+    #[test]
+    fn usual_words_lex_as_every_word_does() {
+        // where the quick lexer takes a word, the general one makes the
+        // same word of it (bit for bit) and ends at the same place
+        let alphabet = b"0123456789012345678901234567890123456789..-+-+xX ;\xc3";
+        let mut x = 0x0123_4567_89AB_CDEFu64;
+        let mut next = move |n: usize| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x % n as u64) as usize
+        };
+        let mut taken = 0;
+        for _ in 0..300_000 {
+            let len = 1 + next(30);
+            let mut text: Vec<u8> = (0..len).map(|_| alphabet[next(alphabet.len())]).collect();
+            text[0] = if next(2) == 0 { b'X' } else { b'g' };
+            if let Some((w, end)) = lex_word(&text, 0) {
+                taken += 1;
+                let (want, want_end) = lex_word_slowly(&text, 0).unwrap();
+                assert_eq!(
+                    (w.letter, w.value.to_bits(), w.col, w.len, w.integer, end),
+                    (
+                        want.letter,
+                        want.value.to_bits(),
+                        want.col,
+                        want.len,
+                        want.integer,
+                        want_end
+                    ),
+                    "{:?}",
+                    String::from_utf8_lossy(&text)
+                );
+            }
+        }
+        assert!(taken > 100_000, "{taken}");
     }
 
     #[test]

@@ -20,11 +20,13 @@ use crate::comp::{block_name, Comp};
 use crate::dialect::Dialect;
 use crate::geom::{Geom, V3};
 use crate::interp::{Interpreter, Modal};
+use crate::limits::{MoveLimits, MovePrep};
 use crate::machine::Machine;
 use crate::plan::{Item, ItemSink, Lookahead, PlanLimits, Planner, Profile};
 use crate::source::ProgramSource;
 use crate::timeline::Timeline;
 use crate::travel::{self, Travel};
+use arrayvec::ArrayVec;
 use std::collections::VecDeque;
 
 /// The stages between the interpreter and the planner: compensation, the
@@ -292,7 +294,60 @@ impl<S: ProgramSource> Pipeline<S> {
 /// durations (nothing is sampled).
 pub(crate) struct Estimate {
     look: Lookahead<()>,
+    sink: Settle,
+}
+
+/// Most moves whose profiles wait in [`Settle`].
+const WAITING: usize = 16;
+
+/// The check's sink: the moves' profiles are computed a few at a time,
+/// then added up in order. (Each one is a chain of square roots and
+/// divisions, independent of the others: side by side they overlap,
+/// which they do not with the planning of every move between them.)
+struct Settle {
     totals: Totals,
+    /// (v0, v1, speed cap, acceleration, length) of the moves waiting
+    waiting: ArrayVec<[f64; 5], WAITING>,
+}
+
+impl Settle {
+    /// Adds up the moves waiting.
+    #[inline]
+    fn settle(&mut self) {
+        for &[v0, v1, vcap, a, length] in &self.waiting {
+            self.totals
+                .planned((), Profile::new(v0, v1, vcap, a, length));
+        }
+        self.waiting.clear();
+    }
+}
+
+impl ItemSink for Settle {
+    /// only the profile counts: the queue keeps nothing else of a move
+    type Kept = ();
+    /// only the durations count
+    const VLIM: bool = false;
+    #[inline]
+    fn keep(_: &Geom, _: Feed, _: Src) {}
+    #[inline]
+    fn planned(&mut self, (): (), profile: Profile) {
+        self.settle();
+        self.totals.planned((), profile);
+    }
+    /// (only the duration counts: neither the speed limit over the feed
+    /// nor `a_join`)
+    #[inline]
+    fn plan(&mut self, (): (), v0: f64, v1: f64, lim: MoveLimits, length: f64, _: f64) {
+        if self.waiting.is_full() {
+            self.settle();
+        }
+        self.waiting.push([v0, v1, lim.vcap, lim.a, length]);
+    }
+    #[inline]
+    fn item(&mut self, item: Item) {
+        self.settle();
+        self.totals.item(item);
+    }
 }
 
 /// What the planned items add up to.
@@ -302,16 +357,13 @@ pub(crate) struct Totals {
     pub(crate) ended: bool,
 }
 
-impl ItemSink for Totals {
-    /// only the profile counts: the queue keeps nothing else of a move
-    type Kept = ();
-    #[inline]
-    fn keep(_: &Geom, _: Feed, _: Src) {}
+impl Totals {
     #[inline]
     fn planned(&mut self, (): (), profile: Profile) {
         self.moves += 1;
         self.tl.finish_profile(&profile);
     }
+
     #[inline]
     fn item(&mut self, item: Item) {
         match item {
@@ -333,41 +385,43 @@ impl Estimate {
     pub(crate) fn new(lim: PlanLimits) -> Self {
         Estimate {
             look: Lookahead::new(lim),
-            totals: Totals {
-                tl: Timeline::for_limits(&lim),
-                moves: 0,
-                ended: false,
+            sink: Settle {
+                totals: Totals {
+                    tl: Timeline::for_limits(&lim),
+                    moves: 0,
+                    ended: false,
+                },
+                waiting: ArrayVec::new(),
             },
         }
     }
 
-    /// Plans a batch of events; nothing after the end counts.
-    /// `arc_tangents`: the start and end tangents of the arcs among them,
-    /// in order, as far as they have been computed already.
-    pub(crate) fn run(&mut self, events: &VecDeque<Event>, arc_tangents: &[(V3, V3)]) {
-        let mut arc_tangents = arc_tangents.iter();
+    /// Plans a batch of events; nothing after the end counts. `preps`:
+    /// what [`PlanLimits::prepare`] makes of the moves among them, in
+    /// order, as far as it has been computed already.
+    pub(crate) fn run(&mut self, events: &VecDeque<Event>, preps: &[MovePrep]) {
+        let mut preps = preps.iter();
         for ev in events {
-            if self.totals.ended {
+            if self.sink.totals.ended {
                 return;
             }
-            let tangents = match ev {
-                Event::Move {
-                    geom: Geom::Arc(_), ..
-                } => arc_tangents.next().copied(),
+            let prep = match ev {
+                Event::Move { .. } => preps.next(),
                 _ => None,
             };
-            self.look.push(ev, tangents, &mut self.totals);
+            self.look.push(ev, prep, &mut self.sink);
         }
     }
 
     /// After the last event: plans what is left (the interpreter always
     /// ends with an `End` event, so this is a safeguard).
     pub(crate) fn finish(mut self) -> Totals {
-        if !self.totals.ended {
-            self.look.flush(&mut self.totals);
+        if !self.sink.totals.ended {
+            self.look.flush(&mut self.sink);
         }
+        self.sink.settle();
         // (moves as they came in, not the pieces of split lines)
-        self.totals.moves -= self.look.extra.min(self.totals.moves);
-        self.totals
+        self.sink.totals.moves -= self.look.extra.min(self.sink.totals.moves);
+        self.sink.totals
     }
 }

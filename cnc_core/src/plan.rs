@@ -7,9 +7,9 @@
 //! Limits are honoured at every *sample*, not only in continuous time: a
 //! junction with a small direction change (a kink) makes each axis's
 //! velocity jump, and the sampled acceleration of that jump is Δv/dt. The
-//! planner therefore reserves [`KINK_SHARE`] of every axis's acceleration
+//! planner therefore reserves [`KINK_SHARE`](crate::shares::KINK_SHARE) of every axis's acceleration
 //! for such jumps in the two moves that meet at a kink, and plans their
-//! path acceleration with the rest ([`LINE_SHARE`]). A move whose
+//! path acceleration with the rest ([`LINE_SHARE`](crate::shares::LINE_SHARE)). A move whose
 //! junctions are both tangent or stops has no jump to make room for and
 //! uses the whole acceleration. A queue's tail does not know its next
 //! junction yet; it is planned with the smaller share and raised when the
@@ -19,9 +19,8 @@
 use crate::canon::{Event, Feed, Src, ThreadMove};
 use crate::geom::Geom;
 use crate::geom::V3;
-use crate::limits::MoveLimits;
 pub use crate::limits::PlanLimits;
-use crate::shares::LINE_SHARE;
+use crate::limits::{MoveLimits, MovePrep};
 use std::collections::VecDeque;
 
 /// A trapezoidal (or triangular) speed profile over one move.
@@ -56,10 +55,16 @@ impl Profile {
         let peak = ((2.0 * a * length + v0 * v0 + v1 * v1) * 0.5).sqrt();
         let vp = peak.min(vcap).max(v0).max(v1);
         let d_acc = ((vp * vp - v0 * v0) / (2.0 * a)).max(0.0);
-        let d_dec = ((vp * vp - v1 * v1) / (2.0 * a)).max(0.0);
-        let d_cruise = (length - d_acc - d_dec).max(0.0);
         let t_acc = (vp - v0) / a;
-        let t_dec = (vp - v1) / a;
+        // (from rest to rest, say: the same speeds, the same ramps)
+        let same = v1.to_bits() == v0.to_bits();
+        let d_dec = if same {
+            d_acc
+        } else {
+            ((vp * vp - v1 * v1) / (2.0 * a)).max(0.0)
+        };
+        let d_cruise = (length - d_acc - d_dec).max(0.0);
+        let t_dec = if same { t_acc } else { (vp - v1) / a };
         let t_cruise = if vp > 0.0 { d_cruise / vp } else { 0.0 };
         Profile {
             v0,
@@ -154,12 +159,15 @@ struct QSeg<K> {
     /// unit tangent at the end (for the junction with the next move)
     t_end: V3,
     length: f64,
-    /// the limits in force ([`LINE_SHARE`] until both junctions are known
+    /// the limits in force ([`LINE_SHARE`](crate::shares::LINE_SHARE) until both junctions are known
     /// to be smooth)
     lim: MoveLimits,
-    /// the limits with the whole acceleration, while they may still be
-    /// taken (the entry junction is smooth, the exit one not yet known)
-    full: Option<MoveLimits>,
+    /// √(2·a·length) with `lim` (the speed from which it stops)
+    stop: f64,
+    /// the limits with the whole acceleration and their `stop`, while they
+    /// may still be taken (the entry junction is smooth, the exit one not
+    /// yet known)
+    full: Option<(MoveLimits, f64)>,
     /// largest entry speed the junction allows
     j: f64,
     /// what `j` becomes if the move takes its `full` limits
@@ -178,7 +186,7 @@ struct QSeg<K> {
 impl<K> QSeg<K> {
     /// Largest entry speed from which the move can stop at its end.
     fn entry_to_stop(&self) -> f64 {
-        self.j.min((2.0 * self.lim.a * self.length).sqrt())
+        self.j.min(self.stop)
     }
 }
 
@@ -194,10 +202,18 @@ const REACH_QUEUE: usize = 64;
 /// Lowers a queued move's speed and acceleration caps (jerk: a
 /// neighbour's caps within the path filter's reach).
 fn cap<K>(s: &mut QSeg<K>, v: f64, a: f64) {
-    for l in std::iter::once(&mut s.lim).chain(s.full.as_mut()) {
+    let length = s.length;
+    let lower = |l: &mut MoveLimits, stop: &mut f64| {
         l.vcap = l.vcap.min(v);
         l.vlim = l.vlim.min(v);
-        l.a = l.a.min(a);
+        if a < l.a {
+            l.a = a;
+            *stop = (2.0 * a * length).sqrt();
+        }
+    };
+    lower(&mut s.lim, &mut s.stop);
+    if let Some((l, stop)) = s.full.as_mut() {
+        lower(l, stop);
     }
     s.j = s.j.min(v);
     s.j_max = s.j_max.min(v);
@@ -209,9 +225,30 @@ fn cap<K>(s: &mut QSeg<K>, v: f64, a: f64) {
 pub(crate) trait ItemSink {
     /// What the queue keeps of a move.
     type Kept: Copy;
+    /// Whether the profiles' [`Profile::vlim`] is wanted (it is computed
+    /// only then).
+    const VLIM: bool = true;
     fn keep(geom: &Geom, feed: Feed, src: Src) -> Self::Kept;
     /// A move, with its final profile.
     fn planned(&mut self, kept: Self::Kept, profile: Profile);
+    /// A move whose profile is final: from `v0` to `v1` with limits `lim`
+    /// over `length`, `a_join` its [`Profile::a_join`]. (A sink may put
+    /// off computing the profile; the items stay in order.)
+    #[inline]
+    fn plan(
+        &mut self,
+        kept: Self::Kept,
+        v0: f64,
+        v1: f64,
+        lim: MoveLimits,
+        length: f64,
+        a_join: f64,
+    ) {
+        let mut profile = Profile::new(v0, v1, lim.vcap, lim.a, length);
+        profile.vlim = lim.vlim;
+        profile.a_join = a_join;
+        self.planned(kept, profile);
+    }
     /// Any other item.
     fn item(&mut self, item: Item);
 }
@@ -278,14 +315,14 @@ impl<K: Copy> Lookahead<K> {
         }
     }
 
-    /// Feeds one event in. `tangents`: the move's start and end tangents
-    /// if the caller has them already (the check computes those of arcs on
+    /// Feeds one event in. `prep`: what [`PlanLimits::prepare`] makes of
+    /// the move, if the caller has it already (the check computes it on
     /// another thread).
     #[inline]
     pub(crate) fn push<O: ItemSink<Kept = K>>(
         &mut self,
         ev: &Event,
-        tangents: Option<(V3, V3)>,
+        prep: Option<&MovePrep>,
         out: &mut O,
     ) {
         match *ev {
@@ -293,7 +330,13 @@ impl<K: Copy> Lookahead<K> {
                 ref geom,
                 feed,
                 src,
-            } => self.push_move(geom, tangents, feed, src, out),
+            } => match prep {
+                Some(p) => self.push_move(geom, p, feed, src, out),
+                None => {
+                    let prep = self.lim.prepare(geom, &feed, O::VLIM);
+                    self.push_move(geom, &prep, feed, src, out)
+                }
+            },
             Event::Dwell { seconds, src } => {
                 self.flush(out);
                 out.item(Item::Dwell { seconds, src });
@@ -317,25 +360,16 @@ impl<K: Copy> Lookahead<K> {
         }
     }
 
+    #[inline]
     fn push_move<O: ItemSink<Kept = K>>(
         &mut self,
         geom: &Geom,
-        tangents: Option<(V3, V3)>,
+        prep: &MovePrep,
         feed: Feed,
         src: Src,
         out: &mut O,
     ) {
-        // The tangents are computed once per move, as the geometry would:
-        // a line's tangent is `normalize()`, i.e. the difference divided by
-        // its norm, which is the length.
-        let (length, line_dir) = match geom {
-            Geom::Line { start, end } => {
-                let d = end - start;
-                let len = d.norm();
-                (len, Some(d.unscale(len)))
-            }
-            Geom::Arc(a) => (a.length, None),
-        };
+        let length = prep.length;
         if length <= 0.0 {
             return;
         }
@@ -344,12 +378,7 @@ impl<K: Copy> Lookahead<K> {
             // neighbour's caps reach only its ends: a middle and, at either
             // end, pieces of reach/64, /64, /32, ..., /2 (a cap reaching r
             // holds over at most 2r)
-            let reach = self.lim.jerk.lag_distance(
-                self.lim
-                    .move_limits(geom, length, &feed, 1.0)
-                    .vlim
-                    .min(self.lim.top),
-            );
+            let reach = self.lim.jerk.lag_distance(prep.full.vlim.min(self.lim.top));
             let least = (reach / f64::from(1u32 << SPLIT_LEVELS)).max(MIN_PIECE_MM);
             if least > 0.0 && length > 3.0 * least {
                 // (a shorter move: pieces up to a third of it)
@@ -372,17 +401,16 @@ impl<K: Copy> Lookahead<K> {
                 let mut from = 0.0;
                 for &d in cuts.iter().chain(std::iter::once(&length)) {
                     let g = geom.piece(from, d);
-                    self.push_move(&g, None, feed, src, out);
+                    let p = self.lim.prepare(&g, &feed, O::VLIM);
+                    self.push_move(&g, &p, feed, src, out);
                     from = d;
                 }
                 self.splitting = false;
                 return;
             }
         }
-        let red = self.lim.move_limits(geom, length, &feed, LINE_SHARE);
-        let t2 = line_dir
-            .or(tangents.map(|t| t.0))
-            .unwrap_or_else(|| geom.start_tangent());
+        let red = prep.red;
+        let t2 = prep.t_start;
         // the entry junction; a smooth one lets the move before take its
         // whole acceleration (its exit is now known) and this one keep the
         // chance of it
@@ -397,29 +425,28 @@ impl<K: Copy> Lookahead<K> {
             prev.full = None;
             prev.j_max = prev.j;
         }
-        let full = (!kink).then(|| self.lim.move_limits(geom, length, &feed, 1.0));
+        let full = (!kink).then_some((prep.full, prep.stop[1]));
         let (j, j_max) = match self.queue.back() {
             Some(prev) => {
                 let j = j_kink.min(prev.lim.vcap);
-                (j.min(red.vcap), j.min(full.map_or(red.vcap, |f| f.vcap)))
+                (j.min(red.vcap), j.min(full.map_or(red.vcap, |f| f.0.vcap)))
             }
             None => (self.v_head, self.v_head),
         };
-        let t_end = line_dir
-            .or(tangents.map(|t| t.1))
-            .unwrap_or_else(|| geom.end_tangent());
+        let t_end = prep.t_end;
         let mut seg = QSeg {
             kept: O::keep(geom, feed, src),
             t_end,
             length,
             lim: red,
+            stop: prep.stop[0],
             full,
             j,
             j_max,
             entry_b: 0.0,
             own_v: red.vlim,
             // (the whole acceleration while it may take it)
-            own_a: full.map_or(red.a, |f| f.a),
+            own_a: full.map_or(red.a, |f| f.0.a),
             j_in: if self.queue.is_empty() { 0.0 } else { j_kink },
         };
         if self.lim.jerk.limited() {
@@ -547,10 +574,11 @@ impl<K: Copy> Lookahead<K> {
         let Some(t) = self.queue.back_mut() else {
             return;
         };
-        let Some(full) = t.full.take() else {
+        let Some((full, stop)) = t.full.take() else {
             return;
         };
         t.lim = full;
+        t.stop = stop;
         t.j = t.j_max;
         if self.lim.jerk.limited() {
             self.recompute();
@@ -567,7 +595,16 @@ impl<K: Copy> Lookahead<K> {
         for k in (0..from).rev() {
             let next_b = self.queue[k + 1].entry_b;
             let s = &mut self.queue[k];
-            let nb = s.j.min((next_b * next_b + 2.0 * s.lim.a * s.length).sqrt());
+            // (at or under its junction's speed it has nothing to gain;
+            // from rest, √(2·a·length) is its stopping speed)
+            if s.j <= s.entry_b {
+                break;
+            }
+            let nb = s.j.min(if next_b == 0.0 {
+                s.stop
+            } else {
+                (next_b * next_b + 2.0 * s.lim.a * s.length).sqrt()
+            });
             if nb <= s.entry_b {
                 break;
             }
@@ -581,7 +618,12 @@ impl<K: Copy> Lookahead<K> {
             let v1 = match self.queue.get(1) {
                 Some(nx) => {
                     // (only here: a lone head waits without it)
-                    let reach = (self.v_head * self.v_head + 2.0 * h.lim.a * h.length).sqrt();
+                    // (from rest: the move's stopping speed, √(2·a·length))
+                    let reach = if self.v_head == 0.0 {
+                        h.stop
+                    } else {
+                        (self.v_head * self.v_head + 2.0 * h.lim.a * h.length).sqrt()
+                    };
                     // (final unless the next move may still take its whole
                     // acceleration and with it a faster entry)
                     let final_exit = nx.entry_b >= nx.j_max || reach <= nx.entry_b;
@@ -600,19 +642,17 @@ impl<K: Copy> Lookahead<K> {
                 None => return,
             };
             let lim = h.lim;
-            let mut profile = Profile::new(self.v_head, v1, lim.vcap, lim.a, h.length);
-            profile.vlim = lim.vlim;
             // (the next move's acceleration may still rise, never fall)
             let a_after = match self.queue.get(1) {
                 Some(nx) if v1 > 0.0 => nx.lim.a,
                 _ => f64::INFINITY,
             };
-            profile.a_join = lim.a.min(a_after).min(if self.v_head > 0.0 {
+            let a_join = lim.a.min(a_after).min(if self.v_head > 0.0 {
                 self.a_before
             } else {
                 f64::INFINITY
             });
-            out.planned(h.kept, profile);
+            out.plan(h.kept, self.v_head, v1, lim, h.length, a_join);
             self.a_before = lim.a;
             self.v_head = v1;
             self.queued -= h.length;
@@ -692,5 +732,47 @@ mod tests {
         let p = Profile::new(50.0, 20.0, 100.0, 1000.0, 30.0);
         assert!((p.v_at(0.0) - 50.0).abs() < 1e-12 && (p.v_at(p.duration) - 20.0).abs() < 1e-12);
         assert!((p.s_at(p.duration - 1e-12) - 30.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn equal_speeds_share_their_ramps_bit_for_bit() {
+        // the profile as computed before equal entry and exit speeds
+        // shared their ramps
+        let reference = |v0: f64, v1: f64, vcap: f64, a: f64, length: f64| {
+            let peak = ((2.0 * a * length + v0 * v0 + v1 * v1) * 0.5).sqrt();
+            let vp = peak.min(vcap).max(v0).max(v1);
+            let d_acc = ((vp * vp - v0 * v0) / (2.0 * a)).max(0.0);
+            let d_dec = ((vp * vp - v1 * v1) / (2.0 * a)).max(0.0);
+            let d_cruise = (length - d_acc - d_dec).max(0.0);
+            let t_acc = (vp - v0) / a;
+            let t_dec = (vp - v1) / a;
+            let t_cruise = if vp > 0.0 { d_cruise / vp } else { 0.0 };
+            [
+                t_acc,
+                t_cruise,
+                t_dec,
+                d_acc,
+                d_cruise,
+                t_acc + t_cruise + t_dec,
+            ]
+        };
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for k in 0..50_000 {
+            let (vcap, a, length) = (next() * 300.0, 10.0 + next() * 3000.0, next() * 20.0);
+            let v0 = [0.0, -0.0, next() * vcap][k % 3];
+            let v1 = if k % 2 == 0 { v0 } else { next() * vcap };
+            let p = Profile::new(v0, v1, vcap, a, length);
+            let got = [
+                p.t_acc, p.t_cruise, p.t_dec, p.d_acc, p.d_cruise, p.duration,
+            ];
+            let want = reference(v0, v1, vcap, a, length);
+            assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits), "{v0} {v1}");
+        }
     }
 }

@@ -18,7 +18,14 @@ pub struct SourceError(pub String);
 pub trait ProgramSource {
     /// Reads the next line (without its line end) into `buf` (cleared first).
     /// Returns the position of that line, or `None` at the end.
-    fn read_line(&mut self, buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError>;
+    fn read_line(&mut self, buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError> {
+        buf.clear();
+        self.append_line(buf)
+    }
+    /// [`read_line`](Self::read_line), appending the line to what `buf`
+    /// holds (the check gathers lines one after the other). After an
+    /// error, what was appended is unspecified.
+    fn append_line(&mut self, buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError>;
     /// Continues reading at `pos` (a value returned by `read_line`).
     fn seek(&mut self, pos: SourcePos) -> Result<(), SourceError>;
     /// Whether `seek` works (jumps need it).
@@ -80,20 +87,51 @@ impl<T> TextSource<T> {
 
 /// Removes a trailing `\r` (CRLF files).
 pub fn trim_line_end(buf: &mut Vec<u8>) {
-    while matches!(buf.last(), Some(b'\n') | Some(b'\r')) {
+    trim_line_end_from(buf, 0);
+}
+
+/// [`trim_line_end`] on the bytes of `buf` from `start` on.
+fn trim_line_end_from(buf: &mut Vec<u8>, start: usize) {
+    while buf.len() > start && matches!(buf.last(), Some(b'\n') | Some(b'\r')) {
         buf.pop();
     }
 }
 
+/// The first `\n` in `hay`, eight bytes at a time: lines are short, and
+/// for a few dozen bytes this beats a call into a vectorised search.
+#[inline]
+fn find_newline(hay: &[u8]) -> Option<usize> {
+    const ONES: u64 = 0x0101_0101_0101_0101;
+    let mut chunks = hay.chunks_exact(8);
+    let mut at = 0;
+    for c in &mut chunks {
+        let mut b = [0u8; 8];
+        b.copy_from_slice(c);
+        // a zero byte where `\n` was; the lowest flagged byte is the first
+        // zero (a borrow only flags bytes above a zero)
+        let x = u64::from_le_bytes(b) ^ (u64::from(b'\n') * ONES);
+        let zero = x.wrapping_sub(ONES) & !x & (0x80 * ONES);
+        if zero != 0 {
+            return Some(at + (zero.trailing_zeros() / 8) as usize);
+        }
+        at += 8;
+    }
+    chunks
+        .remainder()
+        .iter()
+        .position(|&b| b == b'\n')
+        .map(|p| at + p)
+}
+
 impl<T: AsRef<[u8]>> ProgramSource for TextSource<T> {
-    fn read_line(&mut self, buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError> {
-        buf.clear();
+    fn append_line(&mut self, buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError> {
+        let start = buf.len();
         let text = self.text.as_ref();
         if self.offset >= text.len() {
             return Ok(None);
         }
         let rest = &text[self.offset..];
-        let end = memchr::memchr(b'\n', rest);
+        let end = find_newline(rest);
         let (line, next) = match end {
             Some(e) => (&rest[..e], self.offset + e + 1),
             None => (rest, text.len()),
@@ -109,7 +147,7 @@ impl<T: AsRef<[u8]>> ProgramSource for TextSource<T> {
             )));
         }
         buf.extend_from_slice(line);
-        trim_line_end(buf);
+        trim_line_end_from(buf, start);
         let pos = SourcePos {
             offset: self.offset as u64,
             line: self.line,
@@ -150,10 +188,52 @@ impl<R: std::io::BufRead + std::io::Seek> ReaderSource<R> {
 }
 
 impl<R: std::io::BufRead + std::io::Seek> ProgramSource for ReaderSource<R> {
-    fn read_line(&mut self, buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError> {
-        buf.clear();
+    fn append_line(&mut self, buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError> {
+        // the usual case: the whole line, with its end, is in the reader's
+        // buffer (what the general loop below does with it, in one go)
+        let limit = self.max_line.saturating_add(2);
+        match self.reader.fill_buf() {
+            Ok(avail) => {
+                let room = &avail[..avail.len().min(limit)];
+                if let Some(i) = find_newline(room) {
+                    let mut end = i;
+                    while end > 0 && room[end - 1] == b'\r' {
+                        end -= 1;
+                    }
+                    buf.extend_from_slice(&room[..end]);
+                    self.reader.consume(i + 1);
+                    self.line += 1;
+                    let pos = SourcePos {
+                        offset: self.offset,
+                        line: self.line,
+                    };
+                    self.offset += i as u64 + 1;
+                    return Ok(Some(pos));
+                }
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(SourceError(e.to_string())),
+        }
+        self.append_line_slowly(buf)
+    }
+
+    fn seek(&mut self, pos: SourcePos) -> Result<(), SourceError> {
+        self.reader
+            .seek(std::io::SeekFrom::Start(pos.offset))
+            .map_err(|e| SourceError(e.to_string()))?;
+        self.offset = pos.offset;
+        self.line = pos.line.saturating_sub(1);
+        Ok(())
+    }
+}
+
+impl<R: std::io::BufRead + std::io::Seek> ReaderSource<R> {
+    /// [`ProgramSource::append_line`] in general: a line across the
+    /// reader's buffers, too long, or the last without a line end.
+    fn append_line_slowly(&mut self, buf: &mut Vec<u8>) -> Result<Option<SourcePos>, SourceError> {
+        let start = buf.len();
         // `read_until(b'\n')` on `take(limit)`, searching the reader's
-        // buffer directly (with a vectorised memchr; lines are short)
+        // buffer directly
         let limit = self.max_line as u64 + 2;
         let mut n = 0u64;
         while n < limit {
@@ -166,7 +246,7 @@ impl<R: std::io::BufRead + std::io::Seek> ProgramSource for ReaderSource<R> {
                 break;
             }
             let room = &avail[..avail.len().min((limit - n) as usize)];
-            let (used, found) = match memchr::memchr(b'\n', room) {
+            let (used, found) = match find_newline(room) {
                 Some(i) => (i + 1, true),
                 None => (room.len(), false),
             };
@@ -192,17 +272,8 @@ impl<R: std::io::BufRead + std::io::Seek> ProgramSource for ReaderSource<R> {
             line: self.line,
         };
         self.offset += n;
-        trim_line_end(buf);
+        trim_line_end_from(buf, start);
         Ok(Some(pos))
-    }
-
-    fn seek(&mut self, pos: SourcePos) -> Result<(), SourceError> {
-        self.reader
-            .seek(std::io::SeekFrom::Start(pos.offset))
-            .map_err(|e| SourceError(e.to_string()))?;
-        self.offset = pos.offset;
-        self.line = pos.line.saturating_sub(1);
-        Ok(())
     }
 }
 
@@ -223,6 +294,52 @@ mod tests {
         assert!(s.read_line(&mut b).unwrap().is_none());
         s.seek(p1).unwrap();
         assert_eq!(s.read_line(&mut b).unwrap().unwrap(), p1);
+    }
+
+    #[test]
+    fn newlines_found_eight_bytes_at_a_time_are_the_first() {
+        let mut x = 0x2545_F491_4F6C_DD1Du64;
+        for _ in 0..100_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let len = (x % 40) as usize;
+            // newlines rare or frequent, next to every byte value
+            let hay: Vec<u8> = (0..len)
+                .map(|k| {
+                    let b = (x.rotate_left(k as u32 * 7) & 0xFF) as u8;
+                    if b.is_multiple_of((2 + (x >> 60)) as u8) {
+                        b'\n'
+                    } else {
+                        b
+                    }
+                })
+                .collect();
+            assert_eq!(
+                find_newline(&hay),
+                hay.iter().position(|&b| b == b'\n'),
+                "{hay:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn lines_are_appended_and_trimmed_alone() {
+        let text = "N1\r\n\r\nN3\n";
+        let mut r = ReaderSource::new(std::io::Cursor::new(text.as_bytes()), 100);
+        let mut s = StrSource::new(text);
+        for src in [&mut r as &mut dyn ProgramSource, &mut s] {
+            // what the buffer held before stays, line ends and all
+            let mut buf = b"X\r".to_vec();
+            assert_eq!(src.append_line(&mut buf).unwrap().unwrap().line, 1);
+            assert_eq!(buf, b"X\rN1");
+            assert_eq!(src.append_line(&mut buf).unwrap().unwrap().line, 2);
+            assert_eq!(buf, b"X\rN1");
+            buf.push(b'\r');
+            assert_eq!(src.append_line(&mut buf).unwrap().unwrap().offset, 6);
+            assert_eq!(buf, b"X\rN1\rN3");
+            assert!(src.append_line(&mut buf).unwrap().is_none());
+        }
     }
 
     #[test]

@@ -14,7 +14,25 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
     /// The helix's block rules that come before the block runs: G98 alone,
     /// G10 pitch blocks, G09, the dragged axis; and L/Q only with a jump.
     /// False: the block is done.
+    #[inline]
     pub(super) fn helix_block(&mut self, w: &Words) -> bool {
+        // (nothing to do without these words or a helix in force)
+        let words = [
+            slot::HELIX_OFF,
+            slot::PITCH,
+            slot::HELIX_ON,
+            slot::L,
+            slot::Q,
+        ];
+        if !words.iter().any(|&s| w.has(s)) && (self.pitch.is_none() || self.helix.is_none()) {
+            return true;
+        }
+        self.helix_rules(w)
+    }
+
+    /// [`helix_block`](Self::helix_block) with something to do.
+    #[inline(never)]
+    fn helix_rules(&mut self, w: &Words) -> bool {
         if let Some(g98) = w.get(slot::HELIX_OFF) {
             let other = w.all.iter().find(|x| x.letter != b'N' && x.col != g98.col);
             if let Some(o) = other {

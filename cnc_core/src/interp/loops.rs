@@ -23,6 +23,7 @@ pub(super) fn jump_count(q: &Word) -> Option<i64> {
 impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
     /// G73 L<n> Q<q> after its block ran: jumps back to N<n> while the
     /// block's counter lasts; the counter resets when the loop is done.
+    #[inline(never)]
     pub(super) fn exec_jump(&mut self, w: &Words, g73: &Word) {
         let (Some(l), q) = (w.get(slot::L), w.get(slot::Q)) else {
             self.error(

@@ -17,6 +17,7 @@ use crate::travel::{self};
 pub const ARC_TOLERANCE_MM: f64 = 0.002;
 
 impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
+    #[inline(never)]
     pub(super) fn exec_dwell(&mut self, w: &Words, g4: &Word, src: Src) {
         let mut time: Option<Word> = w.p();
         if self.rules.dwell_time_in_f && time.is_none() {

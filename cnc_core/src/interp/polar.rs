@@ -32,7 +32,19 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
     /// Blocks that set the pole: I/J (plane-dependent) with no motion, in
     /// a dialect whose centre words alone set it, or G29 (the pole where
     /// the tool stands). False: the block is done.
+    #[inline]
     pub(super) fn pole_block(&mut self, w: &Words) -> bool {
+        // (nothing to do without G29 in a dialect whose centres do not set
+        // the pole)
+        if !w.has(slot::POLE_HERE) && !self.rules.centres_set_pole {
+            return true;
+        }
+        self.pole_rules(w)
+    }
+
+    /// [`pole_block`](Self::pole_block) with something to do.
+    #[inline(never)]
+    fn pole_rules(&mut self, w: &Words) -> bool {
         // (in the plane the block itself selects, if it does)
         let plane = if w.has(slot::PLANE) {
             w.plane
@@ -93,6 +105,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
     }
 
     /// G10/G11 polar lines and G12/G13/G15 polar arcs about the pole.
+    #[inline(never)]
     pub(super) fn exec_polar(&mut self, w: &Words, src: Src) {
         let motion = self.modal.motion;
         let (p, q, n) = self.modal.plane.axes();

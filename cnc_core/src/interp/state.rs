@@ -277,6 +277,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
         !self.finished
     }
 
+    #[cold]
     pub(super) fn error(&mut self, w: Option<&Word>, msg: String) {
         let col = w.map_or(1, |w| w.col);
         // a block run again by a loop reports its error once
@@ -297,6 +298,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
         self.errors.push(d);
     }
 
+    #[cold]
     pub(super) fn push_diag(&mut self, mut d: Diagnostic) {
         self.error_count += 1;
         if self.errors.len() < self.max_errors {

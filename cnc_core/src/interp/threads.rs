@@ -22,6 +22,7 @@ pub(super) fn round_up(v: f64) -> String {
 impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
     /// G33: a thread block (cnc836). It is held back until the next block
     /// says whether the thread goes on (a chain) or ends here.
+    #[inline(never)]
     pub(super) fn exec_thread(&mut self, w: &Words, g33: &Word, src: Src, prev: Option<V3>) {
         let chained = prev.is_some();
         if let Some(m) = w.get(slot::MOTION) {
@@ -315,6 +316,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
 
     /// The block rules after a G33 block with runout: an empty block, then
     /// a block that programs every axis.
+    #[inline(never)]
     pub(super) fn runout_rules(&mut self, parsed: bool, words: &[Word]) {
         let state = std::mem::take(&mut self.after_runout);
         if !parsed {

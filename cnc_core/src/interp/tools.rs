@@ -12,6 +12,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
     /// T: selects a tool table entry (lathe `T####`: the offset is the
     /// last two digits, 00 cancels it; mill `T<n>`: tool n). False: an
     /// error was reported.
+    #[inline(never)]
     pub(super) fn select_tool(&mut self, n: u32, t: &Word) -> bool {
         if self.tools.is_empty() {
             return true;
@@ -48,6 +49,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
     }
 
     /// G40/G41/G42.
+    #[inline(never)]
     pub(super) fn exec_comp(&mut self, code: u8, g: &Word) {
         if code == 40 {
             self.canon.set_compensation(None, self.last);
