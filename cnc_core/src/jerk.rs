@@ -10,13 +10,24 @@
 //!    points, spreads the steps of the normal acceleration (a line meeting
 //!    an arc, a kink's velocity jump) over M_f·dt. For a moving average the
 //!    filtered sampled jerk is (A_k − A_{k−M_f})/(M_f·dt), A the input's
-//!    sampled acceleration; the planner keeps every normal acceleration
-//!    under `a_n` = [`NORMAL_JERK_SHARE`]·j·M_f·dt/2 (so any two differ by
-//!    at most the share's part), the turn of the tangential acceleration on
-//!    arcs, a_t·v·κ, under [`TURN_JERK_SHARE`]·j, and the path filter
-//!    takes the rest. The XYZ filter moves a point of a curve by at most
-//!    the chord's sagitta a_n·((M_f−1)·dt)²/8; M_f is chosen so that this
-//!    is [`XYZ_FILTER_ERROR_MM`] with the largest `a_n`.
+//!    sampled acceleration, so two normal accelerations within M_f + 1
+//!    samples (`step_span`) of each other may differ by at most `b_step` =
+//!    [`NORMAL_JERK_SHARE`]·j·M_f·dt. Near the ends of an arc (within
+//!    `step_span` at its speed: where a line, another arc or a kink may be
+//!    in the same window) the planner keeps the normal acceleration under
+//!    `a_n` ≤ b_step/2, a kink's velocity jump over one sample too, so any
+//!    two differ by at most `b_step`. Inside a long arc, where the window
+//!    sees nothing but the arc, the normal acceleration only turns and
+//!    grows: v³κ²·W and 2·v·a_t·κ·W within a quarter of `b_step` each, and
+//!    the speed there may be higher ([`JerkBudget::arc_caps`]). The turn of
+//!    the tangential acceleration, a_t·v·κ, stays under
+//!    [`TURN_JERK_SHARE`]·j, and the path filter takes the rest. The XYZ
+//!    filter moves a point off a smooth path by at most
+//!    κ_max·Var(s)/2 ≤ v²κ·(M_f²−1)·dt²/24 (about the mean of the samples'
+//!    path lengths): inside arcs the normal acceleration stays under
+//!    `a_dev` for [`XYZ_FILTER_ERROR_MM`]; near kinks the chord's sagitta
+//!    a_n·((M_f−1)·dt)²/8 is within it, and M_f is chosen so that `a_n` is
+//!    as large as both allow.
 //! 3. The path filter delays s̃ behind s by up to (M_s−1)·dt: the speed
 //!    and acceleration s̃ has at a point are those the profile had within
 //!    `lag_distance` of it. The planner therefore applies each speed and
@@ -40,9 +51,16 @@ pub struct JerkBudget {
     pub m_f: usize,
     /// the least jerk limit of the axes, mm/s³ (∞: none)
     pub j: f64,
-    /// the largest normal acceleration (centripetal, or a kink's velocity
-    /// jump over one sample) anywhere on the path, mm/s² (∞: no cap)
+    /// the largest normal acceleration near the ends of arcs and at kinks
+    /// (centripetal, or a kink's velocity jump over one sample), mm/s²
+    /// (∞: no cap)
     pub a_n: f64,
+    /// the largest step of the normal acceleration (vector) between two
+    /// samples M_f + 1 apart, mm/s²
+    pub b_step: f64,
+    /// the largest normal acceleration inside an arc for the deviation,
+    /// mm/s²
+    pub a_dev: f64,
 }
 
 impl JerkBudget {
@@ -54,6 +72,8 @@ impl JerkBudget {
             m_f: 1,
             j: f64::INFINITY,
             a_n: f64::INFINITY,
+            b_step: f64::INFINITY,
+            a_dev: f64::INFINITY,
         }
     }
 
@@ -79,12 +99,15 @@ impl JerkBudget {
                 break;
             }
         }
+        let m = best_m as f64;
         JerkBudget {
             dt,
             m_s: m_s.max(1),
             m_f: best_m,
             j,
             a_n: best_a,
+            b_step: NORMAL_JERK_SHARE * j * m * dt,
+            a_dev: 24.0 * XYZ_FILTER_ERROR_MM / ((m * m - 1.0) * dt * dt),
         }
     }
 
@@ -98,6 +121,13 @@ impl JerkBudget {
     #[inline]
     pub fn lag_s(&self) -> f64 {
         (self.m_s.saturating_sub(1)) as f64 * self.dt
+    }
+
+    /// The time between two samples whose normal accelerations the XYZ
+    /// filter's jerk compares, s ((M_f + 1)·dt).
+    #[inline]
+    pub fn step_span(&self) -> f64 {
+        (self.m_f + 1) as f64 * self.dt
     }
 
     /// How far, along the path, a speed or acceleration cap reaches on
@@ -114,27 +144,47 @@ impl JerkBudget {
     }
 
     /// The largest distance by which the XYZ filter moves a setpoint off
-    /// the path, mm: the sagitta of a curve with the normal acceleration
-    /// `a_n` over the filter's window (straight lines are not moved;
-    /// kinks' velocity jumps are normal accelerations of one sample and
-    /// count in the same bound).
+    /// the path, mm: on smooth stretches v²κ·(M_f²−1)·dt²/24 with the arcs'
+    /// `a_dev`; near kinks the sagitta of a curve with the normal
+    /// acceleration `a_n` over the filter's window (straight lines are not
+    /// moved; kinks' velocity jumps are normal accelerations of one sample
+    /// and count in the same bound).
     pub fn error_mm(&self) -> f64 {
         if self.m_f <= 1 || !self.a_n.is_finite() {
             return 0.0;
         }
         let w = (self.m_f - 1) as f64 * self.dt;
-        self.a_n * w * w / 8.0
+        let m = self.m_f as f64;
+        let smooth = self.a_dev * (m * m - 1.0) * self.dt * self.dt / 24.0;
+        (self.a_n * w * w / 8.0).max(smooth)
     }
 
     /// An arc's speed cap and tangential acceleration cap for curvature
-    /// `kappa` (1/mm): the normal acceleration within `a_n`, the turn of
-    /// the tangential acceleration a_t·v·κ within its share.
-    pub fn arc_caps(&self, kappa: f64) -> (f64, f64) {
+    /// `kappa` (1/mm). Near its ends: the normal acceleration within
+    /// `a_n`, the turn of the tangential acceleration a_t·v·κ within
+    /// [`TURN_JERK_SHARE`]·j. `inside` (the XYZ filter's window sees only
+    /// the arc): also any faster speed at which the normal acceleration
+    /// stays within `a_dev` and, over the filter's span W, its turn
+    /// v³κ²·W and its growth 2·v·a_t·κ·W within a quarter of `b_step`
+    /// each.
+    pub fn arc_caps(&self, kappa: f64, inside: bool) -> (f64, f64) {
         if !self.limited() || kappa <= 0.0 {
             return (f64::INFINITY, f64::INFINITY);
         }
-        let v = (self.a_n / kappa).sqrt();
-        (v, TURN_JERK_SHARE * self.j / (v * kappa))
+        // (under `a_n` any two normal accelerations differ by at most
+        // `b_step`, however they turn or grow)
+        let by_size = (self.a_n / kappa).sqrt();
+        let w = self.step_span();
+        let q = 0.25 * self.b_step;
+        let by_change = (self.a_dev / kappa)
+            .sqrt()
+            .min((q / (w * kappa * kappa)).cbrt());
+        if !inside || by_change <= by_size {
+            return (by_size, TURN_JERK_SHARE * self.j / (by_size * kappa));
+        }
+        let v = by_change;
+        let a = (TURN_JERK_SHARE * self.j / (v * kappa)).min(q / (2.0 * v * kappa * w));
+        (v, a)
     }
 
     /// The speed cap of a kink whose unit tangent changes by `d` on some
@@ -150,6 +200,47 @@ impl JerkBudget {
     pub fn s_share(&self) -> f64 {
         S_FILTER_SHARE * self.j
     }
+}
+
+/// A long move's end pieces halve this many times towards its ends, down
+/// to this length (mm).
+const SPLIT_LEVELS: usize = 6;
+const MIN_PIECE_MM: f64 = 0.02;
+/// Most cuts [`piece_cuts`] makes.
+pub(crate) const MAX_CUTS: usize = 2 * SPLIT_LEVELS + 4;
+
+/// Where a move of `length` mm is cut into pieces so that caps reaching
+/// `reach` mm into it reach only its ends: at reach/64, /64, /32, ..., /2
+/// from either end (a shorter move: up to a third of it), and at
+/// `inner_at` from either end (an arc's inside, `Lookahead::split`); the
+/// cuts in order and their number, or None if the move stays whole.
+pub(crate) fn piece_cuts(
+    reach: f64,
+    length: f64,
+    inner_at: Option<f64>,
+) -> Option<([f64; MAX_CUTS], usize)> {
+    let least = (reach / f64::from(1u32 << SPLIT_LEVELS)).max(MIN_PIECE_MM);
+    if !(least > 0.0 && length > 3.0 * least) {
+        return None;
+    }
+    let r = reach.min(length / 3.0);
+    let mut cuts = [0.0; MAX_CUTS];
+    let mut n = 0;
+    for i in 0..=SPLIT_LEVELS {
+        let d = r / f64::from(1u32 << (SPLIT_LEVELS - i));
+        if d >= least || i == SPLIT_LEVELS {
+            cuts[n] = d;
+            n += 1;
+        }
+    }
+    if let Some(at) = inner_at.filter(|at| *at > r && 2.0 * at < length) {
+        cuts[n] = at;
+        n += 1;
+    }
+    for i in 0..n {
+        cuts[n + i] = length - cuts[n - 1 - i];
+    }
+    Some((cuts, 2 * n))
 }
 
 /// The curvature of a move (1/mm): 0 for lines; an arc's in-plane

@@ -126,6 +126,20 @@ impl PlanLimits {
     /// with it).
     #[inline]
     pub(crate) fn prepare(&self, geom: &Geom, feed: &Feed, vlim: bool) -> MovePrep {
+        self.prepare_piece(geom, feed, vlim, false)
+    }
+
+    /// [`prepare`](Self::prepare), for a piece of an arc that is `inside`
+    /// it under a jerk limit (the XYZ filter's window around it sees only
+    /// the arc: [`JerkBudget::arc_caps`]).
+    #[inline]
+    pub(crate) fn prepare_piece(
+        &self,
+        geom: &Geom,
+        feed: &Feed,
+        vlim: bool,
+        inside: bool,
+    ) -> MovePrep {
         let vlim = vlim || self.jerk.limited();
         let f = feed.speed_mm_s();
         match geom {
@@ -151,7 +165,7 @@ impl PlanLimits {
                 if arc.length <= 0.0 {
                     return MovePrep::skipped(arc.length);
                 }
-                let [red, full] = self.arc_limits(arc, f, vlim);
+                let [red, full] = self.arc_limits(arc, f, vlim, inside);
                 MovePrep {
                     length: arc.length,
                     t_start: geom.start_tangent(),
@@ -193,7 +207,7 @@ impl PlanLimits {
     /// [`ARC_NORMAL_MAX`]·share, and the tangential part the rest, so
     /// their vector sum stays under the share on every axis.
     #[inline]
-    fn arc_limits(&self, arc: &Arc, f: f64, vlim: bool) -> [MoveLimits; 2] {
+    fn arc_limits(&self, arc: &Arc, f: f64, vlim: bool, inside: bool) -> [MoveLimits; 2] {
         // A flat arc's length is its length in the plane, r·|sweep|, and
         // its plane fraction r·|sweep| / length is then exactly 1: the
         // limits with the literal 1, which the compiler takes out of its
@@ -202,21 +216,29 @@ impl PlanLimits {
         let plane_len = arc.radius * arc.sweep.abs();
         if arc.axial == 0.0 && arc.length == plane_len && plane_len.is_finite() && plane_len != 0.0
         {
-            self.arc_limits_with(arc, f, vlim, 1.0, 0.0)
+            self.arc_limits_with(arc, f, vlim, inside, 1.0, 0.0)
         } else {
             let h = if arc.length > 0.0 {
                 arc.axial.abs() / arc.length
             } else {
                 0.0
             };
-            self.arc_limits_with(arc, f, vlim, arc.plane_fraction(), h)
+            self.arc_limits_with(arc, f, vlim, inside, arc.plane_fraction(), h)
         }
     }
 
     /// [`arc_limits`](Self::arc_limits) with the arc's plane fraction `c`
     /// and axial fraction `h`.
     #[inline(always)]
-    fn arc_limits_with(&self, arc: &Arc, f: f64, vlim: bool, c: f64, h: f64) -> [MoveLimits; 2] {
+    fn arc_limits_with(
+        &self,
+        arc: &Arc,
+        f: f64,
+        vlim: bool,
+        inside: bool,
+        c: f64,
+        h: f64,
+    ) -> [MoveLimits; 2] {
         let (p, q, n) = arc.plane.axes();
         let apq = self.amax[p].min(self.amax[q]);
         let mut vgeo = self.vmax[p].min(self.vmax[q]) / c;
@@ -235,7 +257,7 @@ impl PlanLimits {
             } else {
                 0.0
             };
-            self.jerk.arc_caps(kappa)
+            self.jerk.arc_caps(kappa, inside)
         } else {
             (f64::INFINITY, f64::INFINITY)
         };

@@ -19,6 +19,7 @@
 use crate::canon::{Event, Feed, Src, ThreadMove};
 use crate::geom::Geom;
 use crate::geom::V3;
+use crate::jerk::piece_cuts;
 pub use crate::limits::PlanLimits;
 use crate::limits::{MoveLimits, MovePrep};
 use std::collections::VecDeque;
@@ -190,10 +191,6 @@ impl<K> QSeg<K> {
     }
 }
 
-/// Jerk: a long move's end pieces halve this many times towards its ends,
-/// down to this length (mm).
-const SPLIT_LEVELS: usize = 6;
-const MIN_PIECE_MM: f64 = 0.02;
 /// Jerk: the queue waits for the path filter's reach behind its head up to
 /// this many times `lookahead_blocks` (pieces of split moves, short lines),
 /// then commits the head anyway.
@@ -373,41 +370,8 @@ impl<K: Copy> Lookahead<K> {
         if length <= 0.0 {
             return;
         }
-        if self.lim.jerk.limited() && !self.splitting {
-            // jerk: a long move is planned as pieces, so that a
-            // neighbour's caps reach only its ends: a middle and, at either
-            // end, pieces of reach/64, /64, /32, ..., /2 (a cap reaching r
-            // holds over at most 2r)
-            let reach = self.lim.jerk.lag_distance(prep.full.vlim.min(self.lim.top));
-            let least = (reach / f64::from(1u32 << SPLIT_LEVELS)).max(MIN_PIECE_MM);
-            if least > 0.0 && length > 3.0 * least {
-                // (a shorter move: pieces up to a third of it)
-                let r = reach.min(length / 3.0);
-                let mut cuts = [0.0; 2 * SPLIT_LEVELS + 2];
-                let mut n = 0;
-                for i in 0..=SPLIT_LEVELS {
-                    let d = r / f64::from(1u32 << (SPLIT_LEVELS - i));
-                    if d >= least || i == SPLIT_LEVELS {
-                        cuts[n] = d;
-                        n += 1;
-                    }
-                }
-                for i in 0..n {
-                    cuts[n + i] = length - cuts[n - 1 - i];
-                }
-                let cuts = &cuts[..2 * n];
-                self.extra += cuts.len() as u64;
-                self.splitting = true;
-                let mut from = 0.0;
-                for &d in cuts.iter().chain(std::iter::once(&length)) {
-                    let g = geom.piece(from, d);
-                    let p = self.lim.prepare(&g, &feed, O::VLIM);
-                    self.push_move(&g, &p, feed, src, out);
-                    from = d;
-                }
-                self.splitting = false;
-                return;
-            }
+        if self.lim.jerk.limited() && !self.splitting && self.split(geom, prep, feed, src, out) {
+            return;
         }
         let red = prep.red;
         let t2 = prep.t_start;
@@ -449,18 +413,65 @@ impl<K: Copy> Lookahead<K> {
             own_a: full.map_or(red.a, |f| f.0.a),
             j_in: if self.queue.is_empty() { 0.0 } else { j_kink },
         };
-        if self.lim.jerk.limited() {
-            self.smear(&mut seg);
-        }
+        let capped = self.lim.jerk.limited() && self.smear(&mut seg);
         seg.entry_b = seg.entry_to_stop();
         self.queued += length;
         self.queue.push_back(seg);
         if self.lim.jerk.limited() {
-            self.recompute();
+            self.recompute(capped);
         } else {
             self.backward_pass(self.queue.len() - 1);
         }
         self.commit(false, out);
+    }
+
+    /// Jerk: a long move is planned as pieces, so that a neighbour's caps
+    /// reach only its ends: a middle and, at either end, pieces of
+    /// reach/64, /64, /32, ..., /2 (a cap reaching r holds over at most
+    /// 2r). An arc's pieces farther than the XYZ filter's span (at the
+    /// arc's speed inside) from its ends see only the arc in the filter's
+    /// window and may go faster ([`crate::jerk::JerkBudget::arc_caps`]);
+    /// they start a further cap's reach (the ends' speed) in, so that the
+    /// ends' caps do not reach them. Whether the move was split.
+    fn split<O: ItemSink<Kept = K>>(
+        &mut self,
+        geom: &Geom,
+        prep: &MovePrep,
+        feed: Feed,
+        src: Src,
+        out: &mut O,
+    ) -> bool {
+        let (jb, top, length) = (self.lim.jerk, self.lim.top, prep.length);
+        let ends_v = prep.full.vlim.min(top);
+        // an arc's inside: from `edge` on, pieces from `inner_at` on
+        let (inner, edge, inner_at) = match geom {
+            Geom::Arc(_) => {
+                let inner = self.lim.prepare_piece(geom, &feed, O::VLIM, true);
+                let v = inner.full.vlim.min(top);
+                let edge = jb.step_span() * v;
+                let at = edge + jb.lag_distance(ends_v);
+                (v > ends_v && length > 2.0 * at).then_some((v, edge, at))
+            }
+            Geom::Line { .. } => None,
+        }
+        .map_or((None, 0.0, 0.0), |(v, e, at)| (Some(v), e, at));
+        let reach = jb.lag_distance(inner.unwrap_or(ends_v));
+        let Some((cuts, n)) = piece_cuts(reach, length, inner.map(|_| inner_at)) else {
+            return false;
+        };
+        let cuts = &cuts[..n];
+        self.extra += cuts.len() as u64;
+        self.splitting = true;
+        let mut from = 0.0;
+        for &d in cuts.iter().chain(std::iter::once(&length)) {
+            let g = geom.piece(from, d);
+            let inside = inner.is_some() && from >= edge && d <= length - edge;
+            let p = self.lim.prepare_piece(&g, &feed, O::VLIM, inside);
+            self.push_move(&g, &p, feed, src, out);
+            from = d;
+        }
+        self.splitting = false;
+        true
     }
 
     /// Jerk: the path filter's setpoint at a point moves with the speed and
@@ -526,8 +537,10 @@ impl<K: Copy> Lookahead<K> {
         self.lim.jerk.lag_distance(self.lim.top)
     }
 
-    /// Every entry limit again from the tail back (after caps fell).
-    fn recompute(&mut self) {
+    /// Every entry limit again from the tail back (after caps fell:
+    /// `capped`, some queued move's; else only the tail's own limits and
+    /// where the stop margin ends changed).
+    fn recompute(&mut self, capped: bool) {
         let n = self.queue.len();
         // the stop is planned `margin` before the tail's end: what a move
         // still to come may cap (speeds and accelerations over at most
@@ -537,7 +550,12 @@ impl<K: Copy> Lookahead<K> {
         // margin within its own length: before both, an unchanged limit
         // leaves every one before it unchanged)
         let tail = self.queue.back().map_or(0.0, |t| t.length);
-        let settled = margin + tail + self.lim.jerk.lag_distance(self.lim.top);
+        let reach = if capped {
+            self.lim.jerk.lag_distance(self.lim.top)
+        } else {
+            0.0
+        };
+        let settled = margin + tail + reach;
         let mut dist = 0.0;
         let mut next_b = 0.0;
         for k in (0..n).rev() {
@@ -581,7 +599,7 @@ impl<K: Copy> Lookahead<K> {
         t.stop = stop;
         t.j = t.j_max;
         if self.lim.jerk.limited() {
-            self.recompute();
+            self.recompute(false);
             return;
         }
         t.entry_b = t.entry_to_stop();
@@ -670,7 +688,7 @@ impl<K: Copy> Lookahead<K> {
         self.flushing = true;
         self.upgrade_tail();
         if self.lim.jerk.limited() {
-            self.recompute();
+            self.recompute(true);
         }
         self.commit(true, out);
         self.flushing = false;
