@@ -148,12 +148,14 @@ def one_round(a, n, out):
     os.makedirs(out, exist_ok=True)
     sims, nodes, logs = [], [], []
     extra = a.node_args.split() if a.node_args else []
+    sim_extra = a.sim_args.split() if a.sim_args else []
     for k in range(1, n + 1):
         slog, nlog = os.path.join(out, "sim%d.log" % k), os.path.join(out, "cnc%d.log" % k)
         with open(slog, "wb") as s, open(nlog, "wb") as g:
             sims.append(subprocess.Popen(
                 [os.path.join(a.bin, "sim_axes"), "--machine", "lathe", "--namespace", "/sim%d" % k,
-                 "--controller-namespace", "/cnc%d" % k, "--seed", str(k)], cwd=ROOT, env=env, stderr=s))
+                 "--controller-namespace", "/cnc%d" % k, "--seed", str(k)] + sim_extra,
+                cwd=ROOT, env=env, stderr=s))
             started.append(sims[-1])
             nodes.append(subprocess.Popen(
                 [os.path.join(a.bin, "cnc_node"), "--machine", "lathe", "--namespace", "/cnc%d" % k,
@@ -273,6 +275,7 @@ def main():
     ap.add_argument("--settle", type=float, default=3.0, help="s after discovery before measuring")
     ap.add_argument("--idle", type=float, default=10.0, help="idle CPU window, s")
     ap.add_argument("--node-args", default="", help="more cnc_node options, e.g. '--rt-priority 0'")
+    ap.add_argument("--sim-args", default="", help="more sim_axes options, e.g. '--rt-priority 80'")
     ap.add_argument("--keep-going", action="store_true", help="go on raising N after a round that failed")
     a = ap.parse_args()
     signal.signal(signal.SIGTERM, on_signal)

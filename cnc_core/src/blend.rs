@@ -18,13 +18,19 @@ use crate::geom::V3;
 use crate::geom::{Arc, Geom, Plane};
 use std::collections::VecDeque;
 
-/// A held line: its (possibly trimmed) start, its end, feed and source.
+/// A held line: its (possibly trimmed) start, its end, feed and source,
+/// and where it started before a blend trimmed it.
 #[derive(Clone, Copy, Debug)]
 struct Held {
     start: V3,
     end: V3,
     feed: Feed,
     src: Src,
+    /// the programmed start: each of the line's two blends may take up to
+    /// half of the programmed line, so that on a polyline of equal short
+    /// lines (a CAM curve) each blend gets half of both its lines and the
+    /// lines between vanish, rather than every blend getting a third
+    origin: V3,
 }
 
 #[derive(Debug, Default)]
@@ -69,6 +75,7 @@ impl Blender {
                 end,
                 feed,
                 src,
+                origin: start,
             }),
             _ => None,
         };
@@ -154,7 +161,10 @@ const HELIX_TOL: f64 = 0.9;
 
 /// The blend of the corner at `a.end` (= `b.start`): (where the first
 /// line now ends, the arc, where the second now starts). In a principal
-/// plane the arc is tangent to both lines. Where both lines climb out of
+/// plane the arc is tangent to both lines. It takes at most half of
+/// either line as programmed (and no more of `a` than the previous blend
+/// left: when it takes all of that, the first line ends where it starts
+/// now, exactly, and vanishes). Where both lines climb out of
 /// such a plane at the same slope, the blend is the in-plane arc lifted
 /// into a helix over the same climb; its slope is 2·tan(φ/2)/φ times the
 /// lines' (φ the turn), a junction so nearly tangent that the planner
@@ -190,16 +200,27 @@ fn corner(a: &Held, b: &Held, tol: f64) -> Option<(V3, Arc, V3)> {
         return None;
     }
     let half = 0.5 * phi;
+    let w1_programmed = (c - a.origin)[p].hypot((c - a.origin)[q]);
     let r_tol = tol / (1.0 / half.cos() - 1.0);
-    let r_len = 0.5 * w1.min(w2) / half.tan();
-    let r = r_tol.min(r_len);
-    let l = r * half.tan();
+    let r_len = 0.5 * w1_programmed.max(w1).min(w2) / half.tan();
+    let mut r = r_tol.min(r_len);
+    let mut l = r * half.tan();
+    // all that is left of the first line (within rounding): it vanishes
+    let takes_all = l >= w1 * (1.0 - 1e-12);
+    if takes_all {
+        l = w1;
+        r = l / half.tan();
+    }
     // the helix climbs at the mean slope: at most ds·l/2 off each line
     if !(l > 1e-9 && r.is_finite()) || 0.5 * ds * l > (1.0 - HELIX_TOL) * full_tol {
         return None;
     }
     // back and on along the lines by in-plane distance l
-    let t1 = c - d1 * (l / w1);
+    let t1 = if takes_all {
+        a.start
+    } else {
+        c - d1 * (l / w1)
+    };
     let t2 = c + d2 * (l / w2);
     let nl = ((e2.0 - e1.0 * cos), (e2.1 - e1.1 * cos));
     let nn = nl.0.hypot(nl.1);
@@ -259,6 +280,53 @@ mod tests {
         let ga = Geom::Arc(arc);
         assert!((g0.end_tangent() - ga.start_tangent()).norm() < 1e-12);
         assert!((ga.end_tangent() - g2.start_tangent()).norm() < 1e-12);
+    }
+
+    #[test]
+    fn a_polyline_of_equal_lines_is_blended_into_arcs_of_its_circle() {
+        // 3° per line around R10 (a CAM circle): every blend takes half of
+        // both its lines, so its radius is R·cos(1.5°) and no line is left
+        // between two blends (each blend taking half of what the last one
+        // left would give arcs of 2/3 of that radius)
+        let (r0, step) = (10.0, 3f64.to_radians());
+        let pt = |k: usize| {
+            let a = step * k as f64;
+            V3::new(r0 * a.cos(), r0 * a.sin(), 0.0)
+        };
+        let mut b = Blender::default();
+        let mut out = VecDeque::new();
+        for k in 0..20 {
+            b.push(mv(pt(k), pt(k + 1)), 0.05, &mut out);
+        }
+        b.flush(&mut out);
+        let geoms: Vec<Geom> = out
+            .iter()
+            .map(|ev| match ev {
+                Event::Move { geom, .. } => *geom,
+                _ => panic!("a move"),
+            })
+            .collect();
+        // line, then the 19 blends without lines between, then the rest of
+        // the last line
+        assert_eq!(geoms.len(), 21, "{geoms:?}");
+        assert!(matches!(geoms[0], Geom::Line { .. }));
+        assert!(matches!(geoms[20], Geom::Line { .. }));
+        let want = r0 * (0.5 * step).cos();
+        for (k, g) in geoms[1..20].iter().enumerate() {
+            let Geom::Arc(arc) = g else {
+                panic!("blend {k} is not an arc: {g:?}")
+            };
+            assert!((arc.radius - want).abs() < 1e-9, "{k}: {}", arc.radius);
+            // its deviation from the corner stays within the tolerance
+            let apex_dev = arc.radius * (1.0 / (0.5 * step).cos() - 1.0);
+            assert!(apex_dev <= 0.05, "{apex_dev}");
+        }
+        // the path is continuous: each piece starts where the last ended
+        for w in geoms.windows(2) {
+            assert!((w[0].end() - w[1].start()).norm() < 1e-12);
+        }
+        assert_eq!(geoms[0].start(), pt(0));
+        assert_eq!(geoms[20].end(), pt(20));
     }
 
     /// The arc of a blended corner between `a→c` and `c→e` at `tol`.

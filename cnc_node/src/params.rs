@@ -138,7 +138,7 @@ fn declare(a: &Args) -> Vec<Param> {
         Param::fixed(
             "rt_priority",
             Kind::Integer,
-            "SCHED_FIFO priority of the control loop (DDS threads 20 below); 0: normal scheduling",
+            "SCHED_FIFO priority of the control loop (DDS threads at 60, or just below the loop); 0: normal scheduling",
         )
         .range(0.0, 99.0)
         .value(V::Integer(i64::from(a.rt_priority))),

@@ -287,6 +287,40 @@ pub fn subscription<T: crate::RosType + 'static>(
         .map_err(|e| format!("subscription {ns}/{base}: {e:?}"))
 }
 
+/// A subscription to a stream published every control cycle (setpoints,
+/// joint states, encoder readings) with best-effort reliability, as
+/// ROS's sensor-data profile, keep last [`STREAM_DEPTH`].
+///
+/// The publishers stay reliable (rclpy's default), so any subscriber
+/// matches them; a reliable reader answers every sample's piggybacked
+/// HEARTBEAT with an ACKNACK, which at 1 kHz doubled both nodes' DDS
+/// wake-ups. A sample lost on the way is not repaired: the next one
+/// comes a cycle later, and a repair would arrive later than it.
+pub fn subscription_stream<T: crate::RosType + 'static>(
+    node: &mut Node,
+    ns: &str,
+    base: &str,
+) -> Result<ros2_client::Subscription<T>, String> {
+    let t = topic::<T>(node, ns, base)?;
+    node.create_subscription::<T>(&t, Some(qos_stream()))
+        .map_err(|e| format!("subscription {ns}/{base}: {e:?}"))
+}
+
+/// The QoS of [`subscription_stream`]: best effort, volatile, keep last
+/// [`STREAM_DEPTH`].
+pub fn qos_stream() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability_best_effort()
+        .durability(Durability::Volatile)
+        .history(History::KeepLast {
+            depth: STREAM_DEPTH,
+        })
+}
+
+/// Samples a stream subscription holds until they are taken: 100 cycles
+/// at 1 kHz.
+pub const STREAM_DEPTH: usize = 100;
+
 /// A service server `ns/base` (Fast DDS request/reply mapping).
 pub fn server<Req, Resp>(
     node: &mut Node,
@@ -452,17 +486,28 @@ pub fn set_normal() -> Result<(), String> {
 }
 
 /// The real-time priority of a node's DDS threads when its loop runs at
-/// `loop_priority` (0: none): below the loop, above every normal process,
-/// so that messages the loop depends on (the spindle encoder) are not held
-/// up by a busy machine. Set on the main thread before [`join`], it is
-/// inherited by the threads DDS starts there.
+/// `loop_priority` (0: none): [`DDS_PRIORITY`], or just below the loop if
+/// that is lower; above every normal process, so that messages the loop
+/// depends on (the spindle encoder) are not held up by a busy machine.
+/// Set on the main thread before [`join`], it is inherited by the threads
+/// DDS starts there.
 pub fn dds_priority(loop_priority: i32) -> i32 {
     if loop_priority > 0 {
-        (loop_priority - 20).max(1)
+        DDS_PRIORITY.min(loop_priority - 1).max(1)
     } else {
         0
     }
 }
+
+/// The real-time priority of both nodes' DDS threads (with the loops at
+/// their defaults, 80 and 70). One priority for all of them: a DDS thread
+/// holds locks that its node's loop waits for (the simulator's loop takes
+/// setpoints and publishes from rustdds' caches), and at a lower priority
+/// than the other nodes' DDS threads it was preempted by them while it
+/// held one; with six twins on two cores the simulators' loops stalled
+/// for milliseconds and the controllers lost their encoder readings
+/// (BENCHMARKS.md, the fleet).
+pub const DDS_PRIORITY: i32 = 60;
 
 /// Locks the process's memory (current and future) so a real-time loop
 /// never waits on a page fault; `Err` says why not.

@@ -146,9 +146,13 @@ fn run(setup: Setup) -> Result<(), String> {
         ros::publisher_with_window::<JointState>(&ctx, &mut node, ns, "joint_setpoints", window)?;
     let pub_spin = ros::publisher::<Float64>(&mut node, ns, "spindle_command")?;
     let pub_status = ros::publisher::<ControllerStatus>(&mut node, ns, "status")?;
-    let sub_js = ros::subscription::<JointState>(&mut node, &args.sim_namespace, "joint_states")?;
-    let sub_enc =
-        ros::subscription::<SpindleEncoder>(&mut node, &args.sim_namespace, "spindle_encoder")?;
+    let sub_js =
+        ros::subscription_stream::<JointState>(&mut node, &args.sim_namespace, "joint_states")?;
+    let sub_enc = ros::subscription_stream::<SpindleEncoder>(
+        &mut node,
+        &args.sim_namespace,
+        "spindle_encoder",
+    )?;
     let srv_run =
         ros::server::<RunProgramRequest, RunProgramResponse>(&mut node, ns, "run_program")?;
     let srv_abort = ros::server::<TriggerRequest, TriggerResponse>(&mut node, ns, "abort")?;

@@ -18,6 +18,9 @@ pub struct Grid {
     /// how long before an instant the sleep ends (the rest is spun): the
     /// sleep's own lateness, learnt (see [`Grid::wait`]), ns
     margin_ns: f64,
+    /// the margin's bound, ns ([`MAX_SPIN`], or 0 for a grid that only
+    /// sleeps)
+    max_spin_ns: f64,
     last_wake: Option<Instant>,
 }
 
@@ -41,8 +44,20 @@ impl Grid {
             dt,
             next: 0,
             margin_ns: 50_000.0,
+            max_spin_ns: MAX_SPIN.as_nanos() as f64,
             last_wake: None,
         }
+    }
+
+    /// The same grid, but its waits only sleep (no spin): wake-ups end some
+    /// tens of µs after the instant. For a loop that stamps its cycles with
+    /// their grid instants whenever it runs them (the simulator), whose
+    /// lateness changes no value it computes: the spin would cost a few %
+    /// of a core at 1 kHz, at real-time priority, for nothing.
+    pub fn without_spin(mut self) -> Self {
+        self.margin_ns = 0.0;
+        self.max_spin_ns = 0.0;
+        self
     }
 
     /// The instant of cycle `n`.
@@ -121,7 +136,7 @@ impl Grid {
             } else {
                 self.margin_ns - 1000.0 * (1.0 - ON_TIME_SHARE)
             }
-            .clamp(0.0, MAX_SPIN.as_nanos() as f64);
+            .clamp(0.0, self.max_spin_ns);
         }
         while Instant::now() < until {
             std::hint::spin_loop();
@@ -383,6 +398,31 @@ mod tests {
             assert!(g.wait() <= Instant::now());
             g.advance();
             assert!(g.margin() <= MAX_SPIN);
+        }
+    }
+
+    #[test]
+    fn both_nodes_dds_threads_share_one_priority_below_their_loops() {
+        use crate::ros::dds_priority;
+        // the defaults: controller 80, simulator 70
+        assert_eq!(dds_priority(80), 60);
+        assert_eq!(dds_priority(70), 60);
+        assert_eq!(dds_priority(99), 60);
+        // a loop set lower keeps its DDS threads below it
+        assert_eq!(dds_priority(50), 49);
+        assert_eq!(dds_priority(0), 0);
+    }
+
+    #[test]
+    fn a_grid_without_spin_never_wakes_early_and_keeps_no_margin() {
+        let o = Instant::now() + Duration::from_millis(1);
+        let mut g = Grid::new(o, 0.001).without_spin();
+        assert_eq!(g.margin(), Duration::ZERO);
+        for n in 0..50 {
+            assert_eq!(g.wait(), g.at(n));
+            assert!(Instant::now() >= g.at(n));
+            g.advance();
+            assert_eq!(g.margin(), Duration::ZERO);
         }
     }
 

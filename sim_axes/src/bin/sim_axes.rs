@@ -124,7 +124,7 @@ fn run(setup: params::Setup) -> Result<(), String> {
     let mut mon = SimMonitor::default();
     let hardware_id = format!("{} ({})", machine.name, a.namespace.trim_end_matches('/'));
     let cns = a.controller_namespace.as_str();
-    let sub_set = ros::subscription::<JointState>(&mut node, cns, "joint_setpoints")?;
+    let sub_set = ros::subscription_stream::<JointState>(&mut node, cns, "joint_setpoints")?;
     let sub_spin = ros::subscription::<Float64>(&mut node, cns, "spindle_command")?;
     // a subscriber that dies (the controller) must not stop them for the others
     let window = ros::lease_window(rate);
@@ -174,7 +174,9 @@ fn run(setup: params::Setup) -> Result<(), String> {
         }
     }
     let start = Instant::now();
-    let mut grid = Grid::new(start, dt);
+    // the steps are stamped with their grid instants whenever they run:
+    // the loop sleeps to each one, it does not spin
+    let mut grid = Grid::new(start, dt).without_spin();
     let mut clock = WallClock::new();
     let mut last_warn: Option<Instant> = None;
     let mut last_late: Option<Instant> = None;
