@@ -375,3 +375,55 @@ impl Smoother {
         self.pos.iter().all(|q| *q == self.pos[0])
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_arcs_inside_keeps_its_budgets_and_is_never_slower_than_its_ends() {
+        for j in [2.0e4, 5.0e4, 1.0e5, 3.0e5, 1.0e6] {
+            for m_s in [4, 40, 400] {
+                let jb = JerkBudget::new(0.001, m_s, Some(j));
+                let w = jb.step_span();
+                for r in [0.01, 0.1, 1.0, 2.0, 8.0, 50.0, 1000.0] {
+                    let kappa = 1.0 / r;
+                    let (v_end, a_end) = jb.arc_caps(kappa, false);
+                    let (v, a) = jb.arc_caps(kappa, true);
+                    assert!(v >= v_end && v.is_finite() && a > 0.0, "{j} {r}");
+                    // at the ends: the normal acceleration within a_n
+                    assert!(v_end * v_end * kappa <= jb.a_n * (1.0 + 1e-12));
+                    assert!(a_end * v_end * kappa <= TURN_JERK_SHARE * j * (1.0 + 1e-12));
+                    if v > v_end {
+                        // inside: the offset, the turn and the growth
+                        let q = 0.25 * jb.b_step * (1.0 + 1e-12);
+                        assert!(v * v * kappa <= jb.a_dev * (1.0 + 1e-12), "{j} {r}");
+                        assert!(v * v * v * kappa * kappa * w <= q, "{j} {r}");
+                        assert!(2.0 * v * a * kappa * w <= q, "{j} {r}");
+                        assert!(a * v * kappa <= TURN_JERK_SHARE * j * (1.0 + 1e-12));
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn pieces_are_in_order_within_the_move() {
+        for reach in [0.05, 0.5, 3.0, 20.0] {
+            for length in [0.01, 0.1, 1.0, 5.0, 40.0, 300.0] {
+                for inner in [None, Some(0.3 * length), Some(2.0 * reach), Some(length)] {
+                    let Some((cuts, n)) = piece_cuts(reach, length, inner) else {
+                        continue;
+                    };
+                    let cuts = &cuts[..n];
+                    assert!((2..=MAX_CUTS).contains(&n));
+                    assert!(cuts[0] > 0.0 && cuts[n - 1] < length, "{cuts:?}");
+                    assert!(
+                        cuts.windows(2).all(|c| c[0] < c[1]),
+                        "{reach} {length} {cuts:?}"
+                    );
+                }
+            }
+        }
+    }
+}
