@@ -233,14 +233,9 @@ impl<S: ProgramSource> Executor<S> {
                 .map_or(ENCODER_TIMEOUT_CYCLES * lim.dt, |ms| ms * 1e-3),
             fault: None,
             halt: false,
-            path: lim
-                .jerk
-                .limited()
-                .then(|| PathFilter::new(lim.jerk.m_s, 0.0, machine.home())),
-            smooth: lim
-                .jerk
-                .limited()
-                .then(|| Smoother::new(lim.jerk.m_f, machine.home())),
+            // (a path filter of one sample is none: the raw point's bits)
+            path: (lim.jerk.m_s > 1).then(|| PathFilter::new(lim.jerk.m_s, 0.0, machine.home())),
+            smooth: (lim.jerk.m_f > 1).then(|| Smoother::new(lim.jerk.m_f, machine.home())),
             s_total: 0.0,
             raw_s: None,
             drain: None,
@@ -652,7 +647,7 @@ impl<S: ProgramSource> Executor<S> {
 
     /// The next sample, or `None` after the last one.
     pub fn next_sample(&mut self) -> Option<Sample> {
-        if self.smooth.is_none() {
+        if self.smooth.is_none() && self.path.is_none() {
             return self.raw_sample();
         }
         let mut s = match self.drain.take() {
@@ -664,17 +659,25 @@ impl<S: ProgramSource> Executor<S> {
             }
             None => self.raw_sample()?,
         };
-        let (Some(pf), Some(f)) = (self.path.as_mut(), self.smooth.as_mut()) else {
-            return Some(s);
-        };
         if s.sync.is_some() || self.bypass {
-            pf.reset(self.s_total, s.pos, s.path_speed);
-            f.reset(s.pos, s.path_speed);
+            if let Some(pf) = self.path.as_mut() {
+                pf.reset(self.s_total, s.pos, s.path_speed);
+            }
+            if let Some(f) = self.smooth.as_mut() {
+                f.reset(s.pos, s.path_speed);
+            }
             return Some(s);
         }
-        let (p, v) = pf.push(self.raw_s.unwrap_or(self.s_total), s.path_speed, s.pos);
-        let (p, v) = f.push(p, v);
-        if s.last && !(f.settled() && pf.settled()) {
+        let (mut p, mut v) = (s.pos, s.path_speed);
+        if let Some(pf) = self.path.as_mut() {
+            (p, v) = pf.push(self.raw_s.unwrap_or(self.s_total), v, p);
+        }
+        if let Some(f) = self.smooth.as_mut() {
+            (p, v) = f.push(p, v);
+        }
+        let settled = self.smooth.as_ref().is_none_or(Smoother::settled)
+            && self.path.as_ref().is_none_or(PathFilter::settled);
+        if s.last && !settled {
             // the run ended off the filters' rest (a fault or an abort):
             // hold the end until they settle on it
             s.last = false;

@@ -61,6 +61,9 @@ pub struct JerkBudget {
     /// the largest normal acceleration inside an arc for the deviation,
     /// mm/s²
     pub a_dev: f64,
+    /// a main-like budget ([`JerkBudget::main_like`]): the XYZ filter's
+    /// error bound, mm (None: the bound of the caps, [`JerkBudget::error_mm`])
+    pub main_error_mm: Option<f64>,
 }
 
 impl JerkBudget {
@@ -74,6 +77,23 @@ impl JerkBudget {
             a_n: f64::INFINITY,
             b_step: f64::INFINITY,
             a_dev: f64::INFINITY,
+            main_error_mm: None,
+        }
+    }
+
+    /// At high jerk, where one XYZ moving average of `m` samples alone (M =
+    /// ⌈2a/(j·dt)⌉, [`crate::Machine::main_smoothing_samples`]) keeps the
+    /// path within [`XYZ_FILTER_ERROR_MM`] (its bound `error_mm`,
+    /// [`crate::Machine::main_smoothing_error_mm`]): no path filter
+    /// (M_s = 1), that XYZ filter, no caps in the planner (as if
+    /// unlimited), M − 1 ticks of hold after stops and blends shrunk by
+    /// `error_mm`.
+    pub fn main_like(dt: f64, m: usize, j: f64, error_mm: f64) -> Self {
+        JerkBudget {
+            m_f: m.max(1),
+            j,
+            main_error_mm: Some(if m > 1 { error_mm } else { 0.0 }),
+            ..JerkBudget::none(dt)
         }
     }
 
@@ -108,13 +128,22 @@ impl JerkBudget {
             a_n: best_a,
             b_step: NORMAL_JERK_SHARE * j * m * dt,
             a_dev: 24.0 * XYZ_FILTER_ERROR_MM / ((m * m - 1.0) * dt * dt),
+            main_error_mm: None,
         }
     }
 
-    /// Whether there is a jerk limit.
+    /// Whether the planner caps speeds and accelerations for the jerk
+    /// (a jerk limit that the filters alone do not keep: not a main-like
+    /// budget, [`JerkBudget::main_like`]).
     #[inline]
     pub fn limited(&self) -> bool {
-        self.j.is_finite()
+        self.j.is_finite() && self.a_n.is_finite()
+    }
+
+    /// Whether there are setpoint filters (either longer than a sample).
+    #[inline]
+    pub fn filtered(&self) -> bool {
+        self.m_s > 1 || self.m_f > 1
     }
 
     /// How long the path filter's window is, s.
@@ -150,6 +179,9 @@ impl JerkBudget {
     /// moved; kinks' velocity jumps are normal accelerations of one sample
     /// and count in the same bound).
     pub fn error_mm(&self) -> f64 {
+        if let Some(e) = self.main_error_mm {
+            return e;
+        }
         if self.m_f <= 1 || !self.a_n.is_finite() {
             return 0.0;
         }

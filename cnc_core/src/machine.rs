@@ -701,9 +701,63 @@ impl Machine {
             .reduce(f64::min)
     }
 
-    /// The jerk budget: both filters and the planner's caps.
+    /// The jerk budget: both filters and the planner's caps. Where one
+    /// moving average of the XYZ setpoints keeps the path within
+    /// [`crate::shares::MAIN_LIKE_ERROR_MM`] (high jerk:
+    /// [`Machine::main_smoothing_error_mm`]), that filter alone
+    /// ([`JerkBudget::main_like`]); else the path filter, the XYZ filter
+    /// and the caps ([`JerkBudget::new`]).
     pub fn jerk_budget(&self) -> JerkBudget {
-        JerkBudget::new(self.dt(), self.smoothing_samples(), self.jerk_limit())
+        let dt = self.dt();
+        let Some(j) = self.jerk_limit() else {
+            return JerkBudget::new(dt, self.smoothing_samples(), None);
+        };
+        let err = self.main_smoothing_error_mm();
+        if err <= crate::shares::MAIN_LIKE_ERROR_MM {
+            JerkBudget::main_like(dt, self.main_smoothing_samples(), j, err)
+        } else {
+            JerkBudget::new(dt, self.smoothing_samples(), Some(j))
+        }
+    }
+
+    /// Length of the single XYZ moving average that limits jerk on its
+    /// own, in samples (1: none): the filtered sampled jerk is
+    /// (a[k] − a[k−M]) / (M·dt), at most 2·a_max/(M·dt), so M =
+    /// ⌈2·a_max / (j_max·dt)⌉ over the axes with a jerk limit.
+    pub fn main_smoothing_samples(&self) -> usize {
+        let dt = self.dt();
+        let m = self
+            .axes
+            .iter()
+            .filter_map(|a| {
+                let j = a.max_jerk_mm_s3?;
+                Some((2.0 * a.max_acceleration_mm_s2 / (j * dt) - 1e-9).ceil())
+            })
+            .fold(1.0, f64::max);
+        (m as usize).clamp(1, MAX_SMOOTHING_SAMPLES)
+    }
+
+    /// Largest distance, mm, by which the single XYZ moving average of
+    /// [`Machine::main_smoothing_samples`] moves a setpoint off the
+    /// programmed path. The filtered point is the mean of the last M raw
+    /// points, which lie on a piece of path (M − 1)·v·dt long, so it is no
+    /// further from the path than that piece's chord: on an arc of radius
+    /// r its sagitta, (M−1)²·dt²·v²/(8r) ≤ (M−1)²·dt²·a_c/8 with a_c the
+    /// centripetal acceleration (the planner keeps it under
+    /// `shares::ARC_NORMAL_MAX`·a_max). A nearly tangent junction, whose
+    /// velocity jump is at most `shares::KINK_SHARE`·a_max·dt, is cut by
+    /// at most (M−1)·dt·Δv/4. Straight lines are not moved at all.
+    pub fn main_smoothing_error_mm(&self) -> f64 {
+        let m = self.main_smoothing_samples() as f64;
+        if m <= 1.0 {
+            return 0.0;
+        }
+        let dt = self.dt();
+        let a = self.max_acceleration();
+        let w = (m - 1.0) * dt;
+        let arc = w * w * crate::shares::ARC_NORMAL_MAX * a / 8.0;
+        let kink = w * crate::shares::KINK_SHARE * a * dt / 4.0;
+        arc + kink
     }
 
     /// The largest acceleration limit of any axis, mm/s².

@@ -37,3 +37,8 @@ pub const TURN_JERK_SHARE: f64 = 1.0 - S_FILTER_SHARE - NORMAL_JERK_SHARE;
 /// a curve (programmed arcs and blend arcs): the planner caps the normal
 /// acceleration for it. Also what a G61 path may deviate.
 pub const XYZ_FILTER_ERROR_MM: f64 = 0.001;
+/// Jerk: a machine whose single XYZ moving average (main's design,
+/// [`crate::Machine::main_smoothing_error_mm`]) keeps the path within this
+/// many mm runs that filter alone, without the path filter and the caps
+/// ([`crate::jerk::JerkBudget::main_like`]): the branch's own 1 µm budget.
+pub const MAIN_LIKE_ERROR_MM: f64 = XYZ_FILTER_ERROR_MM;

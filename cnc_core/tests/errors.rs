@@ -165,6 +165,6 @@ fn good_program_summary() {
     // kink): 0.4 + 0.125 s; circle 125.66 mm at 20 mm/s, whose centripetal
     // 20 mm/s² leaves √(1 − 0.01²)·2000 mm/s² along the path: 6.2832 +
     // 0.0100 s; each rounded up to ticks and followed by the jerk
-    // filters' 10-tick hold (path filter 8 samples, XYZ filter 4)
-    assert!((r.duration_s - 6.839).abs() < 0.0005, "{}", r.duration_s);
+    // filter's 3-tick hold
+    assert!((r.duration_s - 6.825).abs() < 0.0005, "{}", r.duration_s);
 }

@@ -605,10 +605,8 @@ fn a_lost_encoder_in_a_g95_move_stops_along_the_path_and_ends_the_run() {
     let m = lathe(0.0);
     // (feed mm/rev, Z where the signal stops, where the axis must be at rest)
     // the second: lost so near the end that the move ends at its end point
-    // before the stop is complete; the dwell after it must not run (the
-    // setpoint trails the planned motion by the jerk filters' windows,
-    // about 0.1 mm at 20 mm/s: the loss is seen that much earlier)
-    for (f, at, rest) in [(0.2, 0.0, -0.1..0.0), (2.0, -29.5, -30.0..-29.4)] {
+    // before the stop is complete; the dwell after it must not run
+    for (f, at, rest) in [(0.2, 0.0, -0.1..0.0), (2.0, -29.75, -30.0..-29.7)] {
         let p = format!(
             "N5 G00 X20 Z5\nN10 M03 S600\nN20 G04 P1\nN30 G95 G01 Z-30 F{f}\nN40 G04 P2\nN50 G94 G00 X30\n"
         );

@@ -59,11 +59,11 @@ fn an_offline_recording_measures_as_its_program_does() {
     assert!((w.sync_mm.0 - 4.88975).abs() < 1e-5, "{:?}", w.sync_mm);
     assert!((w.sync_mm.1 + 39.88975).abs() < 1e-5, "{:?}", w.sync_mm);
     // every setpoint of the pass and every joint state is paired (an
-    // encoder reading at every sample's stamp): 2266 samples from the
+    // encoder reading at every sample's stamp): 2267 samples from the
     // last at the start to the first at the end, 2239 of them on the line
     // (44.78 mm at 1.5 mm/rev and 800 rpm: 29.85 revolutions of 75 ms)
-    assert_eq!((w.set_pairs, w.act_pairs), (2266, 2266));
-    assert_eq!((p.samples, p.on_line_samples), (2266, 2239));
+    assert_eq!((w.set_pairs, w.act_pairs), (2267, 2267));
+    assert_eq!((p.samples, p.on_line_samples), (2267, 2239));
     assert_eq!((p.groove_set.n, p.groove_act.n), (2239, 2238));
 
     // the groove: the setpoints on the programmed start angle (measured
@@ -218,7 +218,7 @@ fn a_shifted_index_moves_the_groove_by_90_degrees() {
     let text = r.to_string();
     eprintln!("{text}");
     assert!(
-        text.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean +0.0001° worst 0.0590° (2239 samples), B mean +90.0001°"),
+        text.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean +0.0000° worst 0.0590° (2239 samples), B mean +90.0000°"),
         "{text}"
     );
     assert!(
@@ -300,7 +300,7 @@ fn no_encoder_no_thread_no_job_are_errors() {
         "{text}"
     );
     assert!(
-        text.contains("groove phase, setpoints: A none, B mean +0.0001°"),
+        text.contains("groove phase, setpoints: A none, B mean +0.0000°"),
         "{text}"
     );
 }
