@@ -440,6 +440,35 @@ mod tests {
     }
 
     #[test]
+    fn high_jerk_machines_run_main_like_and_low_jerk_ones_the_caps() {
+        for (m, mm) in [
+            (crate::Machine::builtin_mill(), 4),
+            (crate::Machine::builtin_lathe(), 5),
+        ] {
+            // 1000 m/s³: one XYZ moving average of M samples, no caps
+            let b = m.jerk_budget();
+            assert_eq!((b.m_s, b.m_f, b.hold_ticks()), (1, mm, mm as u64 - 1));
+            assert!(!b.limited() && b.filtered());
+            assert_eq!(b.error_mm(), m.main_smoothing_error_mm());
+            assert!(b.error_mm() <= crate::shares::MAIN_LIKE_ERROR_MM);
+            assert_eq!(b.arc_caps(0.1, false), (f64::INFINITY, f64::INFINITY));
+            assert_eq!(b.kink_cap(0.5), f64::INFINITY);
+            // 50 m/s³: the path filter, the XYZ filter and the caps
+            let mut m = m;
+            for a in &mut m.axes {
+                a.max_jerk_mm_s3 = Some(5.0e4);
+            }
+            let b = m.jerk_budget();
+            assert!(b.limited() && b.m_s > 1 && b.m_f > 1);
+            assert_eq!(
+                b,
+                JerkBudget::new(m.dt(), m.smoothing_samples(), Some(5.0e4))
+            );
+            assert!(b.error_mm() <= XYZ_FILTER_ERROR_MM * (1.0 + 1e-12));
+        }
+    }
+
+    #[test]
     fn pieces_are_in_order_within_the_move() {
         for reach in [0.05, 0.5, 3.0, 20.0] {
             for length in [0.01, 0.1, 1.0, 5.0, 40.0, 300.0] {
