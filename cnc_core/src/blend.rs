@@ -36,7 +36,7 @@ struct Held {
 #[derive(Debug, Default)]
 pub(crate) struct Blender {
     held: Option<Held>,
-    /// what the jerk filter may add to a blend's deviation, mm
+    /// what the XYZ jerk filter may add to a blend's deviation, mm
     /// ([`crate::Machine::smoothing_error_mm`]): blends keep within the
     /// tolerance less this
     shrink: f64,

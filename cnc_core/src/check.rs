@@ -350,8 +350,9 @@ fn check_concurrently<S: ProgramSource>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::{Item, Planner, Timeline};
+    use crate::plan::{Item, Planner};
     use crate::source::{ReaderSource, StrSource};
+    use crate::timeline::Timeline;
 
     /// The check as one thread does it: event by event through the
     /// interpreter and the public planner.
@@ -386,6 +387,7 @@ mod tests {
             }
             ended |= ev.is_none();
         }
+        let moves = moves - planner.split_extra();
         report(&interp, Totals { tl, moves, ended }, lim)
     }
 

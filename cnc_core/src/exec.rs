@@ -10,14 +10,17 @@
 //! limits and the tool stays on the path. With σ = 1 the virtual counter is
 //! the tick index and the samples are exactly those of an unscaled run.
 //!
-//! Jerk: every sample passes a moving average over the last M positions
-//! ([`Machine::smoothing_samples`]), which turns the planner's
-//! acceleration-limited setpoints into jerk-limited ones (a trapezoid
-//! convolved with a rectangle is an S-curve). After each stop the
-//! setpoints hold still for M − 1 ticks ([`Timeline::hold`]), so that the
+//! Jerk ([`crate::jerk`]): the setpoint is the path at a moving average of
+//! the planned path length over the last M_s samples (a trapezoid convolved
+//! with a rectangle is an S-curve; the point stays on the path), then a
+//! moving average of the last M_f such points spreads the steps of the
+//! normal acceleration. After each stop the setpoints hold still for
+//! M_s + M_f − 2 ticks ([`crate::timeline::Timeline::hold`]), so that the
 //! filtered path reaches every stop point exactly; the check counts those
-//! ticks too. G33 samples bypass the filter: they follow the spindle angle,
-//! and a filter's delay would shift the groove with the speed.
+//! ticks too. At high jerk ([`crate::jerk::JerkBudget::main_like`]) there
+//! is no path filter (M_s = 1: the raw point, bit for bit) and the XYZ
+//! filter alone limits the jerk. G33 samples bypass both filters: they follow the spindle
+//! angle, and a filter's delay would shift the groove with the speed.
 //!
 //! Spindle-synchronized motion (see [`crate::thread`]): G33 blocks are a
 //! function of the spindle angle and G95 moves scale their virtual time by
@@ -36,6 +39,7 @@ use crate::canon::{Feed, Src, ThreadMove, ThreadSeg};
 use crate::dialect::Dialect;
 use crate::geom::V3;
 use crate::interp::Modal;
+use crate::jerk::{PathFilter, Smoother};
 use crate::machine::Machine;
 use crate::pipeline::Pipeline;
 use crate::plan::{Item, PlanLimits, PlannedMove};
@@ -160,8 +164,14 @@ pub struct Executor<S> {
     fault: Option<String>,
     /// stop now (abort): threads stop under control too
     halt: bool,
-    /// the jerk filter (None: M = 1)
+    /// the jerk filters ([`crate::jerk`]): the path filter over the path
+    /// length, then the XYZ filter (None: no jerk limit)
+    path: Option<PathFilter>,
     smooth: Option<Smoother>,
+    /// path length of every move finished, mm, and the raw sample's path
+    /// length (None: not on the path, a bypassed sample)
+    s_total: f64,
+    raw_s: Option<f64>,
     /// the raw run ended but the filter has not settled: its last sample
     drain: Option<Sample>,
     /// the raw sample just made is a thread's controlled stop: it bypasses
@@ -196,51 +206,6 @@ struct SpindleNow {
     rev_s2: f64,
 }
 
-/// A moving average of the last M setpoints (and path speeds).
-#[derive(Clone, Debug)]
-struct Smoother {
-    pos: Vec<V3>,
-    speed: Vec<f64>,
-    /// where the next sample goes
-    i: usize,
-}
-
-impl Smoother {
-    fn new(m: usize, at: V3) -> Self {
-        Smoother {
-            pos: vec![at; m],
-            speed: vec![0.0; m],
-            i: 0,
-        }
-    }
-
-    /// Forgets the past: every slot holds `p` (bypassed samples).
-    fn reset(&mut self, p: V3, v: f64) {
-        self.pos.fill(p);
-        self.speed.fill(v);
-    }
-
-    /// Adds a raw sample; the filtered position and speed. A full window of
-    /// equal positions gives that position exactly.
-    fn push(&mut self, p: V3, v: f64) -> (V3, f64) {
-        self.pos[self.i] = p;
-        self.speed[self.i] = v;
-        self.i = (self.i + 1) % self.pos.len();
-        let n = self.pos.len() as f64;
-        let avg = if self.settled() {
-            p
-        } else {
-            self.pos.iter().fold(V3::zeros(), |acc, q| acc + q) / n
-        };
-        (avg, self.speed.iter().sum::<f64>() / n)
-    }
-
-    /// Every slot holds the same position.
-    fn settled(&self) -> bool {
-        self.pos.iter().all(|q| *q == self.pos[0])
-    }
-}
-
 impl<S: ProgramSource> Executor<S> {
     pub fn new(source: S, dialect: Dialect, machine: &Machine) -> Self {
         let lim = PlanLimits::from_machine(machine);
@@ -270,7 +235,11 @@ impl<S: ProgramSource> Executor<S> {
                 .map_or(ENCODER_TIMEOUT_CYCLES * lim.dt, |ms| ms * 1e-3),
             fault: None,
             halt: false,
-            smooth: (lim.smooth > 1).then(|| Smoother::new(lim.smooth, machine.home())),
+            // (a path filter of one sample is none: the raw point's bits)
+            path: (lim.jerk.m_s > 1).then(|| PathFilter::new(lim.jerk.m_s, 0.0, machine.home())),
+            smooth: (lim.jerk.m_f > 1).then(|| Smoother::new(lim.jerk.m_f, machine.home())),
+            s_total: 0.0,
+            raw_s: None,
             drain: None,
             bypass: false,
             s_base: 0.0,
@@ -297,7 +266,9 @@ impl<S: ProgramSource> Executor<S> {
 
     /// Held still (feed scale 0) and the filtered setpoint too.
     pub fn at_rest(&self) -> bool {
-        self.scale == 0.0 && self.smooth.as_ref().is_none_or(Smoother::settled)
+        self.scale == 0.0
+            && self.smooth.as_ref().is_none_or(Smoother::settled)
+            && self.path.as_ref().is_none_or(PathFilter::settled)
     }
 
     /// Couples G33 and G95 to the measured spindle: from now on the
@@ -678,7 +649,7 @@ impl<S: ProgramSource> Executor<S> {
 
     /// The next sample, or `None` after the last one.
     pub fn next_sample(&mut self) -> Option<Sample> {
-        if self.smooth.is_none() {
+        if self.smooth.is_none() && self.path.is_none() {
             return self.raw_sample();
         }
         let mut s = match self.drain.take() {
@@ -690,15 +661,27 @@ impl<S: ProgramSource> Executor<S> {
             }
             None => self.raw_sample()?,
         };
-        let f = self.smooth.as_mut()?;
         if s.sync.is_some() || self.bypass {
-            f.reset(s.pos, s.path_speed);
+            if let Some(pf) = self.path.as_mut() {
+                pf.reset(self.s_total, s.pos, s.path_speed);
+            }
+            if let Some(f) = self.smooth.as_mut() {
+                f.reset(s.pos, s.path_speed);
+            }
             return Some(s);
         }
-        let (p, v) = f.push(s.pos, s.path_speed);
-        if s.last && !f.settled() {
-            // the run ended off the filter's rest (a fault or an abort):
-            // hold the end until the filter settles on it
+        let (mut p, mut v) = (s.pos, s.path_speed);
+        if let Some(pf) = self.path.as_mut() {
+            (p, v) = pf.push(self.raw_s.unwrap_or(self.s_total), v, p);
+        }
+        if let Some(f) = self.smooth.as_mut() {
+            (p, v) = f.push(p, v);
+        }
+        let settled = self.smooth.as_ref().is_none_or(Smoother::settled)
+            && self.path.as_ref().is_none_or(PathFilter::settled);
+        if s.last && !settled {
+            // the run ended off the filters' rest (a fault or an abort):
+            // hold the end until they settle on it
             s.last = false;
             self.drain = Some(Sample { last: true, ..s });
         }
@@ -713,6 +696,7 @@ impl<S: ProgramSource> Executor<S> {
             return None;
         }
         self.bypass = false;
+        self.raw_s = Some(self.s_total);
         loop {
             if self.cur.is_none() && self.vk < self.pipe.timeline.group_k0 as f64 {
                 if self.fault.is_some() {
@@ -733,6 +717,9 @@ impl<S: ProgramSource> Executor<S> {
                 match item {
                     None | Some(Item::End { .. }) => return self.end_at(self.pos),
                     Some(Item::Move(m)) => {
+                        if let Some(pf) = self.path.as_mut() {
+                            pf.add_move(self.s_total, m.geom);
+                        }
                         let stop = self.pipe.timeline.stop_tick(&m);
                         self.cur = Some(Cur::Move(m, stop));
                     }
@@ -775,6 +762,7 @@ impl<S: ProgramSource> Executor<S> {
                         None => tau < m.profile.duration,
                     };
                     if running {
+                        self.raw_s = Some(self.s_total + m.profile.s_at(tau));
                         if self.fault.is_some() && self.scale == 0.0 {
                             // stopped after a lost encoder
                             return self.end_at(m.geom.eval(m.profile.s_at(tau)));
@@ -795,6 +783,8 @@ impl<S: ProgramSource> Executor<S> {
                         return Some(s);
                     }
                     self.pos = m.geom.end();
+                    self.s_total += m.profile.length;
+                    self.raw_s = Some(self.s_total);
                     if m.profile.v1 > 0.0 {
                         self.s_base += m.profile.length;
                     } else {

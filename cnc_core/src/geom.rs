@@ -223,6 +223,31 @@ impl Geom {
         }
     }
 
+    /// The part from path length `d0` to `d1` (0 ≤ d0 < d1 ≤ length): the
+    /// same line or circle, from `eval(d0)` to `eval(d1)`.
+    pub fn piece(&self, d0: f64, d1: f64) -> Geom {
+        let (start, end) = (self.eval(d0), self.eval(d1));
+        match self {
+            Geom::Line { .. } => Geom::Line { start, end },
+            Geom::Arc(a) => {
+                let (f0, f1) = if a.length > 0.0 {
+                    (d0 / a.length, d1 / a.length)
+                } else {
+                    (0.0, 1.0)
+                };
+                Geom::Arc(Arc {
+                    start,
+                    end,
+                    theta0: a.theta0 + a.sweep * f0,
+                    sweep: a.sweep * (f1 - f0),
+                    axial: a.axial * (f1 - f0),
+                    length: a.length * (f1 - f0),
+                    ..*a
+                })
+            }
+        }
+    }
+
     /// Unit tangent at the start.
     #[inline]
     pub fn start_tangent(&self) -> V3 {

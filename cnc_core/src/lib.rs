@@ -22,6 +22,7 @@ pub mod dialect;
 pub mod exec;
 pub mod geom;
 pub mod interp;
+pub mod jerk;
 pub mod limits;
 pub mod machine;
 pub mod parse;
@@ -30,6 +31,7 @@ pub mod plan;
 pub mod shares;
 pub mod source;
 pub mod thread;
+pub mod timeline;
 pub mod travel;
 
 pub use check::{check, CheckReport};

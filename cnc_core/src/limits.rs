@@ -1,10 +1,12 @@
 //! The planner's limits: its settings from the machine file, and what it
 //! works out of one move alone (length, tangents, speed cap and
-//! acceleration for both acceleration shares), apart from the look-ahead
-//! (`plan.rs`) so the check can compute it on another thread.
+//! acceleration for both acceleration shares, and under a jerk limit the
+//! caps of [`crate::jerk`]), apart from the look-ahead (`plan.rs`) so the
+//! check can compute it on another thread.
 
 use crate::canon::Feed;
 use crate::geom::{Arc, Geom, V3};
+use crate::jerk::JerkBudget;
 use crate::machine::Machine;
 use crate::shares::{ARC_NORMAL_MAX, KINK_SHARE, LINE_SHARE, SMOOTH_SHARE};
 
@@ -84,9 +86,10 @@ pub struct PlanLimits {
     pub dt: f64,
     pub exact_stop_cos: f64,
     pub lookahead: usize,
-    /// jerk filter length, samples (1: none); see
-    /// [`Machine::smoothing_samples`]
-    pub smooth: usize,
+    /// the jerk budget: filters and caps ([`crate::jerk`])
+    pub jerk: JerkBudget,
+    /// the fastest path speed, every axis at its limit, mm/s
+    pub top: f64,
     /// per axis, the largest change of the unit tangent at a junction
     /// that counts as smooth ([`SMOOTH_SHARE`] at the fastest speed)
     pub smooth_turn: V3,
@@ -103,7 +106,8 @@ impl PlanLimits {
             dt,
             exact_stop_cos: m.planner.exact_stop_angle_deg.to_radians().cos(),
             lookahead: m.planner.lookahead_blocks,
-            smooth: m.smoothing_samples(),
+            jerk: m.jerk_budget(),
+            top,
             smooth_turn: amax.map(|a| SMOOTH_SHARE * a * dt / top),
         }
     }
@@ -118,9 +122,25 @@ impl PlanLimits {
     /// line's tangent is its difference divided by its norm, which is the
     /// length: what `normalize()` computes.) Without `vlim` an arc's
     /// [`MoveLimits::vlim`] is not computed (NaN): the check does not use
-    /// it.
+    /// it, unless there is a jerk limit (the planner caps its neighbours
+    /// with it).
     #[inline]
     pub(crate) fn prepare(&self, geom: &Geom, feed: &Feed, vlim: bool) -> MovePrep {
+        self.prepare_piece(geom, feed, vlim, false)
+    }
+
+    /// [`prepare`](Self::prepare), for a piece of an arc that is `inside`
+    /// it under a jerk limit (the XYZ filter's window around it sees only
+    /// the arc: [`JerkBudget::arc_caps`]).
+    #[inline]
+    pub(crate) fn prepare_piece(
+        &self,
+        geom: &Geom,
+        feed: &Feed,
+        vlim: bool,
+        inside: bool,
+    ) -> MovePrep {
+        let vlim = vlim || self.jerk.limited();
         let f = feed.speed_mm_s();
         match geom {
             Geom::Line { start, end } => {
@@ -145,7 +165,7 @@ impl PlanLimits {
                 if arc.length <= 0.0 {
                     return MovePrep::skipped(arc.length);
                 }
-                let [red, full] = self.arc_limits(arc, f, vlim);
+                let [red, full] = self.arc_limits(arc, f, vlim, inside);
                 MovePrep {
                     length: arc.length,
                     t_start: geom.start_tangent(),
@@ -187,7 +207,7 @@ impl PlanLimits {
     /// [`ARC_NORMAL_MAX`]·share, and the tangential part the rest, so
     /// their vector sum stays under the share on every axis.
     #[inline]
-    fn arc_limits(&self, arc: &Arc, f: f64, vlim: bool) -> [MoveLimits; 2] {
+    fn arc_limits(&self, arc: &Arc, f: f64, vlim: bool, inside: bool) -> [MoveLimits; 2] {
         // A flat arc's length is its length in the plane, r·|sweep|, and
         // its plane fraction r·|sweep| / length is then exactly 1: the
         // limits with the literal 1, which the compiler takes out of its
@@ -196,21 +216,29 @@ impl PlanLimits {
         let plane_len = arc.radius * arc.sweep.abs();
         if arc.axial == 0.0 && arc.length == plane_len && plane_len.is_finite() && plane_len != 0.0
         {
-            self.arc_limits_with(arc, f, vlim, 1.0, 0.0)
+            self.arc_limits_with(arc, f, vlim, inside, 1.0, 0.0)
         } else {
             let h = if arc.length > 0.0 {
                 arc.axial.abs() / arc.length
             } else {
                 0.0
             };
-            self.arc_limits_with(arc, f, vlim, arc.plane_fraction(), h)
+            self.arc_limits_with(arc, f, vlim, inside, arc.plane_fraction(), h)
         }
     }
 
     /// [`arc_limits`](Self::arc_limits) with the arc's plane fraction `c`
     /// and axial fraction `h`.
     #[inline(always)]
-    fn arc_limits_with(&self, arc: &Arc, f: f64, vlim: bool, c: f64, h: f64) -> [MoveLimits; 2] {
+    fn arc_limits_with(
+        &self,
+        arc: &Arc,
+        f: f64,
+        vlim: bool,
+        inside: bool,
+        c: f64,
+        h: f64,
+    ) -> [MoveLimits; 2] {
         let (p, q, n) = arc.plane.axes();
         let apq = self.amax[p].min(self.amax[q]);
         let mut vgeo = self.vmax[p].min(self.vmax[q]) / c;
@@ -221,6 +249,18 @@ impl PlanLimits {
         let vc = f.min(vgeo) * c;
         let needed = vc * vc / (apq * arc.radius);
         let centripetal = |k: f64| (k * apq * arc.radius).sqrt() / c;
+        // jerk: the normal acceleration and the turn of the tangential one
+        // within their budgets (the curvature of a helix is c²/r)
+        let (vj, aj) = if self.jerk.limited() {
+            let kappa = if arc.radius > 0.0 {
+                c * c / arc.radius
+            } else {
+                0.0
+            };
+            self.jerk.arc_caps(kappa, inside)
+        } else {
+            (f64::INFINITY, f64::INFINITY)
+        };
         let limits = |share: f64| {
             let normal_max = ARC_NORMAL_MAX * share;
             let normal = needed.min(normal_max);
@@ -237,13 +277,13 @@ impl PlanLimits {
                     .sqrt()
                     .min(normal_max)
                     .max(normal);
-                vgeo.min(centripetal(normal_left))
+                vgeo.min(centripetal(normal_left)).min(vj)
             } else {
                 f64::NAN
             };
             MoveLimits {
-                vcap: f.min(vgeo).min(centripetal(normal)),
-                a,
+                vcap: f.min(vgeo).min(centripetal(normal)).min(vj),
+                a: a.min(aj),
                 vlim,
             }
         };
@@ -264,7 +304,9 @@ impl PlanLimits {
             let d = (t2[i] - t1[i]).abs();
             if d > self.smooth_turn[i] {
                 kink = true;
-                v = v.min(KINK_SHARE * self.amax[i] * self.dt / d);
+                v = v
+                    .min(KINK_SHARE * self.amax[i] * self.dt / d)
+                    .min(self.jerk.kink_cap(d));
             }
         }
         (v, kink)
@@ -344,7 +386,11 @@ mod tests {
         };
         let mut flat = 0;
         for m in [Machine::builtin_mill(), Machine::builtin_lathe()] {
-            let lim = PlanLimits::from_machine(&m);
+            // (the shares alone: no jerk caps)
+            let lim = PlanLimits {
+                jerk: JerkBudget::none(m.dt()),
+                ..PlanLimits::from_machine(&m)
+            };
             for k in 0..20_000 {
                 let start = V3::new(next() * 100.0, next() * 100.0, next() * 20.0);
                 let mut end = V3::new(next() * 100.0, next() * 100.0, next() * 20.0);

@@ -4,6 +4,7 @@
 
 use crate::dialect::Dialect;
 use crate::geom::V3;
+use crate::jerk::JerkBudget;
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize)]
@@ -670,11 +671,13 @@ impl Machine {
         V3::from_fn(|i, _| self.axis(i).map_or(f64::INFINITY, |a| a.max_velocity_mm_s))
     }
 
-    /// Length of the setpoint filter that limits jerk, in samples (1: no
-    /// filter). A moving average over M samples turns the planner's
-    /// acceleration-limited setpoints into jerk-limited ones: the filtered
-    /// sampled jerk is (a[k] − a[k−M]) / (M·dt), at most 2·a_max/(M·dt),
-    /// so M = ⌈2·a_max / (j_max·dt)⌉ over the axes with a jerk limit.
+    /// Length of the path filter that limits the tangential jerk, in
+    /// samples (1: no filter; see [`crate::jerk`]). A moving average over M
+    /// samples of the profile's path length turns the planner's
+    /// acceleration-limited speed into a jerk-limited one: the filtered
+    /// sampled jerk is (a[k] − a[k−M]) / (M·dt), at most 2·a_max/(M·dt), so
+    /// M = ⌈2·a_max / (γ·j_max·dt)⌉ over the axes with a jerk limit, γ =
+    /// [`crate::shares::S_FILTER_SHARE`].
     pub fn smoothing_samples(&self) -> usize {
         (self.smoothing_samples_f() as usize).clamp(1, MAX_SMOOTHING_SAMPLES)
     }
@@ -684,10 +687,77 @@ impl Machine {
         self.axes
             .iter()
             .filter_map(|a| {
-                let j = a.max_jerk_mm_s3?;
+                let j = a.max_jerk_mm_s3? * crate::shares::S_FILTER_SHARE;
                 Some((2.0 * a.max_acceleration_mm_s2 / (j * dt) - 1e-9).ceil())
             })
             .fold(1.0, f64::max)
+    }
+
+    /// The least jerk limit of the axes, mm/s³ (None: none has one).
+    pub fn jerk_limit(&self) -> Option<f64> {
+        self.axes
+            .iter()
+            .filter_map(|a| a.max_jerk_mm_s3)
+            .reduce(f64::min)
+    }
+
+    /// The jerk budget: both filters and the planner's caps. Where one
+    /// moving average of the XYZ setpoints keeps the path within
+    /// [`crate::shares::MAIN_LIKE_ERROR_MM`] (high jerk:
+    /// [`Machine::main_smoothing_error_mm`]), that filter alone
+    /// ([`JerkBudget::main_like`]); else the path filter, the XYZ filter
+    /// and the caps ([`JerkBudget::new`]).
+    pub fn jerk_budget(&self) -> JerkBudget {
+        let dt = self.dt();
+        let Some(j) = self.jerk_limit() else {
+            return JerkBudget::new(dt, self.smoothing_samples(), None);
+        };
+        let err = self.main_smoothing_error_mm();
+        if err <= crate::shares::MAIN_LIKE_ERROR_MM {
+            JerkBudget::main_like(dt, self.main_smoothing_samples(), j, err)
+        } else {
+            JerkBudget::new(dt, self.smoothing_samples(), Some(j))
+        }
+    }
+
+    /// Length of the single XYZ moving average that limits jerk on its
+    /// own, in samples (1: none): the filtered sampled jerk is
+    /// (a[k] − a[k−M]) / (M·dt), at most 2·a_max/(M·dt), so M =
+    /// ⌈2·a_max / (j_max·dt)⌉ over the axes with a jerk limit.
+    pub fn main_smoothing_samples(&self) -> usize {
+        let dt = self.dt();
+        let m = self
+            .axes
+            .iter()
+            .filter_map(|a| {
+                let j = a.max_jerk_mm_s3?;
+                Some((2.0 * a.max_acceleration_mm_s2 / (j * dt) - 1e-9).ceil())
+            })
+            .fold(1.0, f64::max);
+        (m as usize).clamp(1, MAX_SMOOTHING_SAMPLES)
+    }
+
+    /// Largest distance, mm, by which the single XYZ moving average of
+    /// [`Machine::main_smoothing_samples`] moves a setpoint off the
+    /// programmed path. The filtered point is the mean of the last M raw
+    /// points, which lie on a piece of path (M − 1)·v·dt long, so it is no
+    /// further from the path than that piece's chord: on an arc of radius
+    /// r its sagitta, (M−1)²·dt²·v²/(8r) ≤ (M−1)²·dt²·a_c/8 with a_c the
+    /// centripetal acceleration (the planner keeps it under
+    /// `shares::ARC_NORMAL_MAX`·a_max). A nearly tangent junction, whose
+    /// velocity jump is at most `shares::KINK_SHARE`·a_max·dt, is cut by
+    /// at most (M−1)·dt·Δv/4. Straight lines are not moved at all.
+    pub fn main_smoothing_error_mm(&self) -> f64 {
+        let m = self.main_smoothing_samples() as f64;
+        if m <= 1.0 {
+            return 0.0;
+        }
+        let dt = self.dt();
+        let a = self.max_acceleration();
+        let w = (m - 1.0) * dt;
+        let arc = w * w * crate::shares::ARC_NORMAL_MAX * a / 8.0;
+        let kink = w * crate::shares::KINK_SHARE * a * dt / 4.0;
+        arc + kink
     }
 
     /// The largest acceleration limit of any axis, mm/s².
@@ -701,30 +771,16 @@ impl Machine {
     /// The lowest jerk limit the filter allows (for the error message).
     fn min_jerk(&self) -> f64 {
         let a = self.max_acceleration();
-        2.0 * a / (MAX_SMOOTHING_SAMPLES as f64 * self.dt())
+        2.0 * a / (MAX_SMOOTHING_SAMPLES as f64 * self.dt() * crate::shares::S_FILTER_SHARE)
     }
 
-    /// Largest distance, mm, by which the jerk filter moves a setpoint off
-    /// the programmed path. The filtered point is the mean of the last M
-    /// raw points, which lie on a piece of path (M − 1)·v·dt long, so it
-    /// is no further from the path than that piece's chord: on an arc of
-    /// radius r its sagitta, (M−1)²·dt²·v²/(8r) ≤ (M−1)²·dt²·a_c/8 with a_c
-    /// the centripetal acceleration (the planner keeps it under
-    /// `shares::ARC_NORMAL_MAX`·a_max; for steady speed the mean is inside by
-    /// only (M²−1)·dt²·a_c/24). A nearly tangent junction, whose velocity
-    /// jump is at most `shares::KINK_SHARE`·a_max·dt, is cut by at most
-    /// (M−1)·dt·Δv/4. Straight lines are not moved at all.
+    /// Largest distance, mm, by which the jerk filters move a setpoint off
+    /// the programmed path: the path filter not at all (the setpoint is the
+    /// path at a filtered path length), the XYZ filter by at most
+    /// [`JerkBudget::error_mm`] (the planner caps the normal acceleration
+    /// for it). Blends keep within the tolerance less this.
     pub fn smoothing_error_mm(&self) -> f64 {
-        let m = self.smoothing_samples() as f64;
-        if m <= 1.0 {
-            return 0.0;
-        }
-        let dt = self.dt();
-        let a = self.max_acceleration();
-        let w = (m - 1.0) * dt;
-        let arc = w * w * crate::shares::ARC_NORMAL_MAX * a / 8.0;
-        let kink = w * crate::shares::KINK_SHARE * a * dt / 4.0;
-        arc + kink
+        self.jerk_budget().error_mm()
     }
 
     /// Per-coordinate acceleration limits, mm/s².

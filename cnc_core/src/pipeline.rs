@@ -22,8 +22,9 @@ use crate::geom::{Geom, V3};
 use crate::interp::{Interpreter, Modal};
 use crate::limits::{MoveLimits, MovePrep};
 use crate::machine::Machine;
-use crate::plan::{Item, ItemSink, Lookahead, PlanLimits, Planner, Profile, Timeline};
+use crate::plan::{Item, ItemSink, Lookahead, PlanLimits, Planner, Profile};
 use crate::source::ProgramSource;
+use crate::timeline::Timeline;
 use crate::travel::{self, Travel};
 use arrayvec::ArrayVec;
 use std::collections::VecDeque;
@@ -419,6 +420,8 @@ impl Estimate {
             self.look.flush(&mut self.sink);
         }
         self.sink.settle();
+        // (moves as they came in, not the pieces of split lines)
+        self.sink.totals.moves -= self.look.extra.min(self.sink.totals.moves);
         self.sink.totals
     }
 }

@@ -16,10 +16,10 @@
 //! next move shows the junction to be smooth (raising an acceleration
 //! only ever raises the entry speeds already handed out).
 
-use crate::canon::ThreadMove;
-use crate::canon::{Event, Feed, Src};
+use crate::canon::{Event, Feed, Src, ThreadMove};
+use crate::geom::Geom;
 use crate::geom::V3;
-use crate::geom::{ceil, Geom};
+use crate::jerk::piece_cuts;
 pub use crate::limits::PlanLimits;
 use crate::limits::{MoveLimits, MovePrep};
 use std::collections::VecDeque;
@@ -175,6 +175,13 @@ struct QSeg<K> {
     j_max: f64,
     /// largest entry speed from which the rest of the queue can stop
     entry_b: f64,
+    /// jerk: the speed and acceleration caps this move gives its
+    /// neighbours within the path filter's reach ([`crate::jerk`]), and
+    /// the cap of its entry junction (∞: none; 0: a stop, which the
+    /// filters settle on, so no cap reaches across it)
+    own_v: f64,
+    own_a: f64,
+    j_in: f64,
 }
 
 impl<K> QSeg<K> {
@@ -182,6 +189,31 @@ impl<K> QSeg<K> {
     fn entry_to_stop(&self) -> f64 {
         self.j.min(self.stop)
     }
+}
+
+/// Jerk: the queue waits for the path filter's reach behind its head up to
+/// this many times `lookahead_blocks` (pieces of split moves, short lines),
+/// then commits the head anyway.
+const REACH_QUEUE: usize = 64;
+
+/// Lowers a queued move's speed and acceleration caps (jerk: a
+/// neighbour's caps within the path filter's reach).
+fn cap<K>(s: &mut QSeg<K>, v: f64, a: f64) {
+    let length = s.length;
+    let lower = |l: &mut MoveLimits, stop: &mut f64| {
+        l.vcap = l.vcap.min(v);
+        l.vlim = l.vlim.min(v);
+        if a < l.a {
+            l.a = a;
+            *stop = (2.0 * a * length).sqrt();
+        }
+    };
+    lower(&mut s.lim, &mut s.stop);
+    if let Some((l, stop)) = s.full.as_mut() {
+        lower(l, stop);
+    }
+    s.j = s.j.min(v);
+    s.j_max = s.j_max.min(v);
 }
 
 /// Where the look-ahead hands its finished items, and what its queue keeps
@@ -250,6 +282,18 @@ pub(crate) struct Lookahead<K> {
     /// path acceleration of the move before the head, if it joins the
     /// head without a stop (else ∞)
     a_before: f64,
+    /// the queue's total path length, mm
+    queued: f64,
+    /// pushing the pieces of a split line
+    splitting: bool,
+    /// planning everything to a stop
+    flushing: bool,
+    /// jerk: the queue's length behind its next head before the head is
+    /// committed: the stop margin twice and the braking from the top speed
+    reach_room: f64,
+    /// moves planned beyond those that came in (the pieces of split
+    /// lines): what a count of programmed moves takes off
+    pub(crate) extra: u64,
 }
 
 impl<K: Copy> Lookahead<K> {
@@ -259,6 +303,12 @@ impl<K: Copy> Lookahead<K> {
             queue: VecDeque::with_capacity(lim.lookahead + 2),
             v_head: 0.0,
             a_before: f64::INFINITY,
+            queued: 0.0,
+            splitting: false,
+            flushing: false,
+            extra: 0,
+            reach_room: 2.0 * lim.jerk.lag_distance(lim.top)
+                + lim.top * lim.top / (2.0 * lim.amax.min()),
         }
     }
 
@@ -320,6 +370,9 @@ impl<K: Copy> Lookahead<K> {
         if length <= 0.0 {
             return;
         }
+        if self.lim.jerk.limited() && !self.splitting && self.split(geom, prep, feed, src, out) {
+            return;
+        }
         let red = prep.red;
         let t2 = prep.t_start;
         // the entry junction; a smooth one lets the move before take its
@@ -355,11 +408,181 @@ impl<K: Copy> Lookahead<K> {
             j,
             j_max,
             entry_b: 0.0,
+            own_v: red.vlim,
+            // (the whole acceleration while it may take it)
+            own_a: full.map_or(red.a, |f| f.0.a),
+            j_in: if self.queue.is_empty() { 0.0 } else { j_kink },
         };
+        let capped = self.lim.jerk.limited() && self.smear(&mut seg);
         seg.entry_b = seg.entry_to_stop();
+        self.queued += length;
         self.queue.push_back(seg);
-        self.backward_pass(self.queue.len() - 1);
+        if self.lim.jerk.limited() {
+            self.recompute(capped);
+        } else {
+            self.backward_pass(self.queue.len() - 1);
+        }
         self.commit(false, out);
+    }
+
+    /// Jerk: a long move is planned as pieces, so that a neighbour's caps
+    /// reach only its ends: a middle and, at either end, pieces of
+    /// reach/64, /64, /32, ..., /2 (a cap reaching r holds over at most
+    /// 2r). An arc's pieces farther than the XYZ filter's span (at the
+    /// arc's speed inside) from its ends see only the arc in the filter's
+    /// window and may go faster ([`crate::jerk::JerkBudget::arc_caps`]);
+    /// they start a further cap's reach (the ends' speed) in, so that the
+    /// ends' caps do not reach them. Whether the move was split.
+    fn split<O: ItemSink<Kept = K>>(
+        &mut self,
+        geom: &Geom,
+        prep: &MovePrep,
+        feed: Feed,
+        src: Src,
+        out: &mut O,
+    ) -> bool {
+        let (jb, top, length) = (self.lim.jerk, self.lim.top, prep.length);
+        let ends_v = prep.full.vlim.min(top);
+        // an arc's inside: from `edge` on, pieces from `inner_at` on
+        let (inner, edge, inner_at) = match geom {
+            Geom::Arc(_) => {
+                let inner = self.lim.prepare_piece(geom, &feed, O::VLIM, true);
+                let v = inner.full.vlim.min(top);
+                let edge = jb.step_span() * v;
+                let at = edge + jb.lag_distance(ends_v);
+                (v > ends_v && length > 2.0 * at).then_some((v, edge, at))
+            }
+            Geom::Line { .. } => None,
+        }
+        .map_or((None, 0.0, 0.0), |(v, e, at)| (Some(v), e, at));
+        let reach = jb.lag_distance(inner.unwrap_or(ends_v));
+        let Some((cuts, n)) = piece_cuts(reach, length, inner.map(|_| inner_at)) else {
+            return false;
+        };
+        let cuts = &cuts[..n];
+        self.extra += cuts.len() as u64;
+        self.splitting = true;
+        let mut from = 0.0;
+        for &d in cuts.iter().chain(std::iter::once(&length)) {
+            let g = geom.piece(from, d);
+            let inside = inner.is_some() && from >= edge && d <= length - edge;
+            let p = self.lim.prepare_piece(&g, &feed, O::VLIM, inside);
+            self.push_move(&g, &p, feed, src, out);
+            from = d;
+        }
+        self.splitting = false;
+        true
+    }
+
+    /// Jerk: the path filter's setpoint at a point moves with the speed and
+    /// acceleration the profile had up to `lag_distance` on either side of
+    /// it, so each move's caps (and a junction's) reach that far into its
+    /// neighbours; not across a stop, where the filters settle. Caps `seg`
+    /// (about to be queued) and the queue's moves within reach; whether any
+    /// queued move changed.
+    fn smear(&mut self, seg: &mut QSeg<K>) -> bool {
+        if seg.j_in == 0.0 {
+            return false;
+        }
+        let jb = self.lim.jerk;
+        // a cap c on a stretch of path holds for the filtered setpoint if
+        // the profile keeps it from lag·c before to lag·c after the
+        // stretch (it cannot cross that in less than the window)
+        let reach = |v: f64| jb.lag_distance(v.min(self.lim.top));
+        let (own_v, own_a, j_in) = (seg.own_v, seg.own_a, seg.j_in);
+        let (mut fwd_v, mut fwd_a) = (j_in, f64::INFINITY);
+        // distance from the end of queued move k to `seg`'s start
+        let mut dist = 0.0;
+        let mut changed = false;
+        for k in (0..self.queue.len()).rev() {
+            let q = &mut self.queue[k];
+            let (mut v, mut a) = (f64::INFINITY, f64::INFINITY);
+            if dist < reach(own_v) {
+                v = own_v;
+                a = own_a;
+            }
+            if dist < reach(j_in) {
+                v = v.min(j_in);
+            }
+            if q.lim.vlim > v || q.lim.a > a {
+                cap(q, v, a);
+                changed = true;
+            }
+            if dist < reach(q.own_v) {
+                fwd_v = fwd_v.min(q.own_v);
+                fwd_a = fwd_a.min(q.own_a);
+            }
+            dist += q.length;
+            if q.j_in == 0.0 {
+                break;
+            }
+            if dist < reach(q.j_in) {
+                fwd_v = fwd_v.min(q.j_in);
+            }
+            if dist >= reach(self.lim.top) {
+                break;
+            }
+        }
+        cap(seg, fwd_v, fwd_a);
+        changed
+    }
+
+    /// Jerk: how far before the tail's end the queue plans its stop: the
+    /// farthest a move still to come may reach back with its caps.
+    fn margin(&self) -> f64 {
+        if self.flushing {
+            // (nothing comes after: the tail stops at its end)
+            return 0.0;
+        }
+        self.lim.jerk.lag_distance(self.lim.top)
+    }
+
+    /// Every entry limit again from the tail back (after caps fell:
+    /// `capped`, some queued move's; else only the tail's own limits and
+    /// where the stop margin ends changed).
+    fn recompute(&mut self, capped: bool) {
+        let n = self.queue.len();
+        // the stop is planned `margin` before the tail's end: what a move
+        // still to come may cap (speeds and accelerations over at most
+        // lag·top behind it) is not used for braking
+        let mut margin = self.margin();
+        // (caps changed within the reach behind the tail's start, the
+        // margin within its own length: before both, an unchanged limit
+        // leaves every one before it unchanged)
+        let tail = self.queue.back().map_or(0.0, |t| t.length);
+        let reach = if capped {
+            self.lim.jerk.lag_distance(self.lim.top)
+        } else {
+            0.0
+        };
+        let settled = margin + tail + reach;
+        let mut dist = 0.0;
+        let mut next_b = 0.0;
+        for k in (0..n).rev() {
+            let before = if k > 0 {
+                self.queue[k - 1].lim.vcap
+            } else {
+                f64::INFINITY
+            };
+            let s = &mut self.queue[k];
+            s.j = s.j.min(before);
+            s.j_max = s.j_max.min(before);
+            let b = if margin >= s.length {
+                margin -= s.length;
+                0.0
+            } else {
+                let room = s.length - margin;
+                margin = 0.0;
+                s.j.min((next_b * next_b + 2.0 * s.lim.a * room).sqrt())
+            };
+            let same = b == s.entry_b;
+            s.entry_b = b;
+            next_b = b;
+            dist += s.length;
+            if same && dist > settled {
+                break;
+            }
+        }
     }
 
     /// The queue's tail takes its whole acceleration (its exit junction is
@@ -375,6 +598,10 @@ impl<K: Copy> Lookahead<K> {
         t.lim = full;
         t.stop = stop;
         t.j = t.j_max;
+        if self.lim.jerk.limited() {
+            self.recompute(false);
+            return;
+        }
         t.entry_b = t.entry_to_stop();
         // (the tail's own entry_b; the pass takes it from here)
         self.backward_pass(n - 1);
@@ -418,7 +645,13 @@ impl<K: Copy> Lookahead<K> {
                     // (final unless the next move may still take its whole
                     // acceleration and with it a faster entry)
                     let final_exit = nx.entry_b >= nx.j_max || reach <= nx.entry_b;
-                    if !(all || final_exit || self.queue.len() > self.lim.lookahead) {
+                    // (jerk: not while a move still to come may cap the
+                    // next one, whose entry this fixes)
+                    let covered = !self.lim.jerk.limited()
+                        || self.queued - h.length - nx.length >= self.reach_room;
+                    let full = self.queue.len() > self.lim.lookahead;
+                    let overfull = self.queue.len() > REACH_QUEUE * self.lim.lookahead;
+                    if !(all || (final_exit || full) && covered || overfull) {
                         return;
                     }
                     nx.entry_b.min(reach)
@@ -440,18 +673,25 @@ impl<K: Copy> Lookahead<K> {
             out.plan(h.kept, self.v_head, v1, lim, h.length, a_join);
             self.a_before = lim.a;
             self.v_head = v1;
+            self.queued -= h.length;
             self.queue.pop_front();
         }
         if all {
             self.v_head = 0.0;
+            self.queued = 0.0;
         }
     }
 
     /// Plans everything queued to a stop.
     pub(crate) fn flush(&mut self, out: &mut impl ItemSink<Kept = K>) {
         // the tail's exit is a stop: smooth
+        self.flushing = true;
         self.upgrade_tail();
+        if self.lim.jerk.limited() {
+            self.recompute(true);
+        }
         self.commit(true, out);
+        self.flushing = false;
     }
 }
 
@@ -483,157 +723,11 @@ impl Planner {
     pub fn flush(&mut self) {
         self.look.flush(&mut self.out);
     }
-}
 
-/// Turns planned items into whole sample ticks. Motion that runs without a
-/// stop forms a group; every group and dwell starts on a sample tick, so a
-/// stop is sampled exactly at its end point. The executor and the check use
-/// this same type, so the estimated cycle time equals the simulated one.
-#[derive(Clone, Copy, Debug)]
-pub struct Timeline {
-    pub dt: f64,
-    /// tick at which the current group started
-    pub group_k0: u64,
-    /// time from the group start to the start of the current move, s
-    pub seg_t0: f64,
-    /// the ideal spindle (turning exactly as commanded): rpm, and its
-    /// angle in revolutions at tick `spin_k`
-    pub spin_rpm: f64,
-    pub spin_k: f64,
-    pub spin_rev: f64,
-    /// θ₀ of the thread block being run (revolutions, in the direction of
-    /// rotation)
-    pub theta0: f64,
-    /// ticks the setpoints hold still after each stop, so that the jerk
-    /// filter settles on the stop point (M − 1 for an M-sample filter)
-    pub hold: u64,
-}
-
-impl Timeline {
-    pub fn new(dt: f64) -> Self {
-        Timeline {
-            dt,
-            group_k0: 0,
-            seg_t0: 0.0,
-            spin_rpm: 0.0,
-            spin_k: 0.0,
-            spin_rev: 0.0,
-            theta0: 0.0,
-            hold: 0,
-        }
-    }
-
-    /// The timeline of a planner with these limits (with its stop holds).
-    pub fn for_limits(lim: &PlanLimits) -> Self {
-        Timeline {
-            hold: lim.smooth.saturating_sub(1) as u64,
-            ..Timeline::new(lim.dt)
-        }
-    }
-
-    /// Whole ticks covering `seconds` (a hair of rounding is forgiven).
-    #[inline]
-    pub fn ticks(&self, seconds: f64) -> u64 {
-        let t = ceil(seconds / self.dt - 1e-9);
-        if t > 0.0 {
-            t as u64
-        } else {
-            0
-        }
-    }
-
-    /// For a move that ends at rest: the tick of its end (the next group's start).
-    pub fn stop_tick(&self, m: &PlannedMove) -> Option<u64> {
-        (m.profile.v1 == 0.0).then(|| self.group_k0 + self.ticks(self.seg_t0 + m.profile.duration))
-    }
-
-    /// Time of (virtual) tick `k` relative to the start of the current move;
-    /// `k` is the tick index unless the executor scales the feed.
-    pub fn local_time(&self, k: f64) -> f64 {
-        (k - self.group_k0 as f64) * self.dt - self.seg_t0
-    }
-
-    /// Advances past a finished move.
-    pub fn finish_move(&mut self, m: &PlannedMove) {
-        self.finish_profile(&m.profile);
-    }
-
-    /// Advances past a finished move with profile `p`.
-    #[inline]
-    pub(crate) fn finish_profile(&mut self, p: &Profile) {
-        // as `stop_tick`, then the hold
-        if p.v1 == 0.0 {
-            self.group_k0 += self.ticks(self.seg_t0 + p.duration) + self.hold;
-            self.seg_t0 = 0.0;
-        } else {
-            self.seg_t0 += p.duration;
-        }
-    }
-
-    /// The ideal spindle's angle at (virtual) tick `k`, revolutions.
-    pub fn ideal_rev(&self, k: f64) -> f64 {
-        self.spin_rev + self.spin_rpm / 60.0 * (k - self.spin_k) * self.dt
-    }
-
-    /// A spindle command at the current group tick (everything stopped).
-    pub fn set_spindle(&mut self, rpm: f64) {
-        let k = self.group_k0 as f64;
-        self.spin_rev = self.ideal_rev(k);
-        self.spin_k = k;
-        self.spin_rpm = rpm;
-    }
-
-    /// θ₀ of thread block `m`: for a chain's first block, synchronized
-    /// from the angle `now` with the index at `index`; otherwise where the
-    /// block before ended on the thread line.
-    pub fn thread_begin(&mut self, m: &ThreadMove, now: f64, index: f64) -> f64 {
-        if m.runin.is_some() {
-            self.theta0 = m.sync_angle(now, index);
-        }
-        self.theta0
-    }
-
-    /// After a thread block that is not the last of its chain.
-    pub fn thread_next(&mut self, m: &ThreadMove) {
-        self.theta0 += m.seg.len / m.seg.pitch;
-    }
-
-    /// With the ideal spindle: the tick at which the chain whose last block
-    /// is `m` (θ₀ = `self.theta0`) ends at rest, the chain having started at
-    /// the group tick.
-    pub fn ideal_thread_end(&self, m: &ThreadMove) -> u64 {
-        let dir = m.dir();
-        let speed = dir * self.spin_rpm / 60.0 * self.dt; // rev per tick
-        if speed <= 0.0 {
-            return self.group_k0;
-        }
-        let now = dir * self.ideal_rev(self.group_k0 as f64);
-        self.group_k0 + self.ticks((self.theta0 + m.end_x() - now) / speed * self.dt)
-    }
-
-    /// A group (a thread chain) ended at rest at tick `k`; the next starts
-    /// after the hold.
-    pub fn finish_group_at(&mut self, k: u64) {
-        self.group_k0 = k + self.hold;
-        self.seg_t0 = 0.0;
-    }
-
-    /// Advances past thread block `m`, run with the ideal spindle.
-    pub fn finish_thread(&mut self, m: &ThreadMove) {
-        let now = m.dir() * self.ideal_rev(self.group_k0 as f64);
-        self.thread_begin(m, now, 0.0);
-        if m.decel.is_some() {
-            let k = self.ideal_thread_end(m);
-            self.finish_group_at(k);
-        } else {
-            self.thread_next(m);
-        }
-    }
-
-    /// Advances past a dwell starting at the current group tick.
-    pub fn finish_dwell(&mut self, seconds: f64) {
-        self.group_k0 += self.ticks(seconds);
-        self.seg_t0 = 0.0;
+    /// Moves handed out beyond those that came in (pieces of long lines
+    /// under a jerk limit).
+    pub fn split_extra(&self) -> u64 {
+        self.look.extra
     }
 }
 
@@ -698,14 +792,5 @@ mod tests {
             let want = reference(v0, v1, vcap, a, length);
             assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits), "{v0} {v1}");
         }
-    }
-
-    #[test]
-    fn ticks_forgive_rounding() {
-        let t = Timeline::new(0.001);
-        assert_eq!(t.ticks(0.005), 5);
-        assert_eq!(t.ticks(0.005 + 1e-15), 5);
-        assert_eq!(t.ticks(0.0051), 6);
-        assert_eq!(t.ticks(0.0), 0);
     }
 }

@@ -23,3 +23,26 @@ pub const SPEED_MARGIN: f64 = 1.05;
 /// Share of an axis's acceleration a thread's run-in, deceleration and
 /// runout use (the rest absorbs the spindle's speed ripple).
 pub const THREAD_SHARE: f64 = 0.8;
+
+/// Jerk (issue 17, [`crate::jerk`]): share of each axis's jerk limit the
+/// path-parameter filter (the S-curve of the speed profile) uses.
+pub const S_FILTER_SHARE: f64 = 0.5;
+/// Share of the jerk limit for changes of the normal acceleration (arcs'
+/// centripetal acceleration coming and going at curvature steps, the
+/// velocity jumps of kinks): the XYZ filter spreads them over its window.
+pub const NORMAL_JERK_SHARE: f64 = 0.4;
+/// What is left, for the turn of the tangential acceleration on arcs.
+pub const TURN_JERK_SHARE: f64 = 1.0 - S_FILTER_SHARE - NORMAL_JERK_SHARE;
+/// Largest distance, mm, by which the XYZ filter may move a setpoint off
+/// a curve (programmed arcs and blend arcs): the planner caps the normal
+/// acceleration for it. Also what a G61 path may deviate.
+pub const XYZ_FILTER_ERROR_MM: f64 = 0.001;
+/// Jerk: a machine whose single XYZ moving average (main's design,
+/// [`crate::Machine::main_smoothing_error_mm`]) keeps the path within this
+/// many mm runs that filter alone, without the path filter and the caps
+/// ([`crate::jerk::JerkBudget::main_like`]). 5 µm, not the XYZ filter's
+/// 1 µm ([`XYZ_FILTER_ERROR_MM`]): main's bound at the bundled machines'
+/// 1000 m/s³ is 2.17 µm on the mill (M = 4) and 4.71 µm on the lathe
+/// (M = 5), and those run as on main (about 800 m/s³ and up at 2000 mm/s²).
+/// Blends shrink by that bound, so G64 P keeps its tolerance either way.
+pub const MAIN_LIKE_ERROR_MM: f64 = 0.005;

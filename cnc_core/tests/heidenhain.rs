@@ -92,18 +92,19 @@ fn every_sample_of_a_polar_arc_is_on_its_circle() {
     let r = check(StrSource::new(EXAMPLE), Dialect::Heidenhain, &m);
     let s: Vec<Sample> = Executor::new(StrSource::new(EXAMPLE), Dialect::Heidenhain, &m).collect();
     assert_eq!(s.last().unwrap().k, r.ticks);
-    // the jerk filter (M samples) pulls a sample at speed v inside the
+    // the XYZ jerk filter (M samples) pulls a sample at speed v inside the
     // circle by v²(M²−1)dt²/(24 r): never outside, never further in (the
-    // first M−1 samples average in the line before, which is outside)
-    let mm = m.smoothing_samples() as f64;
-    assert_eq!(mm, 4.0);
+    // first samples of the block trail in the line before, which is
+    // outside: both filters' windows)
+    assert_eq!(m.jerk_budget().m_f, 4);
+    let lag = common::filter_lag(&m);
     let mut n = 0;
     let mut worst: f64 = 0.0;
     let on = |x: &Sample| x.src.line == 16 || x.src.line == 17;
     for (i, x) in s
         .iter()
         .enumerate()
-        .filter(|&(i, x)| on(x) && i >= 3 && s[i - 3..i].iter().all(on))
+        .filter(|&(i, x)| on(x) && i >= lag && s[i - lag..i].iter().all(on))
     {
         let d = ((x.pos.x - 25.0).powi(2) + (x.pos.y - 25.0).powi(2)).sqrt();
         let inside = common::filter_shrink(&m, &s, i, 20.0);

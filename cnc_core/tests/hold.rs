@@ -36,12 +36,15 @@ fn hold_decelerates_on_the_path_holds_still_and_resumes_to_the_exact_end() {
     }
     assert_eq!(ex.feed_scale(), 0.0);
     // 100 mm/s at 2000 mm/s² (the line runs between two stops, so it has
-    // the whole acceleration) stops in 50 ms, 2.5 mm, plus the 0.15 mm
-    // that the jerk filter's setpoint lags (1.5 samples)
+    // the whole acceleration) stops in 50 ms, 2.5 mm, plus the 0.5 mm
+    // that the jerk filters' setpoint lags ((M_s − 1 + M_f − 1)/2 = 5
+    // samples)
     let stop = s[1999].pos;
     let travelled = stop[0] - s[1499].pos[0];
+    let b = m.jerk_budget();
+    let lag = (b.m_s + b.m_f - 2) as f64 / 2.0 * 0.1;
     assert!(
-        (travelled - 100.0 * 100.0 / (2.0 * 2000.0) - 0.15).abs() < 0.1,
+        (travelled - 100.0 * 100.0 / (2.0 * 2000.0) - lag).abs() < 0.1,
         "{travelled}"
     );
     // held still for the last 400 samples, on the line

@@ -59,9 +59,10 @@ fn on_line(samples: &[Sample], line: u32) -> Vec<&Sample> {
 }
 
 /// Checks that every sample of `line` lies on the circle (centre, radius) of
-/// the plane `(p, q)` and that the normal axis `n` does not move. The jerk
-/// filter (M samples) pulls a sample at speed v inside by
-/// v²(M²−1)dt²/(24 r); its first M − 1 samples average in the move before.
+/// the plane `(p, q)` and that the normal axis `n` does not move. The XYZ
+/// jerk filter (M samples) pulls a sample at speed v inside by
+/// v²(M²−1)dt²/(24 r); the first samples of the block trail in the move
+/// before (both filters' windows).
 fn assert_on_circle(
     m: &Machine,
     samples: &[Sample],
@@ -73,7 +74,7 @@ fn assert_on_circle(
 ) -> usize {
     let pts = on_line(samples, line);
     assert!(pts.len() > 50, "line {line}: {} samples", pts.len());
-    let mm = m.smoothing_samples();
+    let mm = common::filter_lag(m);
     for (i, s) in pts.iter().enumerate().skip(mm - 1) {
         let d = ((s.pos[p] - c.0).powi(2) + (s.pos[q] - c.1).powi(2)).sqrt();
         let inside = common::filter_shrink(m, &pts, i, r);

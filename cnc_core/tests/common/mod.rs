@@ -19,11 +19,12 @@ pub fn exact(m: &Machine) -> Machine {
     m
 }
 
-/// How far the jerk filter (M samples) may pull sample `i` of `s` inside a
-/// circle of radius `r`: v²(M²−1)dt²/(24 r), with v the fastest path speed
-/// among the samples it averages (1 % and 1 nm in hand).
+/// How far the XYZ jerk filter (M samples) may pull sample `i` of `s`
+/// inside a circle of radius `r`: v²(M²−1)dt²/(24 r), with v the fastest
+/// path speed among the samples it averages (1 % and 1 nm in hand). The
+/// path filter keeps the setpoint on the circle.
 pub fn filter_shrink<T: Borrow<Sample>>(m: &Machine, s: &[T], i: usize, r: f64) -> f64 {
-    let mm = m.smoothing_samples();
+    let mm = m.jerk_budget().m_f;
     let v = s[i + 1 - mm..(i + mm).min(s.len())]
         .iter()
         .map(|x| x.borrow().path_speed)
@@ -93,4 +94,11 @@ pub fn dist_inner(el: &El, pt: (f64, f64)) -> (f64, f64, bool) {
             (d, side, rel > 1e-9 && rel < sw.abs() - 1e-9)
         }
     }
+}
+
+/// Samples by which a setpoint trails the block its sample names: the path
+/// filter's and the XYZ filter's windows.
+pub fn filter_lag(m: &Machine) -> usize {
+    let b = m.jerk_budget();
+    b.m_s + b.m_f - 1
 }

@@ -1,0 +1,490 @@
+//! Jerk limitation (issue 17): the budget that sizes the two setpoint
+//! filters and the planner's caps, and the filters themselves.
+//!
+//! 1. The **path filter** is a moving average of M_s samples over the path
+//!    length s the planner's trapezoid profiles give at each tick; the
+//!    setpoint is the path at the filtered s̃, so it stays exactly on the
+//!    (blended) path. Its tangential jerk is at most 2a/(M_s·dt) ≤
+//!    [`S_FILTER_SHARE`]·j.
+//! 2. The **XYZ filter**, a moving average of M_f samples of those
+//!    points, spreads the steps of the normal acceleration (a line meeting
+//!    an arc, a kink's velocity jump) over M_f·dt. For a moving average the
+//!    filtered sampled jerk is (A_k − A_{k−M_f})/(M_f·dt), A the input's
+//!    sampled acceleration, so two normal accelerations within M_f + 1
+//!    samples (`step_span`) of each other may differ by at most `b_step` =
+//!    [`NORMAL_JERK_SHARE`]·j·M_f·dt. Near the ends of an arc (within
+//!    `step_span` at its speed: where a line, another arc or a kink may be
+//!    in the same window) the planner keeps the normal acceleration under
+//!    `a_n` ≤ b_step/2, a kink's velocity jump over one sample too, so any
+//!    two differ by at most `b_step`. Inside a long arc, where the window
+//!    sees nothing but the arc, the normal acceleration only turns and
+//!    grows: v³κ²·W and 2·v·a_t·κ·W within a quarter of `b_step` each, and
+//!    the speed there may be higher ([`JerkBudget::arc_caps`]). The turn of
+//!    the tangential acceleration, a_t·v·κ, stays under
+//!    [`TURN_JERK_SHARE`]·j, and the path filter takes the rest. The XYZ
+//!    filter moves a point off a smooth path by at most
+//!    κ_max·Var(s)/2 ≤ v²κ·(M_f²−1)·dt²/24 (about the mean of the samples'
+//!    path lengths): inside arcs the normal acceleration stays under
+//!    `a_dev` for [`XYZ_FILTER_ERROR_MM`]; near kinks the chord's sagitta
+//!    a_n·((M_f−1)·dt)²/8 is within it, and M_f is chosen so that `a_n` is
+//!    as large as both allow.
+//! 3. The path filter delays s̃ behind s by up to (M_s−1)·dt: the speed
+//!    and acceleration s̃ has at a point are those the profile had within
+//!    `lag_distance` of it. The planner therefore applies each speed and
+//!    acceleration cap over that distance on either side (and splits long
+//!    lines so that only their ends take a neighbour's cap).
+
+use crate::geom::{Geom, V3};
+use crate::shares::{NORMAL_JERK_SHARE, S_FILTER_SHARE, TURN_JERK_SHARE, XYZ_FILTER_ERROR_MM};
+use std::collections::VecDeque;
+
+/// Longest XYZ filter, samples.
+const MAX_XYZ_SAMPLES: usize = 1000;
+
+/// What a machine's jerk limit leaves the planner and the filters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct JerkBudget {
+    pub dt: f64,
+    /// path filter length, samples (1: none)
+    pub m_s: usize,
+    /// XYZ filter length, samples (1: none)
+    pub m_f: usize,
+    /// the least jerk limit of the axes, mm/s³ (∞: none)
+    pub j: f64,
+    /// the largest normal acceleration near the ends of arcs and at kinks
+    /// (centripetal, or a kink's velocity jump over one sample), mm/s²
+    /// (∞: no cap)
+    pub a_n: f64,
+    /// the largest step of the normal acceleration (vector) between two
+    /// samples M_f + 1 apart, mm/s²
+    pub b_step: f64,
+    /// the largest normal acceleration inside an arc for the deviation,
+    /// mm/s²
+    pub a_dev: f64,
+    /// a main-like budget ([`JerkBudget::main_like`]): the XYZ filter's
+    /// error bound, mm (None: the bound of the caps, [`JerkBudget::error_mm`])
+    pub main_error_mm: Option<f64>,
+}
+
+impl JerkBudget {
+    /// No jerk limit: no filters, no caps.
+    pub fn none(dt: f64) -> Self {
+        JerkBudget {
+            dt,
+            m_s: 1,
+            m_f: 1,
+            j: f64::INFINITY,
+            a_n: f64::INFINITY,
+            b_step: f64::INFINITY,
+            a_dev: f64::INFINITY,
+            main_error_mm: None,
+        }
+    }
+
+    /// At high jerk, where one XYZ moving average of `m` samples alone (M =
+    /// ⌈2a/(j·dt)⌉, [`crate::Machine::main_smoothing_samples`]) keeps the
+    /// path within [`XYZ_FILTER_ERROR_MM`] (its bound `error_mm`,
+    /// [`crate::Machine::main_smoothing_error_mm`]): no path filter
+    /// (M_s = 1), that XYZ filter, no caps in the planner (as if
+    /// unlimited), M − 1 ticks of hold after stops and blends shrunk by
+    /// `error_mm`.
+    pub fn main_like(dt: f64, m: usize, j: f64, error_mm: f64) -> Self {
+        JerkBudget {
+            m_f: m.max(1),
+            j,
+            main_error_mm: Some(if m > 1 { error_mm } else { 0.0 }),
+            ..JerkBudget::none(dt)
+        }
+    }
+
+    /// The budget for jerk limit `j` (mm/s³, the least of the axes'), with
+    /// a path filter of `m_s` samples.
+    pub fn new(dt: f64, m_s: usize, j: Option<f64>) -> Self {
+        let Some(j) = j.filter(|j| j.is_finite() && *j > 0.0) else {
+            return JerkBudget::none(dt);
+        };
+        // the XYZ filter: the longest normal acceleration both the jerk and
+        // the deviation allow
+        let (mut best_m, mut best_a) = (1, 0.0);
+        for m in 2..=MAX_XYZ_SAMPLES {
+            let w = (m - 1) as f64 * dt;
+            let by_jerk = NORMAL_JERK_SHARE * j * m as f64 * dt / 2.0;
+            let by_error = 8.0 * XYZ_FILTER_ERROR_MM / (w * w);
+            let a = by_jerk.min(by_error);
+            if a > best_a {
+                best_m = m;
+                best_a = a;
+            }
+            if by_error < by_jerk {
+                break;
+            }
+        }
+        let m = best_m as f64;
+        JerkBudget {
+            dt,
+            m_s: m_s.max(1),
+            m_f: best_m,
+            j,
+            a_n: best_a,
+            b_step: NORMAL_JERK_SHARE * j * m * dt,
+            a_dev: 24.0 * XYZ_FILTER_ERROR_MM / ((m * m - 1.0) * dt * dt),
+            main_error_mm: None,
+        }
+    }
+
+    /// Whether the planner caps speeds and accelerations for the jerk
+    /// (a jerk limit that the filters alone do not keep: not a main-like
+    /// budget, [`JerkBudget::main_like`]).
+    #[inline]
+    pub fn limited(&self) -> bool {
+        self.j.is_finite() && self.a_n.is_finite()
+    }
+
+    /// Whether there are setpoint filters (either longer than a sample).
+    #[inline]
+    pub fn filtered(&self) -> bool {
+        self.m_s > 1 || self.m_f > 1
+    }
+
+    /// How long the path filter's window is, s.
+    #[inline]
+    pub fn lag_s(&self) -> f64 {
+        (self.m_s.saturating_sub(1)) as f64 * self.dt
+    }
+
+    /// The time between two samples whose normal accelerations the XYZ
+    /// filter's jerk compares, s ((M_f + 1)·dt).
+    #[inline]
+    pub fn step_span(&self) -> f64 {
+        (self.m_f + 1) as f64 * self.dt
+    }
+
+    /// How far, along the path, a speed or acceleration cap reaches on
+    /// either side when the profile runs at up to `v` mm/s.
+    #[inline]
+    pub fn lag_distance(&self, v: f64) -> f64 {
+        self.lag_s() * v
+    }
+
+    /// Ticks the setpoints hold still after each stop so that both filters
+    /// settle on the stop point.
+    pub fn hold_ticks(&self) -> u64 {
+        (self.m_s - 1 + self.m_f - 1) as u64
+    }
+
+    /// The largest distance by which the XYZ filter moves a setpoint off
+    /// the path, mm: on smooth stretches v²κ·(M_f²−1)·dt²/24 with the arcs'
+    /// `a_dev`; near kinks the sagitta of a curve with the normal
+    /// acceleration `a_n` over the filter's window (straight lines are not
+    /// moved; kinks' velocity jumps are normal accelerations of one sample
+    /// and count in the same bound).
+    pub fn error_mm(&self) -> f64 {
+        if let Some(e) = self.main_error_mm {
+            return e;
+        }
+        if self.m_f <= 1 || !self.a_n.is_finite() {
+            return 0.0;
+        }
+        let w = (self.m_f - 1) as f64 * self.dt;
+        let m = self.m_f as f64;
+        let smooth = self.a_dev * (m * m - 1.0) * self.dt * self.dt / 24.0;
+        (self.a_n * w * w / 8.0).max(smooth)
+    }
+
+    /// An arc's speed cap and tangential acceleration cap for curvature
+    /// `kappa` (1/mm). Near its ends: the normal acceleration within
+    /// `a_n`, the turn of the tangential acceleration a_t·v·κ within
+    /// [`TURN_JERK_SHARE`]·j. `inside` (the XYZ filter's window sees only
+    /// the arc): also any faster speed at which the normal acceleration
+    /// stays within `a_dev` and, over the filter's span W, its turn
+    /// v³κ²·W and its growth 2·v·a_t·κ·W within a quarter of `b_step`
+    /// each.
+    pub fn arc_caps(&self, kappa: f64, inside: bool) -> (f64, f64) {
+        if !self.limited() || kappa <= 0.0 {
+            return (f64::INFINITY, f64::INFINITY);
+        }
+        // (under `a_n` any two normal accelerations differ by at most
+        // `b_step`, however they turn or grow)
+        let by_size = (self.a_n / kappa).sqrt();
+        let w = self.step_span();
+        let q = 0.25 * self.b_step;
+        let by_change = (self.a_dev / kappa)
+            .sqrt()
+            .min((q / (w * kappa * kappa)).cbrt());
+        if !inside || by_change <= by_size {
+            return (by_size, TURN_JERK_SHARE * self.j / (by_size * kappa));
+        }
+        let v = by_change;
+        let a = (TURN_JERK_SHARE * self.j / (v * kappa)).min(q / (2.0 * v * kappa * w));
+        (v, a)
+    }
+
+    /// The speed cap of a kink whose unit tangent changes by `d` on some
+    /// axis: its velocity jump over one sample within `a_n`.
+    pub fn kink_cap(&self, d: f64) -> f64 {
+        if !self.limited() || d <= 0.0 {
+            return f64::INFINITY;
+        }
+        self.a_n * self.dt / d
+    }
+
+    /// The path filter's tangential jerk share, mm/s³.
+    pub fn s_share(&self) -> f64 {
+        S_FILTER_SHARE * self.j
+    }
+}
+
+/// A long move's end pieces halve this many times towards its ends, down
+/// to this length (mm).
+const SPLIT_LEVELS: usize = 6;
+const MIN_PIECE_MM: f64 = 0.02;
+/// Moves shorter than this many times the reach stay whole (a cap over
+/// all of such a short move costs little time; its pieces cost the
+/// look-ahead a walk over each: on the bundled mill, the check of a
+/// 10,000-line G64 contour 119 → 64 ms for 0.005 s of its 47.9 s).
+const SPLIT_FROM: f64 = 0.1;
+/// Most cuts [`piece_cuts`] makes.
+pub(crate) const MAX_CUTS: usize = 2 * SPLIT_LEVELS + 4;
+
+/// Where a move of `length` mm is cut into pieces so that caps reaching
+/// `reach` mm into it reach only its ends: at reach/64, /64, /32, ..., /2
+/// from either end (a shorter move: up to a third of it; one under
+/// `SPLIT_FROM`·reach stays whole), and at
+/// `inner_at` from either end (an arc's inside, `Lookahead::split`); the
+/// cuts in order and their number, or None if the move stays whole.
+pub(crate) fn piece_cuts(
+    reach: f64,
+    length: f64,
+    inner_at: Option<f64>,
+) -> Option<([f64; MAX_CUTS], usize)> {
+    let least = (reach / f64::from(1u32 << SPLIT_LEVELS)).max(MIN_PIECE_MM);
+    if !(least > 0.0 && length > 3.0 * least && length > SPLIT_FROM * reach) {
+        return None;
+    }
+    let r = reach.min(length / 3.0);
+    let mut cuts = [0.0; MAX_CUTS];
+    let mut n = 0;
+    for i in 0..=SPLIT_LEVELS {
+        let d = r / f64::from(1u32 << (SPLIT_LEVELS - i));
+        if d >= least || i == SPLIT_LEVELS {
+            cuts[n] = d;
+            n += 1;
+        }
+    }
+    if let Some(at) = inner_at.filter(|at| *at > r && 2.0 * at < length) {
+        cuts[n] = at;
+        n += 1;
+    }
+    for i in 0..n {
+        cuts[n + i] = length - cuts[n - 1 - i];
+    }
+    Some((cuts, 2 * n))
+}
+
+/// The curvature of a move (1/mm): 0 for lines; an arc's in-plane
+/// curvature scaled by its plane fraction squared (a helix).
+pub fn curvature(g: &Geom) -> f64 {
+    match g {
+        Geom::Line { .. } => 0.0,
+        Geom::Arc(a) if a.radius > 0.0 => {
+            let c = a.plane_fraction();
+            c * c / a.radius
+        }
+        Geom::Arc(_) => 0.0,
+    }
+}
+
+/// The moving average of the path length: the last M_s raw values, the
+/// moves they may fall on (with the path length at their starts), and the
+/// raw path speeds.
+#[derive(Clone, Debug)]
+pub(crate) struct PathFilter {
+    s: Vec<f64>,
+    speed: Vec<f64>,
+    i: usize,
+    /// (path length at the start, move): the moves the window reaches
+    segs: VecDeque<(f64, Geom)>,
+}
+
+impl PathFilter {
+    pub(crate) fn new(m: usize, s0: f64, at: V3) -> Self {
+        let mut segs = VecDeque::with_capacity(16);
+        segs.push_back((s0, Geom::Line { start: at, end: at }));
+        PathFilter {
+            s: vec![s0; m.max(1)],
+            speed: vec![0.0; m.max(1)],
+            i: 0,
+            segs,
+        }
+    }
+
+    /// Forgets the past: standing at `p`, path length `s0`.
+    pub(crate) fn reset(&mut self, s0: f64, p: V3, v: f64) {
+        self.s.fill(s0);
+        self.speed.fill(v);
+        self.segs.clear();
+        self.segs.push_back((s0, Geom::Line { start: p, end: p }));
+    }
+
+    /// A move starts at path length `s0`.
+    pub(crate) fn add_move(&mut self, s0: f64, g: Geom) {
+        self.segs.push_back((s0, g));
+    }
+
+    /// Every slot holds the same path length.
+    pub(crate) fn settled(&self) -> bool {
+        self.s.iter().all(|x| *x == self.s[0])
+    }
+
+    /// Adds a raw path length and speed; the filtered position (`raw`
+    /// itself once settled: exactly the raw point) and speed.
+    pub(crate) fn push(&mut self, s: f64, v: f64, raw: V3) -> (V3, f64) {
+        self.s[self.i] = s;
+        self.speed[self.i] = v;
+        self.i = (self.i + 1) % self.s.len();
+        let n = self.s.len() as f64;
+        let speed = self.speed.iter().sum::<f64>() / n;
+        if self.settled() {
+            return (raw, speed);
+        }
+        let sf = self.s.iter().sum::<f64>() / n;
+        // the oldest value is the least (s never decreases): moves ending
+        // before it are behind the window
+        let oldest = self.s[self.i];
+        while self.segs.len() > 1 && self.segs[1].0 <= oldest.min(sf) {
+            self.segs.pop_front();
+        }
+        let k = self.segs.partition_point(|(s0, _)| *s0 <= sf);
+        let p = match self.segs.get(k.saturating_sub(1)) {
+            Some((s0, g)) => g.eval(sf - s0),
+            None => raw,
+        };
+        (p, speed)
+    }
+}
+
+/// A moving average of the last M setpoints (and path speeds).
+#[derive(Clone, Debug)]
+pub(crate) struct Smoother {
+    pos: Vec<V3>,
+    speed: Vec<f64>,
+    /// where the next sample goes
+    i: usize,
+}
+
+impl Smoother {
+    pub(crate) fn new(m: usize, at: V3) -> Self {
+        Smoother {
+            pos: vec![at; m.max(1)],
+            speed: vec![0.0; m.max(1)],
+            i: 0,
+        }
+    }
+
+    /// Forgets the past: every slot holds `p` (bypassed samples).
+    pub(crate) fn reset(&mut self, p: V3, v: f64) {
+        self.pos.fill(p);
+        self.speed.fill(v);
+    }
+
+    /// Adds a sample; the filtered position and speed. A full window of
+    /// equal positions gives that position exactly.
+    pub(crate) fn push(&mut self, p: V3, v: f64) -> (V3, f64) {
+        self.pos[self.i] = p;
+        self.speed[self.i] = v;
+        self.i = (self.i + 1) % self.pos.len();
+        let n = self.pos.len() as f64;
+        let avg = if self.settled() {
+            p
+        } else {
+            self.pos.iter().fold(V3::zeros(), |acc, q| acc + q) / n
+        };
+        (avg, self.speed.iter().sum::<f64>() / n)
+    }
+
+    /// Every slot holds the same position.
+    pub(crate) fn settled(&self) -> bool {
+        self.pos.iter().all(|q| *q == self.pos[0])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_arcs_inside_keeps_its_budgets_and_is_never_slower_than_its_ends() {
+        for j in [2.0e4, 5.0e4, 1.0e5, 3.0e5, 1.0e6] {
+            for m_s in [4, 40, 400] {
+                let jb = JerkBudget::new(0.001, m_s, Some(j));
+                let w = jb.step_span();
+                for r in [0.01, 0.1, 1.0, 2.0, 8.0, 50.0, 1000.0] {
+                    let kappa = 1.0 / r;
+                    let (v_end, a_end) = jb.arc_caps(kappa, false);
+                    let (v, a) = jb.arc_caps(kappa, true);
+                    assert!(v >= v_end && v.is_finite() && a > 0.0, "{j} {r}");
+                    // at the ends: the normal acceleration within a_n
+                    assert!(v_end * v_end * kappa <= jb.a_n * (1.0 + 1e-12));
+                    assert!(a_end * v_end * kappa <= TURN_JERK_SHARE * j * (1.0 + 1e-12));
+                    if v > v_end {
+                        // inside: the offset, the turn and the growth
+                        let q = 0.25 * jb.b_step * (1.0 + 1e-12);
+                        assert!(v * v * kappa <= jb.a_dev * (1.0 + 1e-12), "{j} {r}");
+                        assert!(v * v * v * kappa * kappa * w <= q, "{j} {r}");
+                        assert!(2.0 * v * a * kappa * w <= q, "{j} {r}");
+                        assert!(a * v * kappa <= TURN_JERK_SHARE * j * (1.0 + 1e-12));
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn high_jerk_machines_run_main_like_and_low_jerk_ones_the_caps() {
+        for (m, mm) in [
+            (crate::Machine::builtin_mill(), 4),
+            (crate::Machine::builtin_lathe(), 5),
+        ] {
+            // 1000 m/s³: one XYZ moving average of M samples, no caps
+            let b = m.jerk_budget();
+            assert_eq!((b.m_s, b.m_f, b.hold_ticks()), (1, mm, mm as u64 - 1));
+            assert!(!b.limited() && b.filtered());
+            assert_eq!(b.error_mm(), m.main_smoothing_error_mm());
+            assert!(b.error_mm() <= crate::shares::MAIN_LIKE_ERROR_MM);
+            assert_eq!(b.arc_caps(0.1, false), (f64::INFINITY, f64::INFINITY));
+            assert_eq!(b.kink_cap(0.5), f64::INFINITY);
+            // 50 m/s³: the path filter, the XYZ filter and the caps
+            let mut m = m;
+            for a in &mut m.axes {
+                a.max_jerk_mm_s3 = Some(5.0e4);
+            }
+            let b = m.jerk_budget();
+            assert!(b.limited() && b.m_s > 1 && b.m_f > 1);
+            assert_eq!(
+                b,
+                JerkBudget::new(m.dt(), m.smoothing_samples(), Some(5.0e4))
+            );
+            assert!(b.error_mm() <= XYZ_FILTER_ERROR_MM * (1.0 + 1e-12));
+        }
+    }
+
+    #[test]
+    fn pieces_are_in_order_within_the_move() {
+        for reach in [0.05, 0.5, 3.0, 20.0] {
+            for length in [0.01, 0.1, 1.0, 5.0, 40.0, 300.0] {
+                for inner in [None, Some(0.3 * length), Some(2.0 * reach), Some(length)] {
+                    let Some((cuts, n)) = piece_cuts(reach, length, inner) else {
+                        continue;
+                    };
+                    let cuts = &cuts[..n];
+                    assert!((2..=MAX_CUTS).contains(&n));
+                    assert!(cuts[0] > 0.0 && cuts[n - 1] < length, "{cuts:?}");
+                    assert!(
+                        cuts.windows(2).all(|c| c[0] < c[1]),
+                        "{reach} {length} {cuts:?}"
+                    );
+                }
+            }
+        }
+    }
+}
