@@ -40,3 +40,14 @@ pub use dialect::Dialect;
 pub use machine::Machine;
 
 pub use geom::V3;
+
+/// One step of the xorshift64 generator the unit tests draw their
+/// pseudo-random cases from (deterministic, no dependency): advances `x`
+/// and returns it.
+#[cfg(test)]
+pub(crate) fn xorshift64(x: &mut u64) -> u64 {
+    *x ^= *x << 13;
+    *x ^= *x >> 7;
+    *x ^= *x << 17;
+    *x
+}

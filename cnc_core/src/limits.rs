@@ -378,12 +378,7 @@ mod tests {
     #[test]
     fn prepared_moves_are_each_share_bit_for_bit() {
         let mut x = 0x9E37_79B9_7F4A_7C15u64;
-        let mut next = move || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = move || (crate::xorshift64(&mut x) >> 11) as f64 / (1u64 << 53) as f64;
         let mut flat = 0;
         for m in [Machine::builtin_mill(), Machine::builtin_lathe()] {
             // (the shares alone: no jerk caps)

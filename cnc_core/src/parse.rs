@@ -536,9 +536,7 @@ mod tests {
         // pseudo-random decimals of every shape
         let mut x = 0x2545_F491_4F6C_DD1Du64;
         for _ in 0..20_000 {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
+            crate::xorshift64(&mut x);
             let int_len = (x % 12) as usize;
             let frac_len = ((x >> 8) % 24) as usize;
             let digs = format!("{:020}{:020}", x >> 1, x.rotate_left(29) >> 1);
@@ -573,12 +571,7 @@ mod tests {
         // same word of it (bit for bit) and ends at the same place
         let alphabet = b"0123456789012345678901234567890123456789..-+-+xX ;\xc3";
         let mut x = 0x0123_4567_89AB_CDEFu64;
-        let mut next = move |n: usize| {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x % n as u64) as usize
-        };
+        let mut next = move |n: usize| (crate::xorshift64(&mut x) % n as u64) as usize;
         let mut taken = 0;
         for _ in 0..300_000 {
             let len = 1 + next(30);

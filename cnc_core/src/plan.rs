@@ -775,12 +775,7 @@ mod tests {
             ]
         };
         let mut x = 0x9E37_79B9_7F4A_7C15u64;
-        let mut next = move || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = move || (crate::xorshift64(&mut x) >> 11) as f64 / (1u64 << 53) as f64;
         for k in 0..50_000 {
             let (vcap, a, length) = (next() * 300.0, 10.0 + next() * 3000.0, next() * 20.0);
             let v0 = [0.0, -0.0, next() * vcap][k % 3];

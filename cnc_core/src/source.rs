@@ -300,9 +300,7 @@ mod tests {
     fn newlines_found_eight_bytes_at_a_time_are_the_first() {
         let mut x = 0x2545_F491_4F6C_DD1Du64;
         for _ in 0..100_000 {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
+            crate::xorshift64(&mut x);
             let len = (x % 40) as usize;
             // newlines rare or frequent, next to every byte value
             let hay: Vec<u8> = (0..len)
