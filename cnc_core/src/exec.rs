@@ -17,7 +17,7 @@
 //! normal acceleration. After each stop the setpoints hold still for
 //! M_s + M_f − 2 ticks ([`crate::timeline::Timeline::hold`]), so that the
 //! filtered path reaches every stop point exactly; the check counts those
-//! ticks too. At high jerk ([`crate::jerk::JerkBudget::main_like`]) there
+//! ticks too. At high jerk ([`crate::jerk::JerkBudget::single_average`]) there
 //! is no path filter (M_s = 1: the raw point, bit for bit) and the XYZ
 //! filter alone limits the jerk. G33 samples bypass both filters: they follow the spindle
 //! angle, and a filter's delay would shift the groove with the speed.

@@ -61,9 +61,9 @@ pub struct JerkBudget {
     /// the largest normal acceleration inside an arc for the deviation,
     /// mm/s²
     pub a_dev: f64,
-    /// a main-like budget ([`JerkBudget::main_like`]): the XYZ filter's
+    /// a single-average budget ([`JerkBudget::single_average`]): the XYZ filter's
     /// error bound, mm (None: the bound of the caps, [`JerkBudget::error_mm`])
-    pub main_error_mm: Option<f64>,
+    pub single_average_error_mm: Option<f64>,
 }
 
 impl JerkBudget {
@@ -77,22 +77,22 @@ impl JerkBudget {
             a_n: f64::INFINITY,
             b_step: f64::INFINITY,
             a_dev: f64::INFINITY,
-            main_error_mm: None,
+            single_average_error_mm: None,
         }
     }
 
     /// At high jerk, where one XYZ moving average of `m` samples alone (M =
-    /// ⌈2a/(j·dt)⌉, [`crate::Machine::main_smoothing_samples`]) keeps the
-    /// path within [`XYZ_FILTER_ERROR_MM`] (its bound `error_mm`,
-    /// [`crate::Machine::main_smoothing_error_mm`]): no path filter
+    /// ⌈2a/(j·dt)⌉, [`crate::Machine::single_average_samples`]) keeps the
+    /// path within [`crate::shares::SINGLE_AVERAGE_ERROR_MM`] (its bound `error_mm`,
+    /// [`crate::Machine::single_average_error_mm`]): no path filter
     /// (M_s = 1), that XYZ filter, no caps in the planner (as if
     /// unlimited), M − 1 ticks of hold after stops and blends shrunk by
     /// `error_mm`.
-    pub fn main_like(dt: f64, m: usize, j: f64, error_mm: f64) -> Self {
+    pub fn single_average(dt: f64, m: usize, j: f64, error_mm: f64) -> Self {
         JerkBudget {
             m_f: m.max(1),
             j,
-            main_error_mm: Some(if m > 1 { error_mm } else { 0.0 }),
+            single_average_error_mm: Some(if m > 1 { error_mm } else { 0.0 }),
             ..JerkBudget::none(dt)
         }
     }
@@ -128,13 +128,13 @@ impl JerkBudget {
             a_n: best_a,
             b_step: NORMAL_JERK_SHARE * j * m * dt,
             a_dev: 24.0 * XYZ_FILTER_ERROR_MM / ((m * m - 1.0) * dt * dt),
-            main_error_mm: None,
+            single_average_error_mm: None,
         }
     }
 
     /// Whether the planner caps speeds and accelerations for the jerk
-    /// (a jerk limit that the filters alone do not keep: not a main-like
-    /// budget, [`JerkBudget::main_like`]).
+    /// (a jerk limit that the filters alone do not keep: not a single-average
+    /// budget, [`JerkBudget::single_average`]).
     #[inline]
     pub fn limited(&self) -> bool {
         self.j.is_finite() && self.a_n.is_finite()
@@ -179,7 +179,7 @@ impl JerkBudget {
     /// moved; kinks' velocity jumps are normal accelerations of one sample
     /// and count in the same bound).
     pub fn error_mm(&self) -> f64 {
-        if let Some(e) = self.main_error_mm {
+        if let Some(e) = self.single_average_error_mm {
             return e;
         }
         if self.m_f <= 1 || !self.a_n.is_finite() {
@@ -440,7 +440,7 @@ mod tests {
     }
 
     #[test]
-    fn high_jerk_machines_run_main_like_and_low_jerk_ones_the_caps() {
+    fn high_jerk_machines_run_the_single_average_and_low_jerk_ones_the_caps() {
         for (m, mm) in [
             (crate::Machine::builtin_mill(), 4),
             (crate::Machine::builtin_lathe(), 5),
@@ -449,8 +449,8 @@ mod tests {
             let b = m.jerk_budget();
             assert_eq!((b.m_s, b.m_f, b.hold_ticks()), (1, mm, mm as u64 - 1));
             assert!(!b.limited() && b.filtered());
-            assert_eq!(b.error_mm(), m.main_smoothing_error_mm());
-            assert!(b.error_mm() <= crate::shares::MAIN_LIKE_ERROR_MM);
+            assert_eq!(b.error_mm(), m.single_average_error_mm());
+            assert!(b.error_mm() <= crate::shares::SINGLE_AVERAGE_ERROR_MM);
             assert_eq!(b.arc_caps(0.1, false), (f64::INFINITY, f64::INFINITY));
             assert_eq!(b.kink_cap(0.5), f64::INFINITY);
             // 50 m/s³: the path filter, the XYZ filter and the caps

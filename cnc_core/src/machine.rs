@@ -703,18 +703,18 @@ impl Machine {
 
     /// The jerk budget: both filters and the planner's caps. Where one
     /// moving average of the XYZ setpoints keeps the path within
-    /// [`crate::shares::MAIN_LIKE_ERROR_MM`] (high jerk:
-    /// [`Machine::main_smoothing_error_mm`]), that filter alone
-    /// ([`JerkBudget::main_like`]); else the path filter, the XYZ filter
+    /// [`crate::shares::SINGLE_AVERAGE_ERROR_MM`] (high jerk:
+    /// [`Machine::single_average_error_mm`]), that filter alone
+    /// ([`JerkBudget::single_average`]); else the path filter, the XYZ filter
     /// and the caps ([`JerkBudget::new`]).
     pub fn jerk_budget(&self) -> JerkBudget {
         let dt = self.dt();
         let Some(j) = self.jerk_limit() else {
             return JerkBudget::new(dt, self.smoothing_samples(), None);
         };
-        let err = self.main_smoothing_error_mm();
-        if err <= crate::shares::MAIN_LIKE_ERROR_MM {
-            JerkBudget::main_like(dt, self.main_smoothing_samples(), j, err)
+        let err = self.single_average_error_mm();
+        if err <= crate::shares::SINGLE_AVERAGE_ERROR_MM {
+            JerkBudget::single_average(dt, self.single_average_samples(), j, err)
         } else {
             JerkBudget::new(dt, self.smoothing_samples(), Some(j))
         }
@@ -724,7 +724,7 @@ impl Machine {
     /// own, in samples (1: none): the filtered sampled jerk is
     /// (a[k] − a[k−M]) / (M·dt), at most 2·a_max/(M·dt), so M =
     /// ⌈2·a_max / (j_max·dt)⌉ over the axes with a jerk limit.
-    pub fn main_smoothing_samples(&self) -> usize {
+    pub fn single_average_samples(&self) -> usize {
         let dt = self.dt();
         let m = self
             .axes
@@ -738,7 +738,7 @@ impl Machine {
     }
 
     /// Largest distance, mm, by which the single XYZ moving average of
-    /// [`Machine::main_smoothing_samples`] moves a setpoint off the
+    /// [`Machine::single_average_samples`] moves a setpoint off the
     /// programmed path. The filtered point is the mean of the last M raw
     /// points, which lie on a piece of path (M − 1)·v·dt long, so it is no
     /// further from the path than that piece's chord: on an arc of radius
@@ -747,8 +747,8 @@ impl Machine {
     /// `shares::ARC_NORMAL_MAX`·a_max). A nearly tangent junction, whose
     /// velocity jump is at most `shares::KINK_SHARE`·a_max·dt, is cut by
     /// at most (M−1)·dt·Δv/4. Straight lines are not moved at all.
-    pub fn main_smoothing_error_mm(&self) -> f64 {
-        let m = self.main_smoothing_samples() as f64;
+    pub fn single_average_error_mm(&self) -> f64 {
+        let m = self.single_average_samples() as f64;
         if m <= 1.0 {
             return 0.0;
         }

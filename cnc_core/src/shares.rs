@@ -37,12 +37,13 @@ pub const TURN_JERK_SHARE: f64 = 1.0 - S_FILTER_SHARE - NORMAL_JERK_SHARE;
 /// a curve (programmed arcs and blend arcs): the planner caps the normal
 /// acceleration for it. Also what a G61 path may deviate.
 pub const XYZ_FILTER_ERROR_MM: f64 = 0.001;
-/// Jerk: a machine whose single XYZ moving average (main's design,
-/// [`crate::Machine::main_smoothing_error_mm`]) keeps the path within this
-/// many mm runs that filter alone, without the path filter and the caps
-/// ([`crate::jerk::JerkBudget::main_like`]). 5 µm, not the XYZ filter's
-/// 1 µm ([`XYZ_FILTER_ERROR_MM`]): main's bound at the bundled machines'
-/// 1000 m/s³ is 2.17 µm on the mill (M = 4) and 4.71 µm on the lathe
-/// (M = 5), and those run as on main (about 800 m/s³ and up at 2000 mm/s²).
+/// Jerk: a machine whose single XYZ moving average (the design before the
+/// path filter, [`crate::Machine::single_average_error_mm`]) keeps the
+/// path within this many mm runs that filter alone, without the path
+/// filter and the caps ([`crate::jerk::JerkBudget::single_average`]). 5
+/// µm, not the XYZ filter's 1 µm ([`XYZ_FILTER_ERROR_MM`]): that bound at
+/// the bundled machines' 1000 m/s³ is 2.17 µm on the mill (M = 4) and
+/// 4.71 µm on the lathe (M = 5), and those run as before the path filter
+/// (about 800 m/s³ and up at 2000 mm/s²).
 /// Blends shrink by that bound, so G64 P keeps its tolerance either way.
-pub const MAIN_LIKE_ERROR_MM: f64 = 0.005;
+pub const SINGLE_AVERAGE_ERROR_MM: f64 = 0.005;
