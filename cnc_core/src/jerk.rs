@@ -441,28 +441,45 @@ mod tests {
 
     #[test]
     fn high_jerk_machines_run_the_single_average_and_low_jerk_ones_the_caps() {
-        for (m, mm) in [
-            (crate::Machine::builtin_mill(), 4),
-            (crate::Machine::builtin_lathe(), 5),
+        for (m, mm, (ms, mf)) in [
+            (crate::Machine::builtin_mill(), 4, (40, 6)),
+            (crate::Machine::builtin_lathe(), 5, (50, 6)),
         ] {
-            // 1000 m/s³: one XYZ moving average of M samples, no caps
+            // the bundled 200 m/s³: the path filter, the XYZ filter and
+            // the caps
             let b = m.jerk_budget();
+            assert_eq!(
+                (b.m_s, b.m_f, b.hold_ticks()),
+                (ms, mf, (ms + mf - 2) as u64)
+            );
+            assert!(b.limited() && b.filtered());
+            assert_eq!(
+                b,
+                JerkBudget::new(m.dt(), m.smoothing_samples(), Some(2.0e5))
+            );
+            assert!(b.error_mm() <= XYZ_FILTER_ERROR_MM * (1.0 + 1e-12));
+            // 1000 m/s³: one XYZ moving average of M samples, no caps
+            let mut high = m.clone();
+            for a in &mut high.axes {
+                a.max_jerk_mm_s3 = Some(1.0e6);
+            }
+            let b = high.jerk_budget();
             assert_eq!((b.m_s, b.m_f, b.hold_ticks()), (1, mm, mm as u64 - 1));
             assert!(!b.limited() && b.filtered());
-            assert_eq!(b.error_mm(), m.single_average_error_mm());
+            assert_eq!(b.error_mm(), high.single_average_error_mm());
             assert!(b.error_mm() <= crate::shares::SINGLE_AVERAGE_ERROR_MM);
             assert_eq!(b.arc_caps(0.1, false), (f64::INFINITY, f64::INFINITY));
             assert_eq!(b.kink_cap(0.5), f64::INFINITY);
-            // 50 m/s³: the path filter, the XYZ filter and the caps
-            let mut m = m;
-            for a in &mut m.axes {
+            // 50 m/s³: the caps, a longer path filter
+            let mut low = m;
+            for a in &mut low.axes {
                 a.max_jerk_mm_s3 = Some(5.0e4);
             }
-            let b = m.jerk_budget();
-            assert!(b.limited() && b.m_s > 1 && b.m_f > 1);
+            let b = low.jerk_budget();
+            assert!(b.limited() && b.m_s > ms && b.m_f > mf);
             assert_eq!(
                 b,
-                JerkBudget::new(m.dt(), m.smoothing_samples(), Some(5.0e4))
+                JerkBudget::new(low.dt(), low.smoothing_samples(), Some(5.0e4))
             );
             assert!(b.error_mm() <= XYZ_FILTER_ERROR_MM * (1.0 + 1e-12));
         }

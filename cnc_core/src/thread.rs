@@ -168,7 +168,8 @@ const HISTORY: usize = 256;
 /// simulated spindle at 200-2000 rpm and ±2 % ripple at 50 Hz, the thread
 /// starting at 8 phases of the ripple (`tests/thread.rs`): the predicted
 /// angle stays within 1.05 counts of the true one (0.57 at 200 and 0.73
-/// at 800 rpm; 0.33 without ripple). A 16 ms window gets 0.95 counts at every speed but loses a
+/// at 800 rpm; 0.33 without ripple); at 2000 rpm over 200 start phases 1
+/// ms apart, within 1.0545. A 16 ms window gets 0.95 counts at every speed but loses a
 /// steady spindle's half count and the two counts behind 8 ms stalls of
 /// the readings (`controller_thread.rs`); 12 ms is worse (1.12).
 const DEGREE: usize = 2;

@@ -165,6 +165,7 @@ fn good_program_summary() {
     // kink): 0.4 + 0.125 s; circle 125.66 mm at 20 mm/s, whose centripetal
     // 20 mm/s² leaves √(1 − 0.01²)·2000 mm/s² along the path: 6.2832 +
     // 0.0100 s; each rounded up to ticks and followed by the jerk
-    // filter's 3-tick hold
-    assert!((r.duration_s - 6.825).abs() < 0.0005, "{}", r.duration_s);
+    // filters' 44-tick hold (M_s − 1 + M_f − 1 = 39 + 5)
+    assert_eq!(Machine::builtin_mill().jerk_budget().hold_ticks(), 44);
+    assert!((r.duration_s - 6.907).abs() < 0.0005, "{}", r.duration_s);
 }

@@ -96,7 +96,8 @@ fn every_sample_of_a_polar_arc_is_on_its_circle() {
     // circle by v²(M²−1)dt²/(24 r): never outside, never further in (the
     // first samples of the block trail in the line before, which is
     // outside: both filters' windows)
-    assert_eq!(m.jerk_budget().m_f, 4);
+    let mf = m.jerk_budget().m_f as f64;
+    assert_eq!(mf, 6.0);
     let lag = common::filter_lag(&m);
     let mut n = 0;
     let mut worst: f64 = 0.0;
@@ -117,8 +118,14 @@ fn every_sample_of_a_polar_arc_is_on_its_circle() {
         worst = worst.max(20.0 - d);
         n += 1;
     }
-    // F2500 = 41.67 mm/s: 41.67²·15·1e-6/480 = 5.43e-5 mm
-    assert!(worst > 5.4e-5 && worst < 5.45e-5, "{worst:e}");
+    // F2500 = 41.67 mm/s, M = 6: 41.67²·35·1e-6/480 = 1.266e-4 mm
+    let v: f64 = 2500.0 / 60.0;
+    let expect = v * v * (mf * mf - 1.0) * 1e-6 / 480.0;
+    assert!((1.265e-4..1.267e-4).contains(&expect), "{expect:e}");
+    assert!(
+        worst > expect * 0.995 && worst < expect * 1.005,
+        "{worst:e} against {expect:e}"
+    );
     assert!(n > 5000, "{n}");
     // the helix: Z falls linearly with the turned angle
     // the stop after it is sampled exactly: the next block starts there

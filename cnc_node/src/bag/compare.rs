@@ -3,7 +3,7 @@
 
 use super::reader::{Bag, TopicData};
 use super::thread_phase::{measure_bag, NotMeasured, PassPhase, RecordingThreads};
-use crate::plot::PhaseStats;
+use crate::plot::{signed_deg4, PhaseStats};
 use crate::record::{self, from_cdr, topics};
 use cnc_msgs::schema::RosSchema;
 use cnc_msgs::{ControllerStatus, JointState, PointCloud2, PointField, PoseStamped, TFMessage};
@@ -132,7 +132,9 @@ impl ThreadPhases {
         let side = |g: Option<&PhaseStats>| match g {
             Some(g) if g.n > 0 => format!(
                 "mean {:+.4}° worst {:.4}° ({} samples)",
-                g.mean_deg, g.worst_deg, g.n
+                signed_deg4(g.mean_deg),
+                g.worst_deg,
+                g.n
             ),
             _ => "none".to_string(),
         };
@@ -161,8 +163,8 @@ impl ThreadPhases {
                     write!(
                         f,
                         ", B - A mean {:+.4}° worst {:+.4}°",
-                        y.mean_deg - x.mean_deg,
-                        y.worst_deg - x.worst_deg
+                        signed_deg4(y.mean_deg - x.mean_deg),
+                        signed_deg4(y.worst_deg - x.worst_deg)
                     )?;
                 }
                 writeln!(f)?;

@@ -52,7 +52,8 @@ pub use render::{render, render_png, render_svg};
 pub use run::ProgramRun;
 pub(crate) use thread_errors::PassBuilder;
 pub use thread_errors::{
-    phase_deg, wrap_deg, PhaseStats, ThreadErrorPoint, ThreadErrorSeries, ThreadErrors, ThreadPass,
+    phase_deg, signed_deg4, wrap_deg, PhaseStats, ThreadErrorPoint, ThreadErrorSeries,
+    ThreadErrors, ThreadPass,
 };
 pub use thread_figure::{
     plot_recording_thread, plot_run_thread, plot_thread_error, thread_error_series, thread_labels,

@@ -40,6 +40,12 @@ pub struct PhaseStats {
     pub spread_deg: f64,
 }
 
+/// `deg` as printed with a sign and four decimals: rounded to them, and a
+/// value that rounds to zero is +0 (not "-0.0000°").
+pub fn signed_deg4(deg: f64) -> f64 {
+    (deg * 1e4).round() / 1e4 + 0.0
+}
+
 /// `deg` wrapped to (−180, 180].
 pub fn wrap_deg(deg: f64) -> f64 {
     let d = deg.rem_euclid(360.0);

@@ -5,7 +5,7 @@ use super::figure::{Band, Dash, Figure, Format, Panel, Rgb, Series};
 use super::render::render;
 use super::run::ProgramRun;
 use super::scale::tick;
-use super::thread_errors::{PhaseStats, ThreadErrorSeries, ThreadPass};
+use super::thread_errors::{signed_deg4, PhaseStats, ThreadErrorSeries, ThreadPass};
 use crate::bag::{measure_recording, RecordingThreads};
 use cnc_core::{Dialect, Machine};
 use std::path::Path;
@@ -204,7 +204,10 @@ pub fn thread_summary(series: &ThreadErrorSeries) -> String {
         } else {
             format!(
                 "mean {:+.4}°, worst {:.4}°, spread {:.4}° ({} samples)",
-                g.mean_deg, g.worst_deg, g.spread_deg, g.n
+                signed_deg4(g.mean_deg),
+                g.worst_deg,
+                g.spread_deg,
+                g.n
             )
         }
     };
