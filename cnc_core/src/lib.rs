@@ -28,6 +28,7 @@ pub mod machine;
 pub mod parse;
 pub mod pipeline;
 pub mod plan;
+pub mod profile;
 pub mod shares;
 pub mod source;
 pub mod thread;

@@ -19,7 +19,7 @@ pub(crate) struct MoveLimits {
     /// path acceleration
     pub a: f64,
     /// speed cap at any feed, with acceleration `a`
-    /// ([`Profile::vlim`](crate::plan::Profile::vlim))
+    /// ([`Profile::vlim`](crate::profile::Profile::vlim))
     pub vlim: f64,
 }
 

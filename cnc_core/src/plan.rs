@@ -22,102 +22,8 @@ use crate::geom::V3;
 use crate::jerk::piece_cuts;
 pub use crate::limits::PlanLimits;
 use crate::limits::{MoveLimits, MovePrep};
+pub use crate::profile::Profile;
 use std::collections::VecDeque;
-
-/// A trapezoidal (or triangular) speed profile over one move.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Profile {
-    pub v0: f64,
-    pub vp: f64,
-    pub v1: f64,
-    pub a: f64,
-    pub length: f64,
-    pub t_acc: f64,
-    pub t_cruise: f64,
-    pub t_dec: f64,
-    pub d_acc: f64,
-    pub d_cruise: f64,
-    /// total time, s
-    pub duration: f64,
-    /// fastest speed the move's geometry allows at any feed, with its
-    /// acceleration `a` (what a feed override over 100 % may reach)
-    pub vlim: f64,
-    /// the smallest path acceleration of this move and the moves it joins
-    /// without a stop: what a change of the feed scale may use in a
-    /// sample step that reaches across a junction
-    pub a_join: f64,
-}
-
-impl Profile {
-    /// Fastest profile from `v0` to `v1` over `length` with acceleration
-    /// `a` and speed cap `vcap` (`v0, v1 <= vcap`, `|v1²-v0²| <= 2 a length`).
-    #[inline]
-    pub fn new(v0: f64, v1: f64, vcap: f64, a: f64, length: f64) -> Profile {
-        let peak = ((2.0 * a * length + v0 * v0 + v1 * v1) * 0.5).sqrt();
-        let vp = peak.min(vcap).max(v0).max(v1);
-        let d_acc = ((vp * vp - v0 * v0) / (2.0 * a)).max(0.0);
-        let t_acc = (vp - v0) / a;
-        // (from rest to rest, say: the same speeds, the same ramps)
-        let same = v1.to_bits() == v0.to_bits();
-        let d_dec = if same {
-            d_acc
-        } else {
-            ((vp * vp - v1 * v1) / (2.0 * a)).max(0.0)
-        };
-        let d_cruise = (length - d_acc - d_dec).max(0.0);
-        let t_dec = if same { t_acc } else { (vp - v1) / a };
-        let t_cruise = if vp > 0.0 { d_cruise / vp } else { 0.0 };
-        Profile {
-            v0,
-            vp,
-            v1,
-            a,
-            length,
-            t_acc,
-            t_cruise,
-            t_dec,
-            d_acc,
-            d_cruise,
-            duration: t_acc + t_cruise + t_dec,
-            vlim: vcap,
-            a_join: a,
-        }
-    }
-
-    /// Distance along the move at time `t` after its start.
-    pub fn s_at(&self, t: f64) -> f64 {
-        if t <= 0.0 {
-            return 0.0;
-        }
-        if t >= self.duration {
-            return self.length;
-        }
-        let s = if t < self.t_acc {
-            self.v0 * t + 0.5 * self.a * t * t
-        } else if t < self.t_acc + self.t_cruise {
-            self.d_acc + self.vp * (t - self.t_acc)
-        } else {
-            let u = t - self.t_acc - self.t_cruise;
-            self.d_acc + self.d_cruise + self.vp * u - 0.5 * self.a * u * u
-        };
-        s.min(self.length)
-    }
-
-    /// Path speed at time `t`.
-    pub fn v_at(&self, t: f64) -> f64 {
-        if t <= 0.0 {
-            self.v0
-        } else if t < self.t_acc {
-            self.v0 + self.a * t
-        } else if t < self.t_acc + self.t_cruise {
-            self.vp
-        } else if t < self.duration {
-            self.vp - self.a * (t - self.t_acc - self.t_cruise)
-        } else {
-            self.v1
-        }
-    }
-}
 
 /// A move with its profile.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -189,6 +95,18 @@ impl<K> QSeg<K> {
     fn entry_to_stop(&self) -> f64 {
         self.j.min(self.stop)
     }
+}
+
+/// Jerk: a move the look-ahead holds back until the next event shows
+/// whether its exit is a stop.
+#[derive(Clone, Copy, Debug)]
+struct Pending {
+    geom: Geom,
+    feed: Feed,
+    src: Src,
+    prep: MovePrep,
+    /// whether it starts from a stop
+    entry_stop: bool,
 }
 
 /// Jerk: the queue waits for the path filter's reach behind its head up to
@@ -284,8 +202,10 @@ pub(crate) struct Lookahead<K> {
     a_before: f64,
     /// the queue's total path length, mm
     queued: f64,
-    /// pushing the pieces of a split line
-    splitting: bool,
+    /// jerk: the last move in, held back until its exit junction is
+    /// known (a move between two stops needs no pieces at its ends: no
+    /// neighbour's cap reaches across a stop)
+    pending: Option<Pending>,
     /// planning everything to a stop
     flushing: bool,
     /// jerk: the queue's length behind its next head before the head is
@@ -304,7 +224,7 @@ impl<K: Copy> Lookahead<K> {
             v_head: 0.0,
             a_before: f64::INFINITY,
             queued: 0.0,
-            splitting: false,
+            pending: None,
             flushing: false,
             extra: 0,
             reach_room: 2.0 * lim.jerk.lag_distance(lim.top)
@@ -366,13 +286,50 @@ impl<K: Copy> Lookahead<K> {
         src: Src,
         out: &mut O,
     ) {
+        if prep.length <= 0.0 {
+            return;
+        }
+        if !self.lim.jerk.limited() {
+            self.enqueue(O::keep(geom, feed, src), prep, out);
+            return;
+        }
+        // jerk: the move before is released now that its exit is known;
+        // this one waits for its own
+        let exit_stop = self
+            .pending
+            .as_ref()
+            .is_some_and(|p| self.lim.junction(&p.prep.t_end, &prep.t_start).0 == 0.0);
+        self.release(exit_stop, out);
+        let entry_stop = match self.queue.back() {
+            Some(prev) => self.lim.junction(&prev.t_end, &prep.t_start).0 == 0.0,
+            None => self.v_head == 0.0,
+        };
+        self.pending = Some(Pending {
+            geom: *geom,
+            feed,
+            src,
+            prep: *prep,
+            entry_stop,
+        });
+    }
+
+    /// Jerk: queues the move held back, `exit_stop` whether its exit
+    /// junction is a stop: whole if it also starts from one (a line; an
+    /// arc cut only where its inside starts), else in pieces.
+    fn release<O: ItemSink<Kept = K>>(&mut self, exit_stop: bool, out: &mut O) {
+        let Some(p) = self.pending.take() else {
+            return;
+        };
+        let ends = !(p.entry_stop && exit_stop);
+        if !self.split(&p.geom, &p.prep, p.feed, p.src, ends, out) {
+            self.enqueue(O::keep(&p.geom, p.feed, p.src), &p.prep, out);
+        }
+    }
+
+    /// Queues one move (or piece) and plans what it changes.
+    #[inline]
+    fn enqueue<O: ItemSink<Kept = K>>(&mut self, kept: K, prep: &MovePrep, out: &mut O) {
         let length = prep.length;
-        if length <= 0.0 {
-            return;
-        }
-        if self.lim.jerk.limited() && !self.splitting && self.split(geom, prep, feed, src, out) {
-            return;
-        }
         let red = prep.red;
         let t2 = prep.t_start;
         // the entry junction; a smooth one lets the move before take its
@@ -399,7 +356,7 @@ impl<K: Copy> Lookahead<K> {
         };
         let t_end = prep.t_end;
         let mut seg = QSeg {
-            kept: O::keep(geom, feed, src),
+            kept,
             t_end,
             length,
             lim: red,
@@ -432,13 +389,16 @@ impl<K: Copy> Lookahead<K> {
     /// arc's speed inside) from its ends see only the arc in the filter's
     /// window and may go faster ([`crate::jerk::JerkBudget::arc_caps`]);
     /// they start a further cap's reach (the ends' speed) in, so that the
-    /// ends' caps do not reach them. Whether the move was split.
+    /// ends' caps do not reach them. `ends`: whether a neighbour's caps
+    /// may reach its ends (else only an arc's inside is cut off). Whether
+    /// the move was split.
     fn split<O: ItemSink<Kept = K>>(
         &mut self,
         geom: &Geom,
         prep: &MovePrep,
         feed: Feed,
         src: Src,
+        ends: bool,
         out: &mut O,
     ) -> bool {
         let (jb, top, length) = (self.lim.jerk, self.lim.top, prep.length);
@@ -456,21 +416,31 @@ impl<K: Copy> Lookahead<K> {
         }
         .map_or((None, 0.0, 0.0), |(v, e, at)| (Some(v), e, at));
         let reach = jb.lag_distance(inner.unwrap_or(ends_v));
-        let Some((cuts, n)) = piece_cuts(reach, length, inner.map(|_| inner_at)) else {
-            return false;
+        let (cuts, n) = if ends {
+            let Some(c) = piece_cuts(reach, length, inner.map(|_| inner_at)) else {
+                return false;
+            };
+            c
+        } else {
+            // between two stops: the ends and the inside
+            if inner.is_none() {
+                return false;
+            }
+            let mut c = [0.0; crate::jerk::MAX_CUTS];
+            c[0] = inner_at;
+            c[1] = length - inner_at;
+            (c, 2)
         };
         let cuts = &cuts[..n];
         self.extra += cuts.len() as u64;
-        self.splitting = true;
         let mut from = 0.0;
         for &d in cuts.iter().chain(std::iter::once(&length)) {
             let g = geom.piece(from, d);
             let inside = inner.is_some() && from >= edge && d <= length - edge;
             let p = self.lim.prepare_piece(&g, &feed, O::VLIM, inside);
-            self.push_move(&g, &p, feed, src, out);
+            self.enqueue(O::keep(&g, feed, src), &p, out);
             from = d;
         }
-        self.splitting = false;
         true
     }
 
@@ -558,6 +528,10 @@ impl<K: Copy> Lookahead<K> {
         let settled = margin + tail + reach;
         let mut dist = 0.0;
         let mut next_b = 0.0;
+        // (past a stop: no cap of a move still to come reaches across it,
+        // so no margin, and an unchanged limit there leaves every one
+        // before it unchanged)
+        let mut past_stop = false;
         for k in (0..n).rev() {
             let before = if k > 0 {
                 self.queue[k - 1].lim.vcap
@@ -579,8 +553,12 @@ impl<K: Copy> Lookahead<K> {
             s.entry_b = b;
             next_b = b;
             dist += s.length;
-            if same && dist > settled {
+            if same && (past_stop || dist > settled) {
                 break;
+            }
+            if s.j_in == 0.0 {
+                past_stop = true;
+                margin = 0.0;
             }
         }
     }
@@ -683,7 +661,9 @@ impl<K: Copy> Lookahead<K> {
     }
 
     /// Plans everything queued to a stop.
-    pub(crate) fn flush(&mut self, out: &mut impl ItemSink<Kept = K>) {
+    pub(crate) fn flush<O: ItemSink<Kept = K>>(&mut self, out: &mut O) {
+        // the move held back ends in a stop
+        self.release(true, out);
         // the tail's exit is a stop: smooth
         self.flushing = true;
         self.upgrade_tail();
@@ -734,58 +714,53 @@ impl Planner {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Machine;
 
-    #[test]
-    fn profile_shapes() {
-        // trapezoid: 0 -> 100 mm/s at 1000 mm/s², 100 mm
-        let p = Profile::new(0.0, 0.0, 100.0, 1000.0, 100.0);
-        assert!((p.t_acc - 0.1).abs() < 1e-12 && (p.d_acc - 5.0).abs() < 1e-12);
-        assert!((p.duration - (0.2 + 0.9)).abs() < 1e-12);
-        assert!((p.s_at(0.05) - 1.25).abs() < 1e-12);
-        assert_eq!(p.s_at(2.0), 100.0);
-        // triangle: 10 mm, cap not reached: peak sqrt(a*L) = 100
-        let p = Profile::new(0.0, 0.0, 1000.0, 1000.0, 10.0);
-        assert!((p.vp - 100.0).abs() < 1e-9 && p.t_cruise.abs() < 1e-9);
-        // entry and exit speeds
-        let p = Profile::new(50.0, 20.0, 100.0, 1000.0, 30.0);
-        assert!((p.v_at(0.0) - 50.0).abs() < 1e-12 && (p.v_at(p.duration) - 20.0).abs() < 1e-12);
-        assert!((p.s_at(p.duration - 1e-12) - 30.0).abs() < 1e-6);
+    /// Moves handed out for `ends` (a polyline from the origin, F6000) and
+    /// the profiles' speed where each piece starts.
+    fn planned(ends: &[V3]) -> (u64, Vec<Profile>) {
+        let mut p = Planner::new(PlanLimits::from_machine(&Machine::builtin_mill()));
+        let mut at = V3::new(0.0, 0.0, 0.0);
+        for &end in ends {
+            p.push(Event::Move {
+                geom: Geom::Line { start: at, end },
+                feed: Feed::PerMin(6000.0),
+                src: Src::default(),
+            });
+            at = end;
+        }
+        p.flush();
+        let mut out = Vec::new();
+        while let Some(it) = p.pop() {
+            if let Item::Move(m) = it {
+                out.push(m.profile);
+            }
+        }
+        (p.split_extra(), out)
     }
 
     #[test]
-    fn equal_speeds_share_their_ramps_bit_for_bit() {
-        // the profile as computed before equal entry and exit speeds
-        // shared their ramps
-        let reference = |v0: f64, v1: f64, vcap: f64, a: f64, length: f64| {
-            let peak = ((2.0 * a * length + v0 * v0 + v1 * v1) * 0.5).sqrt();
-            let vp = peak.min(vcap).max(v0).max(v1);
-            let d_acc = ((vp * vp - v0 * v0) / (2.0 * a)).max(0.0);
-            let d_dec = ((vp * vp - v1 * v1) / (2.0 * a)).max(0.0);
-            let d_cruise = (length - d_acc - d_dec).max(0.0);
-            let t_acc = (vp - v0) / a;
-            let t_dec = (vp - v1) / a;
-            let t_cruise = if vp > 0.0 { d_cruise / vp } else { 0.0 };
-            [
-                t_acc,
-                t_cruise,
-                t_dec,
-                d_acc,
-                d_cruise,
-                t_acc + t_cruise + t_dec,
-            ]
-        };
-        let mut x = 0x9E37_79B9_7F4A_7C15u64;
-        let mut next = move || (crate::xorshift64(&mut x) >> 11) as f64 / (1u64 << 53) as f64;
-        for k in 0..50_000 {
-            let (vcap, a, length) = (next() * 300.0, 10.0 + next() * 3000.0, next() * 20.0);
-            let v0 = [0.0, -0.0, next() * vcap][k % 3];
-            let v1 = if k % 2 == 0 { v0 } else { next() * vcap };
-            let p = Profile::new(v0, v1, vcap, a, length);
-            let got = [
-                p.t_acc, p.t_cruise, p.t_dec, p.d_acc, p.d_cruise, p.duration,
-            ];
-            let want = reference(v0, v1, vcap, a, length);
-            assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits), "{v0} {v1}");
-        }
+    fn lines_between_stops_stay_whole_and_smooth_neighbours_cut_their_ends() {
+        assert!(PlanLimits::from_machine(&Machine::builtin_mill())
+            .jerk
+            .limited());
+        // a corner of 90° is a stop: both lines whole, each from rest to rest
+        let (extra, p) = planned(&[V3::new(50.0, 0.0, 0.0), V3::new(50.0, 50.0, 0.0)]);
+        assert_eq!((extra, p.len()), (0, 2));
+        assert!(p.iter().all(|p| p.v0 == 0.0 && p.v1 == 0.0));
+        assert_eq!(p[0].vp, 100.0);
+        // two lines in line: each cut towards the junction and the stops,
+        // the junction passed at speed
+        let (extra, p) = planned(&[V3::new(50.0, 0.0, 0.0), V3::new(100.0, 0.0, 0.0)]);
+        assert!(extra >= 4, "{extra}");
+        assert_eq!(p.len() as u64, 2 + extra);
+        let total: f64 = p.iter().map(|p| p.length).sum();
+        assert!((total - 100.0).abs() < 1e-9, "{total}");
+        let mid = p.iter().scan(0.0, |s, p| {
+            *s += p.length;
+            Some((*s, p.v1))
+        });
+        let at_junction = mid.filter(|(s, _)| (s - 50.0).abs() < 1e-9).map(|x| x.1);
+        assert_eq!(at_junction.collect::<Vec<_>>(), vec![100.0]);
     }
 }

@@ -4,7 +4,8 @@
 
 use crate::canon::ThreadMove;
 use crate::geom::ceil;
-use crate::plan::{PlanLimits, PlannedMove, Profile};
+use crate::plan::{PlanLimits, PlannedMove};
+use crate::profile::Profile;
 
 /// Turns planned items into whole sample ticks. Motion that runs without a
 /// stop forms a group; every group and dwell starts on a sample tick, so a
