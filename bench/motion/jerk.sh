@@ -5,10 +5,10 @@
 # 1000 mm/s²; the table adds the curvature bound (analyse.py
 # curvature_bound) and the ratio to LinuxCNC's cycle time.
 #
-#   bash bench/motion/jerk.sh [--jerks "20 50 100 1000"] [--ours-only]
+#   bash bench/motion/jerk.sh [--jerks "20 50 100 200 1000"] [--ours-only]
 #                             [--analyse-only] [--out DIR] [--mode "G64 P0.01"]
 #
-#   --jerks LIST    jerk limits, m/s³, one run of ours each (default 20 50 100 1000)
+#   --jerks LIST    jerk limits, m/s³, one run of ours each (default 20 50 100 200 1000; 200 the bundled machines')
 #   --ours-only     do not run LinuxCNC; reuse lcnc_cam.tsv in the output directory
 #   --analyse-only  run nothing, re-analyse the output directory
 #   --out DIR       default bench/out/jerk
@@ -24,7 +24,7 @@ HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 ROOT="$(cd "$HERE/../.." && pwd)"
 say() { printf 'jerk: %s\n' "$*" >&2; }
 usage() { sed -n '2,22p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//' >&2; exit 2; }
-JERKS="20 50 100 1000" OURS_ONLY=0 ANALYSE_ONLY=0 OUT="$ROOT/bench/out/jerk" MODE="G64 P0.01"
+JERKS="20 50 100 200 1000" OURS_ONLY=0 ANALYSE_ONLY=0 OUT="$ROOT/bench/out/jerk" MODE="G64 P0.01"
 VEL=100 ACC=1000
 while [ $# -gt 0 ]; do
     case "$1" in

@@ -48,8 +48,7 @@ use crate::thread::{
     EncoderReading, SpindleTracker, AT_SPEED_SETTLE_S, AT_SPEED_TOLERANCE, ENCODER_TIMEOUT_CYCLES,
 };
 
-/// The largest feed override, as a scale (200 %).
-pub const MAX_OVERRIDE: f64 = 2.0;
+pub use crate::shares::MAX_OVERRIDE;
 
 /// One interpolation cycle's output.
 #[derive(Clone, Copy, Debug, PartialEq)]

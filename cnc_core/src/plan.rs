@@ -23,6 +23,7 @@ use crate::jerk::piece_cuts;
 pub use crate::limits::PlanLimits;
 use crate::limits::{MoveLimits, MovePrep};
 pub use crate::profile::Profile;
+use crate::shares::MAX_OVERRIDE;
 use std::collections::VecDeque;
 
 /// A move with its profile.
@@ -295,15 +296,12 @@ impl<K: Copy> Lookahead<K> {
         }
         // jerk: the move before is released now that its exit is known;
         // this one waits for its own
-        let exit_stop = self
-            .pending
-            .as_ref()
-            .is_some_and(|p| self.lim.junction(&p.prep.t_end, &prep.t_start).0 == 0.0);
-        self.release(exit_stop, out);
-        let entry_stop = match self.queue.back() {
-            Some(prev) => self.lim.junction(&prev.t_end, &prep.t_start).0 == 0.0,
-            None => self.v_head == 0.0,
+        let entry_stop = match (&self.pending, self.queue.back()) {
+            (Some(p), _) => self.lim.junction(&p.prep.t_end, &prep.t_start).0 == 0.0,
+            (None, Some(prev)) => self.lim.junction(&prev.t_end, &prep.t_start).0 == 0.0,
+            (None, None) => self.v_head == 0.0,
         };
+        self.release(entry_stop, out);
         self.pending = Some(Pending {
             geom: *geom,
             feed,
@@ -403,16 +401,17 @@ impl<K: Copy> Lookahead<K> {
     ) -> bool {
         let (jb, top, length) = (self.lim.jerk, self.lim.top, prep.length);
         let ends_v = prep.full.vlim.min(top);
-        // an arc's inside: from `edge` on, pieces from `inner_at` on
+        // an arc's inside: from `edge` on, pieces from `inner_at` on (not
+        // where even the largest override keeps it under the ends' speed)
         let (inner, edge, inner_at) = match geom {
-            Geom::Arc(_) => {
+            Geom::Arc(_) if MAX_OVERRIDE * prep.full.vcap > ends_v => {
                 let inner = self.lim.prepare_piece(geom, &feed, O::VLIM, true);
                 let v = inner.full.vlim.min(top);
                 let edge = jb.step_span() * v;
                 let at = edge + jb.lag_distance(ends_v);
                 (v > ends_v && length > 2.0 * at).then_some((v, edge, at))
             }
-            Geom::Line { .. } => None,
+            Geom::Arc(_) | Geom::Line { .. } => None,
         }
         .map_or((None, 0.0, 0.0), |(v, e, at)| (Some(v), e, at));
         let reach = jb.lag_distance(inner.unwrap_or(ends_v));

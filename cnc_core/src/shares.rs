@@ -47,3 +47,7 @@ pub const XYZ_FILTER_ERROR_MM: f64 = 0.001;
 /// (about 800 m/s³ and up at 2000 mm/s²).
 /// Blends shrink by that bound, so G64 P keeps its tolerance either way.
 pub const SINGLE_AVERAGE_ERROR_MM: f64 = 0.005;
+
+/// The largest feed override, as a scale (200 %): a move runs at most
+/// this many times its planned speed, and never over its `vlim`.
+pub const MAX_OVERRIDE: f64 = 2.0;
