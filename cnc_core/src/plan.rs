@@ -402,9 +402,11 @@ impl<K: Copy> Lookahead<K> {
         let (jb, top, length) = (self.lim.jerk, self.lim.top, prep.length);
         let ends_v = prep.full.vlim.min(top);
         // an arc's inside: from `edge` on, pieces from `inner_at` on (not
-        // where even the largest override keeps it under the ends' speed)
+        // where even the largest override keeps it under the ends' speed;
+        // between two stops, not where the feed does)
+        let over = if ends { MAX_OVERRIDE } else { 1.0 };
         let (inner, edge, inner_at) = match geom {
-            Geom::Arc(_) if MAX_OVERRIDE * prep.full.vcap > ends_v => {
+            Geom::Arc(_) if over * prep.full.vcap > ends_v => {
                 let inner = self.lim.prepare_piece(geom, &feed, O::VLIM, true);
                 let v = inner.full.vlim.min(top);
                 let edge = jb.step_span() * v;
