@@ -683,11 +683,19 @@ impl Machine {
     }
 
     fn smoothing_samples_f(&self) -> f64 {
+        self.average_samples_f(crate::shares::S_FILTER_SHARE)
+    }
+
+    /// ⌈2·a_max / (share·j_max·dt)⌉ over the axes with a jerk limit (1
+    /// without): the samples a moving average needs to keep the sampled
+    /// jerk of an acceleration-limited profile within `share` of the
+    /// limit.
+    fn average_samples_f(&self, share: f64) -> f64 {
         let dt = self.dt();
         self.axes
             .iter()
             .filter_map(|a| {
-                let j = a.max_jerk_mm_s3? * crate::shares::S_FILTER_SHARE;
+                let j = a.max_jerk_mm_s3? * share;
                 Some((2.0 * a.max_acceleration_mm_s2 / (j * dt) - 1e-9).ceil())
             })
             .fold(1.0, f64::max)
@@ -725,16 +733,7 @@ impl Machine {
     /// (a[k] − a[k−M]) / (M·dt), at most 2·a_max/(M·dt), so M =
     /// ⌈2·a_max / (j_max·dt)⌉ over the axes with a jerk limit.
     pub fn single_average_samples(&self) -> usize {
-        let dt = self.dt();
-        let m = self
-            .axes
-            .iter()
-            .filter_map(|a| {
-                let j = a.max_jerk_mm_s3?;
-                Some((2.0 * a.max_acceleration_mm_s2 / (j * dt) - 1e-9).ceil())
-            })
-            .fold(1.0, f64::max);
-        (m as usize).clamp(1, MAX_SMOOTHING_SAMPLES)
+        (self.average_samples_f(1.0) as usize).clamp(1, MAX_SMOOTHING_SAMPLES)
     }
 
     /// Largest distance, mm, by which the single XYZ moving average of

@@ -282,8 +282,18 @@ pub fn subscription<T: crate::RosType + 'static>(
     ns: &str,
     base: &str,
 ) -> Result<ros2_client::Subscription<T>, String> {
+    subscription_with(node, ns, base, None)
+}
+
+/// A subscription to `ns/base` with `qos` (None: rclpy's default).
+fn subscription_with<T: crate::RosType + 'static>(
+    node: &mut Node,
+    ns: &str,
+    base: &str,
+    qos: Option<QosProfile>,
+) -> Result<ros2_client::Subscription<T>, String> {
     let t = topic::<T>(node, ns, base)?;
-    node.create_subscription::<T>(&t, None)
+    node.create_subscription::<T>(&t, qos)
         .map_err(|e| format!("subscription {ns}/{base}: {e:?}"))
 }
 
@@ -301,9 +311,7 @@ pub fn subscription_stream<T: crate::RosType + 'static>(
     ns: &str,
     base: &str,
 ) -> Result<ros2_client::Subscription<T>, String> {
-    let t = topic::<T>(node, ns, base)?;
-    node.create_subscription::<T>(&t, Some(qos_stream()))
-        .map_err(|e| format!("subscription {ns}/{base}: {e:?}"))
+    subscription_with(node, ns, base, Some(qos_stream()))
 }
 
 /// The QoS of [`subscription_stream`]: best effort, volatile, keep last
