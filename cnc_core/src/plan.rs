@@ -22,7 +22,7 @@ use crate::geom::V3;
 use crate::jerk::piece_cuts;
 pub use crate::limits::PlanLimits;
 use crate::limits::{MoveLimits, MovePrep};
-pub use crate::profile::Profile;
+use crate::profile::Profile;
 use crate::shares::MAX_OVERRIDE;
 use std::collections::VecDeque;
 
@@ -717,8 +717,9 @@ mod tests {
     use super::*;
     use crate::Machine;
 
-    /// Moves handed out for `ends` (a polyline from the origin, F6000) and
-    /// the profiles' speed where each piece starts.
+    /// A polyline from the origin through `ends` at F6000 on the bundled
+    /// mill, planned to a stop: the pieces made beyond the programmed
+    /// moves and every move's profile, in order.
     fn planned(ends: &[V3]) -> (u64, Vec<Profile>) {
         let mut p = Planner::new(PlanLimits::from_machine(&Machine::builtin_mill()));
         let mut at = V3::new(0.0, 0.0, 0.0);

@@ -42,9 +42,10 @@ pub const XYZ_FILTER_ERROR_MM: f64 = 0.001;
 /// path within this many mm runs that filter alone, without the path
 /// filter and the caps ([`crate::jerk::JerkBudget::single_average`]). 5
 /// µm, not the XYZ filter's 1 µm ([`XYZ_FILTER_ERROR_MM`]): that bound at
-/// the bundled machines' 1000 m/s³ is 2.17 µm on the mill (M = 4) and
-/// 4.71 µm on the lathe (M = 5), and those run as before the path filter
-/// (about 800 m/s³ and up at 2000 mm/s²).
+/// 1000 m/s³ is 2.17 µm on the bundled mill's axes (M = 4) and 4.71 µm on
+/// the lathe's (M = 5), which then run as before the path filter (about
+/// 800 m/s³ and up at 2000 mm/s²; the bundled machines' 200 m/s³ take
+/// the path filter).
 /// Blends shrink by that bound, so G64 P keeps its tolerance either way.
 pub const SINGLE_AVERAGE_ERROR_MM: f64 = 0.005;
 
