@@ -10,8 +10,21 @@
 //! zigzags) are blended with a helix over the in-plane arc. Rapids, arcs,
 //! other corners out of a principal plane and reversals are not blended.
 //!
-//! The stage holds the last line back until the next event says whether
-//! its end is a corner to blend.
+//! Before blending, a run of feed lines whose inner points all lie within
+//! half the tolerance of the line from the run's start to its end, in
+//! order along it, is replaced by that one line (as LinuxCNC's G64 Q
+//! "naive CAM detector" does with its own tolerance): a CAM polyline whose
+//! vertices were rounded to a micrometre turns by a noisy angle at every
+//! vertex, and arcs blended into those angles would have radii from
+//! a third to many times the curve's; merged, the turns between the
+//! longer lines follow the curve, and so do the blends. A blended corner
+//! then keeps within the tolerance less the larger deviation of its two
+//! merged lines, so the path stays within the tolerance of the programmed
+//! one. Lines are merged only where they would be blended (a feed and a
+//! tolerance), with the same feed, at most [`MAX_RUN`] at a time.
+//!
+//! The stage holds the run and the last line back until the next event
+//! says whether its end is a corner to blend.
 
 use crate::canon::{Event, Feed, Src};
 use crate::geom::V3;
@@ -31,10 +44,61 @@ struct Held {
     /// lines (a CAM curve) each blend gets half of both its lines and the
     /// lines between vanish, rather than every blend getting a third
     origin: V3,
+    /// the largest distance of the programmed points it replaces from it
+    /// (a merged run), mm; 0 for a line as programmed
+    dev: f64,
+}
+
+/// Largest number of programmed lines merged into one.
+pub(crate) const MAX_RUN: usize = 64;
+
+/// A run of lines being merged: the run's start, the programmed points
+/// after it (the last is the run's end), the largest distance of the inner
+/// points from the line start → end, the first line's feed and source, and
+/// the merging tolerance (half the blending tolerance in force).
+#[derive(Debug, Default)]
+struct Run {
+    start: V3,
+    points: Vec<V3>,
+    dev: f64,
+    feed: Option<Feed>,
+    src: Src,
+    tol: f64,
+}
+
+impl Run {
+    /// Whether the run extended to `end` keeps every inner point (the
+    /// present points, all of which become inner) within `self.tol` of the
+    /// line start → end and in order along it; the new deviation if so.
+    fn extended(&self, end: V3) -> Option<f64> {
+        let d = end - self.start;
+        let len = d.norm();
+        if len.is_nan() || len <= 0.0 || self.points.len() >= MAX_RUN {
+            return None;
+        }
+        let u = d / len;
+        let mut last = 0.0;
+        let mut dev: f64 = 0.0;
+        for p in &self.points {
+            let w = p - self.start;
+            let t = w.dot(&u);
+            if t < last || t > len {
+                return None;
+            }
+            last = t;
+            dev = dev.max((w - u * t).norm());
+            if dev > self.tol {
+                return None;
+            }
+        }
+        Some(dev)
+    }
 }
 
 #[derive(Debug, Default)]
 pub(crate) struct Blender {
+    /// the lines being merged (empty: none)
+    run: Run,
     held: Option<Held>,
     /// what the XYZ jerk filter may add to a blend's deviation, mm
     /// ([`crate::Machine::smoothing_error_mm`]): blends keep within the
@@ -52,19 +116,83 @@ fn plane_of(u1: &V3, u2: &V3) -> Option<Plane> {
 
 impl Blender {
     pub(crate) fn new(shrink: f64) -> Self {
-        Blender { held: None, shrink }
+        Blender {
+            run: Run::default(),
+            held: None,
+            shrink,
+        }
     }
 
     /// A line is held back.
     #[inline]
     pub(crate) fn holds(&self) -> bool {
-        self.held.is_some()
+        self.held.is_some() || !self.run.points.is_empty()
     }
 
     /// Passes `ev` on to `out`, blending the corner between the held line
     /// and `ev` within `tol` (mm).
     pub(crate) fn push(&mut self, ev: Event, tol: f64, out: &mut VecDeque<Event>) {
         let tol = tol - self.shrink;
+        // merging: a feed line continuing the run at the same feed and
+        // tolerance extends it if it can; anything else ends the run
+        if let Event::Move {
+            geom: Geom::Line { start, end },
+            feed,
+            src,
+        } = ev
+        {
+            if tol > 0.0 && !matches!(feed, Feed::Rapid) && start != end {
+                let r = &self.run;
+                let continues =
+                    r.feed == Some(feed) && r.tol == 0.5 * tol && r.points.last() == Some(&start);
+                if continues {
+                    if let Some(dev) = r.extended(end) {
+                        self.run.points.push(end);
+                        self.run.dev = dev;
+                        return;
+                    }
+                }
+                self.end_run(out);
+                self.run = Run {
+                    start,
+                    points: vec![end],
+                    dev: 0.0,
+                    feed: Some(feed),
+                    src,
+                    tol: 0.5 * tol,
+                };
+                return;
+            }
+        }
+        self.end_run(out);
+        self.blend(ev, tol, 0.0, out);
+    }
+
+    /// Passes the run (if any) on to blending as one line, at the
+    /// tolerance its lines came with.
+    fn end_run(&mut self, out: &mut VecDeque<Event>) {
+        let Some(&end) = self.run.points.last() else {
+            return;
+        };
+        let (Some(feed), start, src, dev) =
+            (self.run.feed, self.run.start, self.run.src, self.run.dev)
+        else {
+            return;
+        };
+        self.run.points.clear();
+        self.run.feed = None;
+        let ev = Event::Move {
+            geom: Geom::Line { start, end },
+            feed,
+            src,
+        };
+        self.blend(ev, 2.0 * self.run.tol, dev, out);
+    }
+
+    /// Blends the corner between the held line and `ev` (a line whose
+    /// points are `dev` from those it replaces) within `tol` less the
+    /// larger deviation of the two.
+    fn blend(&mut self, ev: Event, tol: f64, dev: f64, out: &mut VecDeque<Event>) {
         let line = match ev {
             Event::Move {
                 geom: Geom::Line { start, end },
@@ -76,6 +204,7 @@ impl Blender {
                 feed,
                 src,
                 origin: start,
+                dev,
             }),
             _ => None,
         };
@@ -88,7 +217,7 @@ impl Blender {
             self.held = Some(next);
             return;
         };
-        match corner(&h, &next, tol) {
+        match corner(&h, &next, tol - h.dev.max(next.dev)) {
             Some((t1, arc, t2)) => {
                 if t1 != h.start {
                     out.push_back(Event::Move {
@@ -114,8 +243,10 @@ impl Blender {
         }
     }
 
-    /// Passes the held line on unchanged.
+    /// Passes the held line on unchanged (after the run, if any, merged,
+    /// its corner with the held line unblended).
     pub(crate) fn flush(&mut self, out: &mut VecDeque<Event>) {
+        self.end_run(out);
         if let Some(h) = self.held.take() {
             out.push_back(line_event(&h));
         }
@@ -295,8 +426,10 @@ mod tests {
         };
         let mut b = Blender::default();
         let mut out = VecDeque::new();
+        // (at 0.02 no two lines merge: a chord over two of them is
+        // R(1 − cos 3°) = 13.7 µm off the middle vertex, over 0.01)
         for k in 0..20 {
-            b.push(mv(pt(k), pt(k + 1)), 0.05, &mut out);
+            b.push(mv(pt(k), pt(k + 1)), 0.02, &mut out);
         }
         b.flush(&mut out);
         let geoms: Vec<Geom> = out
@@ -319,7 +452,7 @@ mod tests {
             assert!((arc.radius - want).abs() < 1e-9, "{k}: {}", arc.radius);
             // its deviation from the corner stays within the tolerance
             let apex_dev = arc.radius * (1.0 / (0.5 * step).cos() - 1.0);
-            assert!(apex_dev <= 0.05, "{apex_dev}");
+            assert!(apex_dev <= 0.02, "{apex_dev}");
         }
         // the path is continuous: each piece starts where the last ended
         for w in geoms.windows(2) {
@@ -383,5 +516,153 @@ mod tests {
         // CAM-rounded: slopes 0.1 and 0.1001 still blend; 0.1 and 0.2 do not
         assert!(blend_of(a, c, V3::new(10.0, 10.0, -2.001), 0.1).is_some());
         assert!(blend_of(a, c, V3::new(10.0, 10.0, -3.0), 0.1).is_none());
+    }
+
+    /// The moves `b` makes of the polyline through `pts` at `tol`.
+    fn blended(pts: &[V3], tol: f64) -> Vec<Geom> {
+        let mut b = Blender::default();
+        let mut out = VecDeque::new();
+        for w in pts.windows(2) {
+            b.push(mv(w[0], w[1]), tol, &mut out);
+        }
+        b.flush(&mut out);
+        out.iter()
+            .map(|ev| match ev {
+                Event::Move { geom, .. } => *geom,
+                _ => panic!("a move"),
+            })
+            .collect()
+    }
+
+    /// Largest distance of `p` from the polyline through `pts`.
+    fn dist_to_polyline(p: V3, pts: &[V3]) -> f64 {
+        pts.windows(2)
+            .map(|w| {
+                let d = w[1] - w[0];
+                let t = ((p - w[0]).dot(&d) / d.norm_squared()).clamp(0.0, 1.0);
+                (p - (w[0] + d * t)).norm()
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    #[test]
+    fn a_cam_polyline_rounded_to_a_micrometre_is_merged_and_stays_within_the_tolerance() {
+        // an R20 arc of 0.1 mm lines, every vertex rounded to 1 µm: the
+        // turn per vertex is 0.29° on the curve but 0–1.28° as rounded, so
+        // blends into the programmed angles would have radii from 4.5 mm
+        // up (a tenth of them under 7.2 mm)
+        let (r0, step) = (20.0, 0.005);
+        let pts: Vec<V3> = (0..=400)
+            .map(|k| {
+                let a = step * k as f64;
+                let round = |x: f64| (x * 1000.0).round() / 1000.0;
+                V3::new(round(r0 * a.cos()), round(r0 * a.sin()), 0.0)
+            })
+            .collect();
+        let tol = 0.01;
+        let geoms = blended(&pts, tol);
+        // merged: lines of about √(8·R·tol/2) = 0.9 mm, 9 programmed lines
+        // each, and an arc between each two of them
+        let lines = geoms
+            .iter()
+            .filter(|g| matches!(g, Geom::Line { .. }))
+            .count();
+        let arcs: Vec<&Arc> = geoms
+            .iter()
+            .filter_map(|g| match g {
+                Geom::Arc(a) => Some(a),
+                _ => None,
+            })
+            .collect();
+        assert!(lines < 400 / 6, "{lines} lines");
+        assert!(arcs.len() > 30, "{} arcs", arcs.len());
+        // the blends follow the curve, not the rounding: radii within 10 %
+        // of R, but the last, next to the short rest of the polyline
+        // (18.3–20.9 mm and 11.8 mm)
+        for a in &arcs[..arcs.len() - 1] {
+            assert!((a.radius - r0).abs() < 0.1 * r0, "{}", a.radius);
+        }
+        // continuous, from the first point to the last
+        assert_eq!(geoms[0].start(), pts[0]);
+        assert_eq!(geoms.last().map(|g| g.end()), Some(pts[400]));
+        for w in geoms.windows(2) {
+            assert!((w[0].end() - w[1].start()).norm() < 1e-12);
+        }
+        // every point of the new path within the tolerance of the
+        // programmed polyline (lines at 50 points, arcs at 50 angles)
+        let mut worst: f64 = 0.0;
+        for g in &geoms {
+            for k in 0..=50 {
+                let f = k as f64 / 50.0;
+                let p = match g {
+                    Geom::Line { start, end } => start + (end - start) * f,
+                    Geom::Arc(a) => {
+                        let t = a.theta0 + a.sweep * f;
+                        a.center + V3::new(a.radius * t.cos(), a.radius * t.sin(), 0.0)
+                    }
+                };
+                worst = worst.max(dist_to_polyline(p, &pts));
+            }
+        }
+        assert!(worst <= tol && worst > 0.5 * tol, "{worst}");
+    }
+
+    #[test]
+    fn lines_that_turn_back_or_leave_half_the_tolerance_are_not_merged() {
+        let tol = 0.01;
+        // a zigzag of 4 µm amplitude turning back along X: within the
+        // tolerance of a line, but not in order along it
+        let back = [
+            V3::new(0.0, 0.0, 0.0),
+            V3::new(1.0, 0.0, 0.0),
+            V3::new(0.5, 0.004, 0.0),
+            V3::new(2.0, 0.0, 0.0),
+        ];
+        let g = blended(&back, tol);
+        assert!(
+            g.iter().filter(|g| matches!(g, Geom::Line { .. })).count() >= 2,
+            "{g:?}"
+        );
+        assert_eq!(g.last().map(|g| g.end()), Some(back[3]));
+        // a vertex 6 µm off the line through its neighbours: over half of
+        // 0.01, so the corner is blended, not merged; at 4 µm it merges
+        for (off, merged) in [(0.006, false), (0.004, true)] {
+            let pts = [
+                V3::new(0.0, 0.0, 0.0),
+                V3::new(1.0, off, 0.0),
+                V3::new(2.0, 0.0, 0.0),
+            ];
+            let g = blended(&pts, tol);
+            assert_eq!(g.len() == 1, merged, "{off}: {g:?}");
+            if merged {
+                assert_eq!(
+                    g[0],
+                    Geom::Line {
+                        start: pts[0],
+                        end: pts[2]
+                    }
+                );
+            }
+        }
+        // a feed change ends the run: two lines at different feeds stay two
+        let mut b = Blender::default();
+        let mut out = VecDeque::new();
+        let (p0, p1, p2) = (
+            V3::new(0.0, 0.0, 0.0),
+            V3::new(1.0, 0.0, 0.0),
+            V3::new(2.0, 0.0, 0.0),
+        );
+        b.push(mv(p0, p1), tol, &mut out);
+        b.push(
+            Event::Move {
+                geom: Geom::Line { start: p1, end: p2 },
+                feed: Feed::PerMin(500.0),
+                src: Src::default(),
+            },
+            tol,
+            &mut out,
+        );
+        b.flush(&mut out);
+        assert_eq!(out.len(), 2, "{out:?}");
     }
 }
