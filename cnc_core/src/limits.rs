@@ -8,7 +8,9 @@ use crate::canon::Feed;
 use crate::geom::{Arc, Geom, V3};
 use crate::jerk::JerkBudget;
 use crate::machine::Machine;
-use crate::shares::{ARC_NORMAL_MAX, KINK_SHARE, LINE_SHARE, SMOOTH_SHARE};
+use crate::shares::{
+    ARC_NORMAL_MAX, FINE_KINK_SHARE, FINE_SHARE, KINK_SHARE, LINE_SHARE, SMOOTH_SHARE,
+};
 
 /// Speed cap, path acceleration and geometric speed limit of a move
 /// planned with one acceleration share.
@@ -36,11 +38,13 @@ pub(crate) struct MovePrep {
     pub t_end: V3,
     /// the limits with [`LINE_SHARE`] of the acceleration (next to a kink)
     pub red: MoveLimits,
+    /// the limits with [`FINE_SHARE`] (next to a fine kink, no kink)
+    pub fine: MoveLimits,
     /// the limits with the whole acceleration
     pub full: MoveLimits,
-    /// with `red` and with `full`: the largest speed from which the move
-    /// can stop over its length, √(2·a·length)
-    pub stop: [f64; 2],
+    /// with `red`, `fine` and `full`: the largest speed from which the
+    /// move can stop over its length, √(2·a·length)
+    pub stop: [f64; 3],
 }
 
 impl MovePrep {
@@ -56,16 +60,17 @@ impl MovePrep {
             t_start: V3::zeros(),
             t_end: V3::zeros(),
             red: none,
+            fine: none,
             full: none,
-            stop: [0.0; 2],
+            stop: [0.0; 3],
         }
     }
 }
 
-/// √(2·a·length) with either limits' acceleration.
+/// √(2·a·length) with each limits' acceleration.
 #[inline]
-fn stops(red: &MoveLimits, full: &MoveLimits, length: f64) -> [f64; 2] {
-    [red, full].map(|l| (2.0 * l.a * length).sqrt())
+fn stops(l: &[MoveLimits; 3], length: f64) -> [f64; 3] {
+    l.map(|l| (2.0 * l.a * length).sqrt())
 }
 
 /// Length of the vector of the finite components of `v` (the axes a
@@ -93,6 +98,9 @@ pub struct PlanLimits {
     /// per axis, the largest change of the unit tangent at a junction
     /// that counts as smooth ([`SMOOTH_SHARE`] at the fastest speed)
     pub smooth_turn: V3,
+    /// per axis, the largest change that counts as a fine kink
+    /// ([`FINE_KINK_SHARE`] at the fastest speed)
+    pub fine_turn: V3,
 }
 
 impl PlanLimits {
@@ -109,6 +117,7 @@ impl PlanLimits {
             jerk: m.jerk_budget(),
             top,
             smooth_turn: amax.map(|a| SMOOTH_SHARE * a * dt / top),
+            fine_turn: amax.map(|a| FINE_KINK_SHARE * a * dt / top),
         }
     }
 
@@ -151,46 +160,49 @@ impl PlanLimits {
                 }
                 let t = d.unscale(length);
                 // |d| / length per axis is |t| (a quotient's sign is exact)
-                let [red, full] = self.line_limits(&t.abs(), f);
+                let l = self.line_limits(&t.abs(), f);
                 MovePrep {
                     length,
                     t_start: t,
                     t_end: t,
-                    red,
-                    full,
-                    stop: stops(&red, &full, length),
+                    red: l[0],
+                    fine: l[1],
+                    full: l[2],
+                    stop: stops(&l, length),
                 }
             }
             Geom::Arc(arc) => {
                 if arc.length <= 0.0 {
                     return MovePrep::skipped(arc.length);
                 }
-                let [red, full] = self.arc_limits(arc, f, vlim, inside);
+                let l = self.arc_limits(arc, f, vlim, inside);
                 MovePrep {
                     length: arc.length,
                     t_start: geom.start_tangent(),
                     t_end: geom.end_tangent(),
-                    red,
-                    full,
-                    stop: stops(&red, &full, arc.length),
+                    red: l[0],
+                    fine: l[1],
+                    full: l[2],
+                    stop: stops(&l, arc.length),
                 }
             }
         }
     }
 
-    /// A line's limits with [`LINE_SHARE`] and the whole acceleration:
+    /// A line's limits with [`LINE_SHARE`], [`FINE_SHARE`] and the whole acceleration:
     /// `u` holds |direction| per axis, `f` is the feed's speed. (What does
     /// not depend on the share is computed once.)
     #[inline]
-    fn line_limits(&self, u: &V3, f: f64) -> [MoveLimits; 2] {
+    fn line_limits(&self, u: &V3, f: f64) -> [MoveLimits; 3] {
         let mut vlim = f64::INFINITY;
-        let mut a = [f64::INFINITY; 2];
+        let mut a = [f64::INFINITY; 3];
         for i in 0..3 {
             let u = u[i];
             if u > 0.0 {
                 vlim = vlim.min(self.vmax[i] / u);
                 a[0] = a[0].min(LINE_SHARE * self.amax[i] / u);
-                a[1] = a[1].min(1.0 * self.amax[i] / u);
+                a[1] = a[1].min(FINE_SHARE * self.amax[i] / u);
+                a[2] = a[2].min(1.0 * self.amax[i] / u);
             }
         }
         let limits = |a: f64| MoveLimits {
@@ -198,16 +210,16 @@ impl PlanLimits {
             a,
             vlim,
         };
-        [limits(a[0]), limits(a[1])]
+        a.map(limits)
     }
 
-    /// An arc's limits with [`LINE_SHARE`] and the whole acceleration, `f`
+    /// An arc's limits with [`LINE_SHARE`], [`FINE_SHARE`] and the whole acceleration, `f`
     /// the feed's speed; `vlim` as at [`prepare`](Self::prepare). On an
     /// arc the centripetal part takes what the feed needs, up to
     /// [`ARC_NORMAL_MAX`]·share, and the tangential part the rest, so
     /// their vector sum stays under the share on every axis.
     #[inline]
-    fn arc_limits(&self, arc: &Arc, f: f64, vlim: bool, inside: bool) -> [MoveLimits; 2] {
+    fn arc_limits(&self, arc: &Arc, f: f64, vlim: bool, inside: bool) -> [MoveLimits; 3] {
         // A flat arc's length is its length in the plane, r·|sweep|, and
         // its plane fraction r·|sweep| / length is then exactly 1: the
         // limits with the literal 1, which the compiler takes out of its
@@ -238,7 +250,7 @@ impl PlanLimits {
         inside: bool,
         c: f64,
         h: f64,
-    ) -> [MoveLimits; 2] {
+    ) -> [MoveLimits; 3] {
         let (p, q, n) = arc.plane.axes();
         let apq = self.amax[p].min(self.amax[q]);
         let mut vgeo = self.vmax[p].min(self.vmax[q]) / c;
@@ -287,30 +299,52 @@ impl PlanLimits {
                 vlim,
             }
         };
-        [limits(LINE_SHARE), limits(1.0)]
+        [limits(LINE_SHARE), limits(FINE_SHARE), limits(1.0)]
     }
 
     /// The junction from unit tangent `t1` into `t2`: its own speed limit
-    /// (0: an exact stop; ∞: smooth) and whether it is a kink, a velocity
-    /// jump that needs [`KINK_SHARE`] in both moves.
+    /// (0: an exact stop; ∞: smooth) and what it asks of the moves that
+    /// meet there ([`Turn`]).
     #[inline]
-    pub(crate) fn junction(&self, t1: &V3, t2: &V3) -> (f64, bool) {
+    pub(crate) fn junction(&self, t1: &V3, t2: &V3) -> (f64, Turn) {
         if t1.dot(t2) < self.exact_stop_cos {
-            return (0.0, false);
+            return (0.0, Turn::Smooth);
         }
         let mut v = f64::INFINITY;
-        let mut kink = false;
+        let mut turn = Turn::Smooth;
         for i in 0..3 {
             let d = (t2[i] - t1[i]).abs();
             if d > self.smooth_turn[i] {
-                kink = true;
+                let share = if d <= self.fine_turn[i] {
+                    turn = turn.max(Turn::Fine);
+                    FINE_KINK_SHARE
+                } else {
+                    turn = Turn::Kink;
+                    KINK_SHARE
+                };
                 v = v
-                    .min(KINK_SHARE * self.amax[i] * self.dt / d)
+                    .min(share * self.amax[i] * self.dt / d)
                     .min(self.jerk.kink_cap(d));
             }
         }
-        (v, kink)
+        // (a fine kink's own limit is the fastest path speed or more: only
+        // the jerk caps it)
+        (v, turn)
     }
+}
+
+/// What a junction asks of the moves that meet there.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) enum Turn {
+    /// tangent (within rounding): the moves may take their whole
+    /// acceleration
+    Smooth,
+    /// a velocity jump within [`FINE_KINK_SHARE`] at any speed: the
+    /// moves keep [`FINE_SHARE`]
+    Fine,
+    /// a velocity jump that needs [`KINK_SHARE`]: the moves keep
+    /// [`LINE_SHARE`]
+    Kink,
 }
 
 #[cfg(test)]
@@ -414,20 +448,27 @@ mod tests {
                 flat += (arc.axial == 0.0 && arc.length == arc.radius * arc.sweep.abs()) as usize;
                 for geom in [Geom::Line { start, end }, Geom::Arc(arc)] {
                     let len = geom.length();
-                    let want = [LINE_SHARE, 1.0].map(|s| one_share(&lim, &geom, len, &feed, s));
+                    let want = [LINE_SHARE, FINE_SHARE, 1.0]
+                        .map(|s| one_share(&lim, &geom, len, &feed, s));
                     let p = lim.prepare(&geom, &feed, true);
                     if len.is_nan() || len <= 0.0 {
                         // skipped by the planner: nothing else counts
                         assert_eq!(p.length.to_bits(), len.to_bits());
                         continue;
                     }
-                    let got = (p.length, p.t_start, p.t_end, [p.red, p.full], p.stop);
+                    let got = (
+                        p.length,
+                        p.t_start,
+                        p.t_end,
+                        [p.red, p.fine, p.full],
+                        p.stop,
+                    );
                     let stop = want.map(|l| (2.0 * l.a * len).sqrt());
                     let want = (len, geom.start_tangent(), geom.end_tangent(), want, stop);
                     assert_eq!(format!("{got:?}"), format!("{want:?}"), "{geom:?} {feed:?}");
                     // without the speed limit over the feed: the rest the same
                     let q = lim.prepare(&geom, &feed, false);
-                    for (q, p) in [(q.red, p.red), (q.full, p.full)] {
+                    for (q, p) in [(q.red, p.red), (q.fine, p.fine), (q.full, p.full)] {
                         assert_eq!(
                             format!("{:?}", (q.vcap, q.a)),
                             format!("{:?}", (p.vcap, p.a))

@@ -9,7 +9,9 @@
 //! velocity jump, and the sampled acceleration of that jump is Δv/dt. The
 //! planner therefore reserves [`KINK_SHARE`](crate::shares::KINK_SHARE) of every axis's acceleration
 //! for such jumps in the two moves that meet at a kink, and plans their
-//! path acceleration with the rest ([`LINE_SHARE`](crate::shares::LINE_SHARE)). A move whose
+//! path acceleration with the rest ([`LINE_SHARE`](crate::shares::LINE_SHARE)). A fine kink,
+//! whose jump stays within [`FINE_KINK_SHARE`](crate::shares::FINE_KINK_SHARE) even at the fastest
+//! path speed, costs its moves only that ([`FINE_SHARE`](crate::shares::FINE_SHARE)). A move whose
 //! junctions are both tangent or stops has no jump to make room for and
 //! uses the whole acceleration. A queue's tail does not know its next
 //! junction yet; it is planned with the smaller share and raised when the
@@ -21,7 +23,7 @@ use crate::geom::Geom;
 use crate::geom::V3;
 use crate::jerk::piece_cuts;
 pub use crate::limits::PlanLimits;
-use crate::limits::{MoveLimits, MovePrep};
+use crate::limits::{MoveLimits, MovePrep, Turn};
 use crate::profile::Profile;
 use crate::shares::MAX_OVERRIDE;
 use std::collections::VecDeque;
@@ -72,10 +74,14 @@ struct QSeg<K> {
     lim: MoveLimits,
     /// √(2·a·length) with `lim` (the speed from which it stops)
     stop: f64,
-    /// the limits with the whole acceleration and their `stop`, while they
-    /// may still be taken (the entry junction is smooth, the exit one not
-    /// yet known)
+    /// the limits the move takes if its exit junction is smooth, and
+    /// their `stop`, while they may still be taken (the whole acceleration
+    /// if the entry junction is smooth, [`FINE_SHARE`](crate::shares::FINE_SHARE) if it is a fine
+    /// kink; none after a kink)
     full: Option<(MoveLimits, f64)>,
+    /// the limits with [`FINE_SHARE`](crate::shares::FINE_SHARE) and their `stop`: what `full`
+    /// becomes if the exit junction is a fine kink
+    fine: (MoveLimits, f64),
     /// largest entry speed the junction allows
     j: f64,
     /// what `j` becomes if the move takes its `full` limits
@@ -131,6 +137,7 @@ fn cap<K>(s: &mut QSeg<K>, v: f64, a: f64) {
     if let Some((l, stop)) = s.full.as_mut() {
         lower(l, stop);
     }
+    lower(&mut s.fine.0, &mut s.fine.1);
     s.j = s.j.min(v);
     s.j_max = s.j_max.min(v);
 }
@@ -333,18 +340,33 @@ impl<K: Copy> Lookahead<K> {
         // the entry junction; a smooth one lets the move before take its
         // whole acceleration (its exit is now known) and this one keep the
         // chance of it
-        let (j_kink, kink) = match self.queue.back() {
+        let (j_kink, turn) = match self.queue.back() {
             Some(prev) => self.lim.junction(&prev.t_end, &t2),
-            None => (self.v_head, false),
+            None => (self.v_head, Turn::Smooth),
         };
-        if !kink {
-            self.upgrade_tail();
-        } else if let Some(prev) = self.queue.back_mut() {
-            // a kink: the move before keeps its share for good
-            prev.full = None;
-            prev.j_max = prev.j;
+        match (turn, self.queue.back_mut()) {
+            (Turn::Kink, Some(prev)) => {
+                // a kink: the move before keeps its share for good
+                prev.full = None;
+                prev.j_max = prev.j;
+            }
+            (Turn::Fine, Some(prev)) => {
+                // a fine kink: the move before takes the fine share at
+                // most (its `j_max` was that of `full`, whose speed cap
+                // is at least the fine one's)
+                if prev.full.is_some() {
+                    prev.full = Some(prev.fine);
+                    prev.j_max = prev.j_max.min(prev.fine.0.vcap);
+                }
+                self.upgrade_tail();
+            }
+            _ => self.upgrade_tail(),
         }
-        let full = (!kink).then_some((prep.full, prep.stop[1]));
+        let full = match turn {
+            Turn::Smooth => Some((prep.full, prep.stop[2])),
+            Turn::Fine => Some((prep.fine, prep.stop[1])),
+            Turn::Kink => None,
+        };
         let (j, j_max) = match self.queue.back() {
             Some(prev) => {
                 let j = j_kink.min(prev.lim.vcap);
@@ -360,6 +382,7 @@ impl<K: Copy> Lookahead<K> {
             lim: red,
             stop: prep.stop[0],
             full,
+            fine: (prep.fine, prep.stop[1]),
             j,
             j_max,
             entry_b: 0.0,
@@ -713,56 +736,4 @@ impl Planner {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::Machine;
-
-    /// A polyline from the origin through `ends` at F6000 on the bundled
-    /// mill, planned to a stop: the pieces made beyond the programmed
-    /// moves and every move's profile, in order.
-    fn planned(ends: &[V3]) -> (u64, Vec<Profile>) {
-        let mut p = Planner::new(PlanLimits::from_machine(&Machine::builtin_mill()));
-        let mut at = V3::new(0.0, 0.0, 0.0);
-        for &end in ends {
-            p.push(Event::Move {
-                geom: Geom::Line { start: at, end },
-                feed: Feed::PerMin(6000.0),
-                src: Src::default(),
-            });
-            at = end;
-        }
-        p.flush();
-        let mut out = Vec::new();
-        while let Some(it) = p.pop() {
-            if let Item::Move(m) = it {
-                out.push(m.profile);
-            }
-        }
-        (p.split_extra(), out)
-    }
-
-    #[test]
-    fn lines_between_stops_stay_whole_and_smooth_neighbours_cut_their_ends() {
-        assert!(PlanLimits::from_machine(&Machine::builtin_mill())
-            .jerk
-            .limited());
-        // a corner of 90° is a stop: both lines whole, each from rest to rest
-        let (extra, p) = planned(&[V3::new(50.0, 0.0, 0.0), V3::new(50.0, 50.0, 0.0)]);
-        assert_eq!((extra, p.len()), (0, 2));
-        assert!(p.iter().all(|p| p.v0 == 0.0 && p.v1 == 0.0));
-        assert_eq!(p[0].vp, 100.0);
-        // two lines in line: each cut towards the junction and the stops,
-        // the junction passed at speed
-        let (extra, p) = planned(&[V3::new(50.0, 0.0, 0.0), V3::new(100.0, 0.0, 0.0)]);
-        assert!(extra >= 4, "{extra}");
-        assert_eq!(p.len() as u64, 2 + extra);
-        let total: f64 = p.iter().map(|p| p.length).sum();
-        assert!((total - 100.0).abs() < 1e-9, "{total}");
-        let mid = p.iter().scan(0.0, |s, p| {
-            *s += p.length;
-            Some((*s, p.v1))
-        });
-        let at_junction = mid.filter(|(s, _)| (s - 50.0).abs() < 1e-9).map(|x| x.1);
-        assert_eq!(at_junction.collect::<Vec<_>>(), vec![100.0]);
-    }
-}
+mod tests;

@@ -8,6 +8,15 @@
 pub const KINK_SHARE: f64 = 0.15;
 /// Share of the acceleration used by a move next to a kink.
 pub const LINE_SHARE: f64 = 1.0 - KINK_SHARE;
+/// Share reserved at a fine kink: a junction whose velocity jump within
+/// one sample is at most this share of each axis's acceleration even at
+/// the fastest path speed (CAM-rounded helix blends meeting at slopes
+/// 10⁻⁴ apart, a line meeting an arc a hair off tangent). The moves next
+/// to it keep [`FINE_SHARE`] instead of [`LINE_SHARE`].
+pub const FINE_KINK_SHARE: f64 = 0.02;
+/// Share of the acceleration used by a move next to a fine kink (and no
+/// kink).
+pub const FINE_SHARE: f64 = 1.0 - FINE_KINK_SHARE;
 /// A junction counts as smooth if its velocity jump at the moves' speed
 /// cap is at most this share of each axis's acceleration (a rounding-level
 /// direction change, as between an arc and its tangent line).
