@@ -49,6 +49,10 @@ struct Held {
     dev: f64,
 }
 
+/// A blend also takes the rest of its first line when that rest is
+/// shorter than this share of what it takes.
+const REMNANT: f64 = 0.01;
+
 /// Largest number of programmed lines merged into one.
 pub(crate) const MAX_RUN: usize = 64;
 
@@ -336,8 +340,13 @@ fn corner(a: &Held, b: &Held, tol: f64) -> Option<(V3, Arc, V3)> {
     let r_len = 0.5 * w1_programmed.max(w1).min(w2) / half.tan();
     let mut r = r_tol.min(r_len);
     let mut l = r * half.tan();
-    // all that is left of the first line (within rounding): it vanishes
-    let takes_all = l >= w1 * (1.0 - 1e-12);
+    // all that is left of the first line (within rounding): it vanishes;
+    // also a rest of it under REMNANT of the blend's share, when the arc
+    // then keeps within the tolerance and the second line (a polyline of
+    // nearly equal lines, CAM-rounded: the blends meet with no sliver of
+    // line between them, which would be a step of the curvature)
+    let takes_all =
+        l >= w1 * (1.0 - 1e-12) || (w1 - l <= REMNANT * l && w1 < w2 && w1 / half.tan() <= r_tol);
     if takes_all {
         l = w1;
         r = l / half.tan();

@@ -281,6 +281,44 @@ pub(crate) fn piece_cuts(
     Some((cuts, 2 * n))
 }
 
+/// The curvature vector of a move at its start or end (1/mm, towards the
+/// centre): 0 for lines; for an arc its [`curvature`] along the in-plane
+/// normal (a helix's principal normal lies in the plane).
+pub fn curvature_vector(g: &Geom, at_end: bool) -> V3 {
+    match g {
+        Geom::Arc(a) if a.radius > 0.0 => {
+            let p = if at_end { a.end } else { a.start };
+            let (pa, qa, _) = a.plane.axes();
+            let mut n = V3::zeros();
+            n[pa] = a.center[pa] - p[pa];
+            n[qa] = a.center[qa] - p[qa];
+            let len = n.norm();
+            if len > 0.0 {
+                n * (curvature(g) / len)
+            } else {
+                V3::zeros()
+            }
+        }
+        _ => V3::zeros(),
+    }
+}
+
+impl JerkBudget {
+    /// Whether a junction whose unit tangent changes by `dt_turn` (norm;
+    /// tangent or a fine kink) from curvature vector `k1` into `k2` keeps
+    /// the step of the normal acceleration, the curvature's and the
+    /// velocity jump's over one sample together, within a quarter of
+    /// `b_step` at any path speed up to `top` (arcs of one curve: a chain
+    /// of blend arcs, a circle programmed in quadrants), so that the XYZ
+    /// filter's window across it sees one curve: the arcs' insides' caps
+    /// hold there with the step beside the turn and growth they allow
+    /// ([`arc_caps`](Self::arc_caps)).
+    pub fn curvature_continues(&self, k1: &V3, k2: &V3, dt_turn: f64, top: f64) -> bool {
+        let step = top * top * (k1 - k2).norm() + top * dt_turn / self.dt;
+        self.limited() && k1.norm() > 0.0 && step <= 0.25 * self.b_step
+    }
+}
+
 /// The curvature of a move (1/mm): 0 for lines; an arc's in-plane
 /// curvature scaled by its plane fraction squared (a helix).
 pub fn curvature(g: &Geom) -> f64 {

@@ -21,7 +21,7 @@
 use crate::canon::{Event, Feed, Src, ThreadMove};
 use crate::geom::Geom;
 use crate::geom::V3;
-use crate::jerk::piece_cuts;
+use crate::jerk::{curvature_vector, piece_cuts};
 pub use crate::limits::PlanLimits;
 use crate::limits::{MoveLimits, MovePrep, Turn};
 use crate::profile::Profile;
@@ -114,6 +114,9 @@ struct Pending {
     prep: MovePrep,
     /// whether it starts from a stop
     entry_stop: bool,
+    /// whether the move before continues into it with its curvature
+    /// ([`JerkBudget::curvature_continues`](crate::jerk::JerkBudget::curvature_continues))
+    entry_curve: bool,
 }
 
 /// Jerk: the queue waits for the path filter's reach behind its head up to
@@ -303,28 +306,49 @@ impl<K: Copy> Lookahead<K> {
         }
         // jerk: the move before is released now that its exit is known;
         // this one waits for its own
-        let entry_stop = match (&self.pending, self.queue.back()) {
-            (Some(p), _) => self.lim.junction(&p.prep.t_end, &prep.t_start).0 == 0.0,
-            (None, Some(prev)) => self.lim.junction(&prev.t_end, &prep.t_start).0 == 0.0,
-            (None, None) => self.v_head == 0.0,
+        let (entry_stop, entry_curve) = match (&self.pending, self.queue.back()) {
+            (Some(p), _) => {
+                let (v, turn) = self.lim.junction(&p.prep.t_end, &prep.t_start);
+                let curve = v > 0.0
+                    && turn != Turn::Kink
+                    && self.lim.jerk.curvature_continues(
+                        &curvature_vector(&p.geom, true),
+                        &curvature_vector(geom, false),
+                        (prep.t_start - p.prep.t_end).norm(),
+                        self.lim.top,
+                    );
+                (v == 0.0, curve)
+            }
+            (None, Some(prev)) => (
+                self.lim.junction(&prev.t_end, &prep.t_start).0 == 0.0,
+                false,
+            ),
+            (None, None) => (self.v_head == 0.0, false),
         };
-        self.release(entry_stop, out);
+        self.release(entry_stop, entry_curve, out);
         self.pending = Some(Pending {
             geom: *geom,
             feed,
             src,
             prep: *prep,
             entry_stop,
+            entry_curve,
         });
     }
 
     /// Jerk: queues the move held back, `exit_stop` whether its exit
     /// junction is a stop: whole if it also starts from one (a line; an
-    /// arc cut only where its inside starts), else in pieces.
-    fn release<O: ItemSink<Kept = K>>(&mut self, exit_stop: bool, out: &mut O) {
+    /// arc cut only where its inside starts), else in pieces. An arc whose
+    /// neighbours both continue its curvature (`exit_curve` the next one)
+    /// is inside a longer curve: all of it has the caps of an arc's inside.
+    fn release<O: ItemSink<Kept = K>>(&mut self, exit_stop: bool, exit_curve: bool, out: &mut O) {
         let Some(p) = self.pending.take() else {
             return;
         };
+        if p.entry_curve && exit_curve && matches!(p.geom, Geom::Arc(_)) {
+            self.curve_inside(&p.geom, p.feed, p.src, out);
+            return;
+        }
         let ends = !(p.entry_stop && exit_stop);
         if !self.split(&p.geom, &p.prep, p.feed, p.src, ends, out) {
             self.enqueue(O::keep(&p.geom, p.feed, p.src), &p.prep, out);
@@ -401,6 +425,35 @@ impl<K: Copy> Lookahead<K> {
             self.backward_pass(self.queue.len() - 1);
         }
         self.commit(false, out);
+    }
+
+    /// Jerk: an arc inside a longer curve, as pieces towards its ends if
+    /// it is long (a neighbour's caps then reach only its ends), every
+    /// piece with the caps of an arc's inside.
+    fn curve_inside<O: ItemSink<Kept = K>>(
+        &mut self,
+        geom: &Geom,
+        feed: Feed,
+        src: Src,
+        out: &mut O,
+    ) {
+        let inner = self.lim.prepare_piece(geom, &feed, O::VLIM, true);
+        let reach = self
+            .lim
+            .jerk
+            .lag_distance(inner.full.vlim.min(self.lim.top));
+        let Some((cuts, n)) = piece_cuts(reach, inner.length, None) else {
+            self.enqueue(O::keep(geom, feed, src), &inner, out);
+            return;
+        };
+        self.extra += n as u64;
+        let mut from = 0.0;
+        for &d in cuts[..n].iter().chain(std::iter::once(&inner.length)) {
+            let g = geom.piece(from, d);
+            let p = self.lim.prepare_piece(&g, &feed, O::VLIM, true);
+            self.enqueue(O::keep(&g, feed, src), &p, out);
+            from = d;
+        }
     }
 
     /// Jerk: a long move is planned as pieces, so that a neighbour's caps
@@ -687,7 +740,7 @@ impl<K: Copy> Lookahead<K> {
     /// Plans everything queued to a stop.
     pub(crate) fn flush<O: ItemSink<Kept = K>>(&mut self, out: &mut O) {
         // the move held back ends in a stop
-        self.release(true, out);
+        self.release(true, false, out);
         // the tail's exit is a stop: smooth
         self.flushing = true;
         self.upgrade_tail();

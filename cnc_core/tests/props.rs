@@ -193,6 +193,74 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(cases(64)))]
+
+    /// Chains of arcs of one curve at low jerk (a CAM polyline circle or
+    /// helix rounded to 0.1 µm blended under G64 P, where blend arcs meet
+    /// blend arcs: the planner gives arcs whose neighbours continue their
+    /// curvature the caps of an arc's inside), or a circle programmed as
+    /// arcs of a few degrees: every limit at every sample, velocity,
+    /// acceleration and jerk, and the path within P (or the XYZ filter's
+    /// bound) of the programmed one.
+    #[test]
+    fn curve_chains_keep_every_limit_and_the_path(
+        r in 1.0..30.0f64,
+        step_deg in 0.5..8.0f64,
+        climb in prop_oneof![Just(0.0), 0.0..3.0f64],
+        turns in 0.3..1.5f64,
+        arcs in any::<bool>(),
+        feed in 600.0..15000.0f64,
+        jerk in 2.0e4..1.0e6f64,
+        tol in prop_oneof![Just(0.01), 0.001..0.05f64],
+    ) {
+        let mut m = Machine::builtin_mill();
+        for a in &mut m.axes {
+            a.max_jerk_mm_s3 = Some(jerk);
+        }
+        let c = V3::new(250.0, 250.0, -20.0);
+        let n = ((turns * 360.0 / step_deg).ceil() as usize).max(2);
+        let step = step_deg.to_radians();
+        let at = |k: usize| {
+            let a = step * k as f64;
+            let z = c.z - climb * a / std::f64::consts::TAU;
+            V3::new(r4(c.x + r * a.cos()), r4(c.y + r * a.sin()), r4(z))
+        };
+        let mut text = format!("G17 G90 G64 P{}\nG00 X{} Y{} Z{}\nF{}\n", r4(tol), at(0).x, at(0).y, at(0).z, r4(feed));
+        let mut els = vec![El::Seg(V3::zeros(), at(0))];
+        for k in 1..=n {
+            let (a, b) = (at(k - 1), at(k));
+            if arcs {
+                // G03 about the programmed centre (flat: the chain of arcs
+                // of one circle, its end points rounded)
+                text += &format!("G03 X{} Y{} I{} J{}\n", b.x, b.y, r4(c.x - a.x), r4(c.y - a.y));
+            } else {
+                text += &format!("G01 X{} Y{} Z{}\n", b.x, b.y, b.z);
+            }
+            els.push(El::Seg(a, b));
+        }
+        if arcs {
+            // the arcs' own path: within the chord's sagitta of the lines
+            // (r·(1 − cos(step/2))), which the bound allows for
+            prop_assume!(climb == 0.0);
+        }
+        let sag = if arcs { r * (1.0 - (0.5 * step).cos()) } else { 0.0 };
+        let r_check = check(StrSource::new(&text), Dialect::Cnc836, &m);
+        prop_assume!(r_check.ok());
+        let s: Vec<Sample> = Executor::new(StrSource::new(&text), Dialect::Cnc836, &m).collect();
+        let last = s.last().unwrap();
+        prop_assert_eq!(last.pos, at(n));
+        prop_assert_eq!(last.k, r_check.ticks);
+        let bound = r4(tol).max(m.smoothing_error_mm()) + sag + 2e-4 + 1e-9;
+        for x in &s {
+            let d = els.iter().map(|e| el_dist(x.pos, e)).fold(f64::MAX, f64::min);
+            prop_assert!(d <= bound, "{} mm off the path at k={} (bound {})\n{}", d, x.k, bound, text);
+        }
+        let over = over_a_limit(&s, &m, Some(jerk));
+        prop_assert!(over.is_none(), "{}\n{}", over.unwrap_or_default(), text);
+    }
+}
+
 /// A programmed path element, for the distance from the path.
 #[derive(Clone, Copy, Debug)]
 enum El {
