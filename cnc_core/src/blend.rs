@@ -54,26 +54,41 @@ struct Held {
 const REMNANT: f64 = 0.01;
 
 /// Largest number of programmed lines merged into one.
-pub(crate) const MAX_RUN: usize = 64;
+const MAX_RUN: usize = 64;
 
 /// A run of lines being merged: the run's start, the programmed points
-/// after it (the last is the run's end), the largest distance of the inner
-/// points from the line start → end, the first line's feed and source, and
-/// the merging tolerance (half the blending tolerance in force).
-#[derive(Debug, Default)]
+/// after it (the last is the run's end; none: no run), the largest
+/// distance of the inner points from the line start → end, the first
+/// line's feed and source, and the blending tolerance in force (the run
+/// merges within half of it).
+#[derive(Debug)]
 struct Run {
     start: V3,
     points: Vec<V3>,
     dev: f64,
-    feed: Option<Feed>,
+    feed: Feed,
     src: Src,
     tol: f64,
 }
 
+impl Default for Run {
+    fn default() -> Self {
+        Run {
+            start: V3::zeros(),
+            points: Vec::new(),
+            dev: 0.0,
+            feed: Feed::Rapid,
+            src: Src::default(),
+            tol: 0.0,
+        }
+    }
+}
+
 impl Run {
     /// Whether the run extended to `end` keeps every inner point (the
-    /// present points, all of which become inner) within `self.tol` of the
-    /// line start → end and in order along it; the new deviation if so.
+    /// present points, all of which become inner) within half of
+    /// `self.tol` of the line start → end and in order along it; the new
+    /// deviation if so.
     fn extended(&self, end: V3) -> Option<f64> {
         let d = end - self.start;
         let len = d.norm();
@@ -91,7 +106,7 @@ impl Run {
             }
             last = t;
             dev = dev.max((w - u * t).norm());
-            if dev > self.tol {
+            if dev > 0.5 * self.tol {
                 return None;
             }
         }
@@ -147,8 +162,7 @@ impl Blender {
         {
             if tol > 0.0 && !matches!(feed, Feed::Rapid) && start != end {
                 let r = &self.run;
-                let continues =
-                    r.feed == Some(feed) && r.tol == 0.5 * tol && r.points.last() == Some(&start);
+                let continues = r.feed == feed && r.tol == tol && r.points.last() == Some(&start);
                 if continues {
                     if let Some(dev) = r.extended(end) {
                         self.run.points.push(end);
@@ -157,14 +171,9 @@ impl Blender {
                     }
                 }
                 self.end_run(out);
-                self.run = Run {
-                    start,
-                    points: vec![end],
-                    dev: 0.0,
-                    feed: Some(feed),
-                    src,
-                    tol: 0.5 * tol,
-                };
+                let r = &mut self.run;
+                r.points.push(end);
+                (r.start, r.dev, r.feed, r.src, r.tol) = (start, 0.0, feed, src, tol);
                 return;
             }
         }
@@ -178,19 +187,21 @@ impl Blender {
         let Some(&end) = self.run.points.last() else {
             return;
         };
-        let (Some(feed), start, src, dev) =
-            (self.run.feed, self.run.start, self.run.src, self.run.dev)
-        else {
-            return;
-        };
         self.run.points.clear();
-        self.run.feed = None;
+        let Run {
+            start,
+            feed,
+            src,
+            dev,
+            tol,
+            ..
+        } = self.run;
         let ev = Event::Move {
             geom: Geom::Line { start, end },
             feed,
             src,
         };
-        self.blend(ev, 2.0 * self.run.tol, dev, out);
+        self.blend(ev, tol, dev, out);
     }
 
     /// Blends the corner between the held line and `ev` (a line whose

@@ -309,8 +309,10 @@ impl<K: Copy> Lookahead<K> {
         let (entry_stop, entry_curve) = match (&self.pending, self.queue.back()) {
             (Some(p), _) => {
                 let (v, turn) = self.lim.junction(&p.prep.t_end, &prep.t_start);
+                // (only an arc continues a curvature)
                 let curve = v > 0.0
                     && turn != Turn::Kink
+                    && matches!(p.geom, Geom::Arc(_))
                     && self.lim.jerk.curvature_continues(
                         &curvature_vector(&p.geom, true),
                         &curvature_vector(geom, false),
@@ -346,7 +348,7 @@ impl<K: Copy> Lookahead<K> {
             return;
         };
         if p.entry_curve && exit_curve && matches!(p.geom, Geom::Arc(_)) {
-            self.curve_inside(&p.geom, p.feed, p.src, out);
+            self.curve_inside(&p, out);
             return;
         }
         let ends = !(p.entry_stop && exit_stop);
@@ -430,13 +432,8 @@ impl<K: Copy> Lookahead<K> {
     /// Jerk: an arc inside a longer curve, as pieces towards its ends if
     /// it is long (a neighbour's caps then reach only its ends), every
     /// piece with the caps of an arc's inside.
-    fn curve_inside<O: ItemSink<Kept = K>>(
-        &mut self,
-        geom: &Geom,
-        feed: Feed,
-        src: Src,
-        out: &mut O,
-    ) {
+    fn curve_inside<O: ItemSink<Kept = K>>(&mut self, p: &Pending, out: &mut O) {
+        let (geom, feed, src) = (&p.geom, p.feed, p.src);
         let inner = self.lim.prepare_piece(geom, &feed, O::VLIM, true);
         let reach = self
             .lim
@@ -446,11 +443,27 @@ impl<K: Copy> Lookahead<K> {
             self.enqueue(O::keep(geom, feed, src), &inner, out);
             return;
         };
-        self.extra += n as u64;
+        self.enqueue_pieces(geom, feed, src, &cuts[..n], inner.length, |_, _| true, out);
+    }
+
+    /// Jerk: queues `geom` (of `length`) cut at `cuts` as pieces, each
+    /// prepared with the caps of an arc's inside where `inside(from, to)`.
+    #[allow(clippy::too_many_arguments)]
+    fn enqueue_pieces<O: ItemSink<Kept = K>>(
+        &mut self,
+        geom: &Geom,
+        feed: Feed,
+        src: Src,
+        cuts: &[f64],
+        length: f64,
+        inside: impl Fn(f64, f64) -> bool,
+        out: &mut O,
+    ) {
+        self.extra += cuts.len() as u64;
         let mut from = 0.0;
-        for &d in cuts[..n].iter().chain(std::iter::once(&inner.length)) {
+        for &d in cuts.iter().chain(std::iter::once(&length)) {
             let g = geom.piece(from, d);
-            let p = self.lim.prepare_piece(&g, &feed, O::VLIM, true);
+            let p = self.lim.prepare_piece(&g, &feed, O::VLIM, inside(from, d));
             self.enqueue(O::keep(&g, feed, src), &p, out);
             from = d;
         }
@@ -508,16 +521,8 @@ impl<K: Copy> Lookahead<K> {
             c[1] = length - inner_at;
             (c, 2)
         };
-        let cuts = &cuts[..n];
-        self.extra += cuts.len() as u64;
-        let mut from = 0.0;
-        for &d in cuts.iter().chain(std::iter::once(&length)) {
-            let g = geom.piece(from, d);
-            let inside = inner.is_some() && from >= edge && d <= length - edge;
-            let p = self.lim.prepare_piece(&g, &feed, O::VLIM, inside);
-            self.enqueue(O::keep(&g, feed, src), &p, out);
-            from = d;
-        }
+        let inside = |from: f64, d: f64| inner.is_some() && from >= edge && d <= length - edge;
+        self.enqueue_pieces(geom, feed, src, &cuts[..n], length, inside, out);
         true
     }
 
