@@ -106,3 +106,62 @@ fn a_fine_kink_costs_its_moves_two_percent_a_kink_fifteen() {
     let (a, _) = run(0.0);
     assert_eq!(a, 2000.0);
 }
+
+#[test]
+fn arcs_that_continue_one_circle_run_at_the_inside_speed_and_its_ends_at_the_end_cap() {
+    // the bundled mill at 50 m/s³: a circle R10 programmed as 36 arcs of
+    // 10° at F6000. Each junction continues the circle, so every arc but
+    // the first and the last is planned as an arc's inside; as separate
+    // arcs each would be an end, capped at √(a_n·R)
+    let mut m = Machine::builtin_mill();
+    for a in &mut m.axes {
+        a.max_jerk_mm_s3 = Some(5.0e4);
+    }
+    let lim = PlanLimits::from_machine(&m);
+    let (end_cap, _) = lim.jerk.arc_caps(0.1, false);
+    let (inside_cap, _) = lim.jerk.arc_caps(0.1, true);
+    // (31.5 and 49.3 mm/s: the inside's offset within the XYZ filter's
+    // 1 µm allows more than the ends' a_n)
+    assert!(end_cap > 31.0 && end_cap < 32.0, "{end_cap}");
+    assert!(inside_cap > 49.0 && inside_cap < 50.0, "{inside_cap}");
+    let mut p = Planner::new(lim);
+    let c = V3::new(100.0, 100.0, 0.0);
+    let at = |k: usize| {
+        let a = (10.0 * k as f64).to_radians();
+        V3::new(c.x + 10.0 * a.cos(), c.y + 10.0 * a.sin(), 0.0)
+    };
+    for k in 0..36 {
+        p.push(Event::Move {
+            geom: Geom::Arc(crate::geom::Arc::new(
+                at(k),
+                at(k + 1),
+                c,
+                crate::geom::Plane::XY,
+                true,
+                0,
+            )),
+            feed: Feed::PerMin(6000.0),
+            src: Src {
+                line: k as u32 + 1,
+                block_no: None,
+            },
+        });
+    }
+    p.flush();
+    let mut by_line = vec![0.0f64; 37];
+    while let Some(it) = p.pop() {
+        if let Item::Move(mv) = it {
+            let l = mv.src.line as usize;
+            by_line[l] = by_line[l].max(mv.profile.vp);
+        }
+    }
+    // the middle of the circle at the inside's cap, to rounding
+    let mid = by_line[18];
+    assert!(
+        (mid - inside_cap).abs() < 1e-6 * inside_cap,
+        "{mid} against {inside_cap}"
+    );
+    // the first and the last arc (ends, meeting a stop) at most the end cap
+    assert!(by_line[1] <= end_cap * (1.0 + 1e-9), "{}", by_line[1]);
+    assert!(by_line[36] <= end_cap * (1.0 + 1e-9), "{}", by_line[36]);
+}
