@@ -48,6 +48,14 @@ def session(domain, sim_args, node_args):
         stop(procs)
 
 
+def deep_qos():
+    """Reliable, the last 1000 samples: a 1 kHz topic's samples wait in
+    the reader for a peer's thread that the machine's load holds back
+    (with rclpy's default depth of 10 most of them are overwritten)."""
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    return QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+
+
 def stop(procs, timeout=5):
     """Terminates the processes, killing those that do not end in time."""
     for p in procs:
@@ -64,14 +72,20 @@ class SpinningPeer:
     callbacks run. Subclasses make their subscriptions and clients after
     this `__init__`, then call `spin()`."""
 
-    def __init__(self, name):
+    def __init__(self, name, own_participant=False):
         import rclpy
-        self.node = rclpy.create_node(name)
+        # (rclpy's nodes share one DDS participant per context: a context
+        # of its own is a participant of its own, discovered afresh)
+        self.context = None
+        if own_participant:
+            self.context = rclpy.Context()
+            rclpy.init(context=self.context)
+        self.node = rclpy.create_node(name, context=self.context)
         self.lock = threading.Lock()
 
     def spin(self):
         from rclpy.executors import SingleThreadedExecutor
-        self.ex = SingleThreadedExecutor()
+        self.ex = SingleThreadedExecutor(context=self.context)
         self.ex.add_node(self.node)
         self.stop = False
         self.thread = threading.Thread(target=self._spin_thread, daemon=True)
@@ -105,6 +119,30 @@ class SpinningPeer:
         self.stop = True
         self.thread.join()
         self.node.destroy_node()
+        if self.context is not None:
+            self.context.try_shutdown()
+
+    def publishers(self, topic):
+        """The publishers of `topic` this peer's participant knows."""
+        return len(self.node.get_publishers_info_by_topic(topic))
+
+
+def hearing_peer(make, missing, attempts=3):
+    """A peer that hears the nodes: `make(own_participant)` makes one,
+    `missing(peer)` says what has not come to it (None: all has). Now and
+    then, on a loaded machine, the nodes' writers never match a peer's
+    readers (rustdds against Fast DDS at start-up: the reader's
+    announcement is lost, and it is not sent again); every attempt after
+    the first is then a new DDS participant, which is announced afresh.
+    An assertion naming what is missing if no attempt hears them."""
+    for attempt in range(1, attempts + 1):
+        p = make(attempt > 1)
+        what = missing(p)
+        if what is None:
+            return p
+        print("peer %d: %s" % (attempt, what))
+        p.close()
+    raise AssertionError(what)
 
 
 def stamp_s(stamp):

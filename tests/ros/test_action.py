@@ -25,7 +25,7 @@ from sensor_msgs.msg import JointState
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram
-from ros_nodes import ROOT, session, SpinningPeer, stamp_s
+from ros_nodes import ROOT, deep_qos, hearing_peer, session, SpinningPeer, stamp_s
 
 try:
     from cnc_msgs.action import ExecuteProgram
@@ -47,13 +47,13 @@ class Peer(SpinningPeer):
     """An rclpy node with an action client, the run_program client, and
     the setpoints and status as they come."""
 
-    def __init__(self, name):
-        super().__init__(name)
+    def __init__(self, name, own_participant=False):
+        super().__init__(name, own_participant)
         self.setpoints = []  # (stamp s, positions m)
         self.status = []
         self.goal_status = {}  # goal id (bytes) -> the latest status on the action's status topic
         self.topic_feedback = {}  # goal id (bytes) -> every feedback on the action's feedback topic
-        self.node.create_subscription(JointState, NS + "/joint_setpoints", self._sp, 10)
+        self.node.create_subscription(JointState, NS + "/joint_setpoints", self._sp, deep_qos())
         self.node.create_subscription(ControllerStatus, NS + "/status", self._st, 10)
         self.node.create_subscription(GoalStatusArray, ACTION + "/_action/status", self._gs,
                                       qos_profile_action_status_default)
@@ -73,7 +73,10 @@ class Peer(SpinningPeer):
         t0 = time.time()
         while not self.setpoints and time.time() - t0 < timeout:
             time.sleep(0.01)
-        return None if self.setpoints else "no setpoint"
+        if self.setpoints:
+            return None
+        return "no setpoint in %.0f s (this peer knows %d publisher(s) of it)" % (
+            timeout, self.publishers(NS + "/joint_setpoints"))
 
     def _sp(self, m):
         with self.lock:
@@ -153,17 +156,7 @@ class Peer(SpinningPeer):
 
 @pytest.fixture
 def peer(env):
-    # (a peer's subscriptions have now and then matched nothing for 30 s
-    # on a loaded machine, as tests/ros/test_faults.py saw: a second peer
-    # node is made before giving up)
-    for attempt in (1, 2):
-        p = Peer("action_peer_%d" % (time.time_ns() % 100000))
-        missing = p.missing()
-        if missing is None:
-            break
-        print("peer %d: %s" % (attempt, missing))
-        p.close()
-    assert missing is None, missing
+    p = hearing_peer(lambda own: Peer("action_peer_%d" % (time.time_ns() % 100000), own), Peer.missing)
     yield p
     p.close()
 

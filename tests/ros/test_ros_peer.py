@@ -16,7 +16,7 @@ from std_srvs.srv import SetBool, Trigger
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram
-from ros_nodes import ROOT, TARGET, build, read_mcap, start, SpinningPeer, stamp_s, stop
+from ros_nodes import ROOT, TARGET, build, deep_qos, hearing_peer, read_mcap, start, SpinningPeer, stamp_s, stop
 
 DOMAIN = str(100 + os.getpid() % 100)
 NS = "/cnc"
@@ -39,17 +39,29 @@ def nodes():
 class Peer(SpinningPeer):
     """An rclpy node that records setpoints and status in a spinning thread."""
 
-    def __init__(self, name):
-        super().__init__(name)
+    def __init__(self, name, own_participant=False):
+        super().__init__(name, own_participant)
         self.setpoints = []  # (stamp s, positions m)
         self.status = []
-        self.node.create_subscription(JointState, NS + "/joint_setpoints", self._sp, 10)
-        self.node.create_subscription(ControllerStatus, NS + "/status", self._st, 10)
+        self.node.create_subscription(JointState, NS + "/joint_setpoints", self._sp, deep_qos())
+        self.node.create_subscription(ControllerStatus, NS + "/status", self._st, 100)
         self.run = self.node.create_client(RunProgram, NS + "/run_program")
         self.abort = self.node.create_client(Trigger, NS + "/abort")
         self.hold = self.node.create_client(SetBool, NS + "/feed_hold")
         self.spin()
-        assert self.run.wait_for_service(timeout_sec=30.0), "no /cnc/run_program service"
+
+    def missing(self, timeout=30.0):
+        """What has not come within `timeout` s, or None: the service, a
+        setpoint and a status."""
+        if not self.run.wait_for_service(timeout_sec=timeout):
+            return "no %s/run_program service" % NS
+        t0 = time.time()
+        while not (self.setpoints and self.status) and time.time() - t0 < timeout:
+            time.sleep(0.01)
+        if self.setpoints and self.status:
+            return None
+        return "%d setpoints, %d status in %.0f s (this peer knows %d publisher(s) of the setpoints)" % (
+            len(self.setpoints), len(self.status), timeout, self.publishers(NS + "/joint_setpoints"))
 
     def _sp(self, m):
         with self.lock:
@@ -74,7 +86,7 @@ class Peer(SpinningPeer):
 
 @pytest.fixture
 def peer(nodes):
-    p = Peer("peer_%d" % (time.time_ns() % 100000))
+    p = hearing_peer(lambda own: Peer("peer_%d" % (time.time_ns() % 100000), own), Peer.missing)
     yield p
     p.close()
 
@@ -278,27 +290,34 @@ def test_feed_override_topic_scales_the_running_job(peer):
     # force (this peer's own timing is no measure on a busy machine)
     r = peer.run_program("G00 X10 Y10 Z0\nG01 X410 F3000\n")
     assert r.accepted, r.message
-    t = _status_when(peer, r.job_id, lambda s: s.source_line == 2)
-    v100 = _x_speed(peer, t + 0.3, t + 0.7)
-    assert abs(v100 - 50.0) < 0.5, v100
-    for pct in (50.0, 150.0):
-        pub.publish(Float64(data=pct))
-        t = _status_when(peer, r.job_id, lambda s: abs(s.feed_override - pct / 100.0) < 1e-9)
-        v = _x_speed(peer, t + 0.1, t + 0.5)
-        assert abs(v - 50.0 * pct / 100.0) < 0.5, (pct, v, v100)
-    # out of range: refused, nothing changes
-    pub.publish(Float64(data=500.0))
-    t = time.time() + 0.2
-    v = _x_speed(peer, t, t + 0.3)
-    assert abs(v - 75.0) < 0.5, v
-    with peer.lock:
-        over = [s.feed_override for s in peer.status if s.job_id == r.job_id][-1]
-    assert over == 1.5, over
-    pub.publish(Float64(data=100.0))
-    t = peer.call(peer.abort, Trigger.Request())
-    assert t.success, t.message
-    peer.wait_state(r.job_id, ControllerStatus.STATE_IDLE)
-    peer.node.destroy_publisher(pub)
+    try:
+        t = _status_when(peer, r.job_id, lambda s: s.source_line == 2)
+        v100 = _x_speed(peer, t + 0.3, t + 0.7)
+        assert abs(v100 - 50.0) < 0.5, v100
+        for pct in (50.0, 150.0):
+            pub.publish(Float64(data=pct))
+            t = _status_when(peer, r.job_id, lambda s: abs(s.feed_override - pct / 100.0) < 1e-9)
+            v = _x_speed(peer, t + 0.1, t + 0.5)
+            assert abs(v - 50.0 * pct / 100.0) < 0.5, (pct, v, v100)
+        # out of range: refused, nothing changes
+        pub.publish(Float64(data=500.0))
+        t = time.time() + 0.2
+        v = _x_speed(peer, t, t + 0.3)
+        assert abs(v - 75.0) < 0.5, v
+        with peer.lock:
+            over = [s.feed_override for s in peer.status if s.job_id == r.job_id][-1]
+        assert over == 1.5, over
+    finally:
+        # the override stays in force for later jobs (as on a control
+        # panel): back to 100 % whatever failed above, or every later test
+        # would run at another speed than its estimate
+        pub.publish(Float64(data=100.0))
+        peer.wait_for("the override back at 100 %",
+                      lambda: [s.feed_override for s in peer.status][-1] == 1.0, 10.0)
+        t = peer.call(peer.abort, Trigger.Request())
+        assert t.success, t.message
+        peer.wait_state(r.job_id, ControllerStatus.STATE_IDLE)
+        peer.node.destroy_publisher(pub)
 
 
 def test_short_lived_clients_get_their_reply_every_time(nodes):
