@@ -237,7 +237,7 @@ impl JerkBudget {
 /// A long move's end pieces halve this many times towards its ends, down
 /// to this length (mm).
 const SPLIT_LEVELS: usize = 6;
-const MIN_PIECE_MM: f64 = 0.02;
+pub(crate) const MIN_PIECE_MM: f64 = 0.02;
 /// Moves shorter than this many times the reach stay whole (a cap over
 /// all of such a short move costs little time; its pieces cost the
 /// look-ahead a walk over each: on the bundled mill, the check of a

@@ -14,7 +14,7 @@
 //! look-ahead and the timeline for the executor; [`Estimate`] adds them
 //! for the check, which needs only the profiles' durations.
 
-use crate::blend::Blender;
+use crate::blend::{Blender, StopCost};
 use crate::canon::{Canon, CompMode, Event, Feed, Src};
 use crate::comp::{block_name, Comp};
 use crate::dialect::Dialect;
@@ -50,7 +50,14 @@ impl Front {
     pub fn new(machine: &Machine) -> Self {
         Front {
             comp: Comp::new(machine.compensation.round_outside_corners, machine.home()),
-            blend: Blender::new(machine.smoothing_error_mm()),
+            blend: Blender::new(
+                machine.smoothing_error_mm(),
+                Some(StopCost {
+                    jerk: machine.jerk_budget(),
+                    accel: machine.amax().min(),
+                    vmax: machine.vmax().min(),
+                }),
+            ),
             tolerance: machine.planner.path_tolerance_mm,
             travel: Travel::new(machine),
             bbox: None,
