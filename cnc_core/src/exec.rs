@@ -17,7 +17,9 @@
 //! normal acceleration. After each stop the setpoints hold still for
 //! M_s + M_f − 2 ticks ([`crate::timeline::Timeline::hold`]), so that the
 //! filtered path reaches every stop point exactly; the check counts those
-//! ticks too. At high jerk ([`crate::jerk::JerkBudget::single_average`]) there
+//! ticks too. A line run from rest to rest has a path filter of its own
+//! and no XYZ filter, and holds that filter's length less one
+//! ([`crate::profile::Profile::own_filter`]). At high jerk ([`crate::jerk::JerkBudget::single_average`]) there
 //! is no path filter (M_s = 1: the raw point, bit for bit) and the XYZ
 //! filter alone limits the jerk. G33 samples bypass both filters: they follow the spindle
 //! angle, and a filter's delay would shift the groove with the speed.
@@ -167,6 +169,11 @@ pub struct Executor<S> {
     /// length, then the XYZ filter (None: no jerk limit)
     path: Option<PathFilter>,
     smooth: Option<Smoother>,
+    /// the machine's filter lengths (M_s, M_f), and those in use: a line
+    /// run from rest to rest has a path filter of its own and no XYZ
+    /// filter ([`crate::profile::Profile::own_filter`])
+    filters: (usize, usize),
+    filters_now: (usize, usize),
     /// path length of every move finished, mm, and the raw sample's path
     /// length (None: not on the path, a bypassed sample)
     s_total: f64,
@@ -237,6 +244,8 @@ impl<S: ProgramSource> Executor<S> {
             // (a path filter of one sample is none: the raw point's bits)
             path: (lim.jerk.m_s > 1).then(|| PathFilter::new(lim.jerk.m_s, 0.0, machine.home())),
             smooth: (lim.jerk.m_f > 1).then(|| Smoother::new(lim.jerk.m_f, machine.home())),
+            filters: (lim.jerk.m_s, lim.jerk.m_f),
+            filters_now: (lim.jerk.m_s, lim.jerk.m_f),
             s_total: 0.0,
             raw_s: None,
             drain: None,
@@ -689,6 +698,23 @@ impl<S: ProgramSource> Executor<S> {
         Some(s)
     }
 
+    /// At the start of a group (at rest, the hold after the stop before
+    /// over): the path filter of `own` samples and no XYZ filter for a
+    /// line run from rest to rest, else the machine's filters. The filters
+    /// are made anew, standing at the stop: the sample the group starts
+    /// with (the stop point again) fills the last of the old filters'
+    /// slots that still held an earlier point, so either way it comes out
+    /// as the stop point.
+    fn filters_for(&mut self, own: Option<u32>) {
+        let want = own.map_or(self.filters, |m| (m as usize, 1));
+        if want == self.filters_now {
+            return;
+        }
+        self.filters_now = want;
+        self.path = Some(PathFilter::new(want.0, self.s_total, self.pos));
+        self.smooth = (want.1 > 1).then(|| Smoother::new(want.1, self.pos));
+    }
+
     /// The next unfiltered sample.
     fn raw_sample(&mut self) -> Option<Sample> {
         if self.done {
@@ -716,6 +742,9 @@ impl<S: ProgramSource> Executor<S> {
                 match item {
                     None | Some(Item::End { .. }) => return self.end_at(self.pos),
                     Some(Item::Move(m)) => {
+                        if self.path.is_some() && m.profile.v0 == 0.0 {
+                            self.filters_for(m.profile.own_filter());
+                        }
                         if let Some(pf) = self.path.as_mut() {
                             pf.add_move(self.s_total, m.geom);
                         }

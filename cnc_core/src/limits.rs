@@ -23,6 +23,11 @@ pub(crate) struct MoveLimits {
     /// speed cap at any feed, with acceleration `a`
     /// ([`Profile::vlim`](crate::profile::Profile::vlim))
     pub vlim: f64,
+    /// a line under the path filter: the length of the path filter that
+    /// keeps its jerk with the whole of it, should it run from rest to
+    /// rest ([`Profile::direct`](crate::profile::Profile::direct)); 0
+    /// otherwise
+    pub direct: u32,
 }
 
 /// What the planner needs of a move before it looks at its neighbours:
@@ -54,6 +59,7 @@ impl MovePrep {
             vcap: 0.0,
             a: 0.0,
             vlim: 0.0,
+            direct: 0,
         };
         MovePrep {
             length,
@@ -160,7 +166,11 @@ impl PlanLimits {
                 }
                 let t = d.unscale(length);
                 // |d| / length per axis is |t| (a quotient's sign is exact)
-                let l = self.line_limits(&t.abs(), f);
+                // (a G95 line keeps the machine's filters: the follow-up of
+                // the measured spindle is documented and tested against
+                // their delay)
+                let own = !matches!(feed, Feed::PerRev { .. });
+                let l = self.line_limits(&t.abs(), f, own);
                 MovePrep {
                     length,
                     t_start: t,
@@ -193,7 +203,7 @@ impl PlanLimits {
     /// `u` holds |direction| per axis, `f` is the feed's speed. (What does
     /// not depend on the share is computed once.)
     #[inline]
-    fn line_limits(&self, u: &V3, f: f64) -> [MoveLimits; 3] {
+    fn line_limits(&self, u: &V3, f: f64, own: bool) -> [MoveLimits; 3] {
         let mut vlim = f64::INFINITY;
         let mut a = [f64::INFINITY; 3];
         for i in 0..3 {
@@ -205,12 +215,35 @@ impl PlanLimits {
                 a[2] = a[2].min(1.0 * self.amax[i] / u);
             }
         }
+        let direct = if own { self.direct_samples(u, a[2]) } else { 0 };
         let limits = |a: f64| MoveLimits {
             vcap: f.min(vlim),
             a,
             vlim,
+            direct,
         };
         a.map(limits)
+    }
+
+    /// A line's own path filter, for a run from rest to rest: a moving
+    /// average of M samples keeps the tangential jerk of a profile whose
+    /// acceleration steps by up to 2·a (a feed hold's deceleration right
+    /// after speeding up) within 2·a/(M·dt); on axis i that is |u_i| times
+    /// as much, and a line needs no share for normal accelerations or
+    /// their turn, so M = ⌈2·a·max|u_i| / (j·dt)⌉, never longer than the
+    /// path filter itself. 0 without the path filter.
+    #[inline]
+    fn direct_samples(&self, u: &V3, a: f64) -> u32 {
+        let jb = &self.jerk;
+        if !(jb.limited() && jb.m_s > 1) {
+            return 0;
+        }
+        let m = (2.0 * a * u.max() / (jb.j * self.dt) - 1e-9).ceil();
+        if m.is_finite() {
+            m.clamp(1.0, jb.m_s as f64) as u32
+        } else {
+            jb.m_s as u32
+        }
     }
 
     /// An arc's limits with [`LINE_SHARE`], [`FINE_SHARE`] and the whole acceleration, `f`
@@ -297,6 +330,7 @@ impl PlanLimits {
                 vcap: f.min(vgeo).min(centripetal(normal)).min(vj),
                 a: a.min(aj),
                 vlim,
+                direct: 0,
             }
         };
         [limits(LINE_SHARE), limits(FINE_SHARE), limits(1.0)]
@@ -371,6 +405,7 @@ mod tests {
                     vcap: f.min(vlim),
                     a,
                     vlim,
+                    direct: 0,
                 }
             }
             Geom::Arc(arc) => {
@@ -404,6 +439,7 @@ mod tests {
                     vcap: f.min(vgeo).min(centripetal(normal)),
                     a,
                     vlim: vgeo.min(centripetal(normal_left)),
+                    direct: 0,
                 }
             }
         }

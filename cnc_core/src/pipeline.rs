@@ -314,17 +314,19 @@ const WAITING: usize = 16;
 /// which they do not with the planning of every move between them.)
 struct Settle {
     totals: Totals,
-    /// (v0, v1, speed cap, acceleration, length) of the moves waiting
-    waiting: ArrayVec<[f64; 5], WAITING>,
+    /// (v0, v1, speed cap, acceleration, length, own path filter) of
+    /// the moves waiting
+    waiting: ArrayVec<([f64; 5], u32), WAITING>,
 }
 
 impl Settle {
     /// Adds up the moves waiting.
     #[inline]
     fn settle(&mut self) {
-        for &[v0, v1, vcap, a, length] in &self.waiting {
-            self.totals
-                .planned((), Profile::new(v0, v1, vcap, a, length));
+        for &([v0, v1, vcap, a, length], direct) in &self.waiting {
+            let mut p = Profile::new(v0, v1, vcap, a, length);
+            p.direct = direct;
+            self.totals.planned((), p);
         }
         self.waiting.clear();
     }
@@ -349,7 +351,8 @@ impl ItemSink for Settle {
         if self.waiting.is_full() {
             self.settle();
         }
-        self.waiting.push([v0, v1, lim.vcap, lim.a, length]);
+        self.waiting
+            .push(([v0, v1, lim.vcap, lim.a, length], lim.direct));
     }
     #[inline]
     fn item(&mut self, item: Item) {

@@ -173,6 +173,7 @@ pub(crate) trait ItemSink {
         let mut profile = Profile::new(v0, v1, lim.vcap, lim.a, length);
         profile.vlim = lim.vlim;
         profile.a_join = a_join;
+        profile.direct = lim.direct;
         self.planned(kept, profile);
     }
     /// Any other item.

@@ -25,6 +25,12 @@ pub struct Profile {
     /// without a stop: what a change of the feed scale may use in a
     /// sample step that reaches across a junction
     pub a_join: f64,
+    /// a line's own path filter length, samples
+    /// ([`MoveLimits::direct`](crate::limits::MoveLimits::direct)): run
+    /// from rest to rest, the line is filtered with it alone (no XYZ
+    /// filter) and the hold after it is `direct − 1`; 0: the machine's
+    /// filters
+    pub direct: u32,
 }
 
 impl Profile {
@@ -60,7 +66,15 @@ impl Profile {
             duration: t_acc + t_cruise + t_dec,
             vlim: vcap,
             a_join: a,
+            direct: 0,
         }
+    }
+
+    /// The length of the path filter this move runs with on its own, if
+    /// it does: a line from rest to rest under the path filter.
+    #[inline]
+    pub fn own_filter(&self) -> Option<u32> {
+        (self.direct > 0 && self.v0 == 0.0 && self.v1 == 0.0).then_some(self.direct)
     }
 
     /// Distance along the move at time `t` after its start.

@@ -83,9 +83,14 @@ impl Timeline {
     /// Advances past a finished move with profile `p`.
     #[inline]
     pub(crate) fn finish_profile(&mut self, p: &Profile) {
-        // as `stop_tick`, then the hold
+        // as `stop_tick`, then the hold (a line run from rest to rest
+        // with its own path filter: that filter's)
         if p.v1 == 0.0 {
-            self.group_k0 += self.ticks(self.seg_t0 + p.duration) + self.hold;
+            let hold = match p.own_filter() {
+                Some(m) => u64::from(m) - 1,
+                None => self.hold,
+            };
+            self.group_k0 += self.ticks(self.seg_t0 + p.duration) + hold;
             self.seg_t0 = 0.0;
         } else {
             self.seg_t0 += p.duration;

@@ -36,13 +36,16 @@ fn hold_decelerates_on_the_path_holds_still_and_resumes_to_the_exact_end() {
     }
     assert_eq!(ex.feed_scale(), 0.0);
     // 100 mm/s at 2000 mm/s² (the line runs between two stops, so it has
-    // the whole acceleration) stops in 50 ms, 2.5 mm, plus the 2.2 mm
-    // that the jerk filters' setpoint lags ((M_s − 1 + M_f − 1)/2 = 22
-    // samples)
+    // the whole acceleration) stops in 50 ms, 2.5 mm, plus the 0.95 mm
+    // that the setpoint lags: a line from rest to rest runs with a path
+    // filter of its own, ⌈2·a/(j·dt)⌉ = 2 · 2000 / (200 · 1) = 20 samples
+    // (at X's 200 m/s³), and no XYZ filter: (20 − 1)/2 samples
     let stop = s[1999].pos;
     let travelled = stop[0] - s[1499].pos[0];
     let b = m.jerk_budget();
-    let lag = (b.m_s + b.m_f - 2) as f64 / 2.0 * 0.1;
+    let own = (2.0 * 2000.0 / (b.j * m.dt()) - 1e-9).ceil();
+    assert_eq!(own, 20.0);
+    let lag = (own - 1.0) / 2.0 * 0.1;
     assert!(
         (travelled - 100.0 * 100.0 / (2.0 * 2000.0) - lag).abs() < 0.1,
         "{travelled}"

@@ -251,7 +251,8 @@ fn under_a_jerk_limit_a_sharp_corner_stops_where_its_blend_would_be_slower() {
     // mm/s², 50 m/s³: a blend of P 0.01 at a right angle has r = 24 µm
     // and a speed cap of 1.6 mm/s, which the path filter holds over a
     // stretch of either line; each corner blended cost 6.972 s in all,
-    // each an exact stop 5.812 s
+    // each an exact stop 5.812 s (5.273 s now that a line from rest to
+    // rest has a path filter of its own)
     let mut m = mill();
     for a in &mut m.axes {
         a.max_velocity_mm_s = 100.0;
@@ -266,7 +267,7 @@ fn under_a_jerk_limit_a_sharp_corner_stops_where_its_blend_would_be_slower() {
     };
     let blended = run(&prog("G64 P0.01"), &m);
     let exact = run(&prog("G61"), &m);
-    assert_eq!(blended.len(), 5813);
+    assert_eq!(blended.len(), 5274);
     assert_eq!(blended.len(), exact.len());
     // the same samples: every corner passed exactly, at rest
     for (a, b) in blended.iter().zip(&exact) {
@@ -276,6 +277,33 @@ fn under_a_jerk_limit_a_sharp_corner_stops_where_its_blend_would_be_slower() {
         let at = V3::new(corner.0, corner.1, -1.0);
         assert!(blended.iter().any(|s| s.pos == at), "{at:?} not passed");
     }
+}
+
+#[test]
+fn a_line_from_rest_to_rest_runs_with_a_path_filter_of_its_own() {
+    // the bundled mill: X 2000 mm/s², 200 m/s³; its path filter is 40
+    // samples and its XYZ filter 6, a 44-tick hold after each stop. A line
+    // from rest to rest needs neither the normal-acceleration share nor
+    // the XYZ filter: a path filter of ⌈2·a/(j·dt)⌉ = 20 samples of its
+    // own keeps its jerk even with a step of 2a (a feed hold right after
+    // speeding up), and its hold is 19 ticks
+    let m = mill();
+    let b = m.jerk_budget();
+    assert_eq!((b.m_s, b.m_f, b.hold_ticks()), (40, 6, 44));
+    let s = run("G01 X100 F6000\n", &m);
+    // 100 mm at 100 mm/s, 50 ms to speed up and to stop: 1050 ticks, and
+    // the hold
+    assert_eq!(s.len(), 1050 + 19 + 1);
+    assert_eq!(s.last().unwrap().pos, V3::new(100.0, 0.0, 0.0));
+    // the S-curve: the trapezoid's steps of 2000 mm/s² over 20 ms, 100
+    // m/s³ (the machine's two filters gave 2000 / 40 ms = 50 m/s³ at most)
+    let x: Vec<f64> = s.iter().map(|p| p.pos[0]).collect();
+    let dt = m.dt();
+    let j = x
+        .windows(4)
+        .map(|w| ((w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]) / (dt * dt * dt)).abs())
+        .fold(0.0, f64::max);
+    assert!((j - 1.0e5).abs() < 1e3, "{j} mm/s³");
 }
 
 #[test]

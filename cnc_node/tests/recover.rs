@@ -126,7 +126,7 @@ fn cut_recordings_keep_every_complete_chunk() {
     assert_eq!(chunks.len(), 9);
     assert!(chunks[0].2.is_empty());
     let all = messages(&full);
-    assert_eq!(all.len(), 64_072);
+    assert_eq!(all.len(), 63_800);
     assert_eq!(
         chunks.iter().map(|c| c.2.len()).sum::<usize>(),
         all.len(),

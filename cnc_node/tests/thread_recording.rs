@@ -59,11 +59,11 @@ fn an_offline_recording_measures_as_its_program_does() {
     assert!((w.sync_mm.0 - 4.88975).abs() < 1e-5, "{:?}", w.sync_mm);
     assert!((w.sync_mm.1 + 39.88975).abs() < 1e-5, "{:?}", w.sync_mm);
     // every setpoint of the pass and every joint state is paired (an
-    // encoder reading at every sample's stamp): 2268 samples from the
+    // encoder reading at every sample's stamp): 2263 samples from the
     // last at the start to the first at the end, 2239 of them on the line
     // (44.78 mm at 1.5 mm/rev and 800 rpm: 29.85 revolutions of 75 ms)
-    assert_eq!((w.set_pairs, w.act_pairs), (2268, 2268));
-    assert_eq!((p.samples, p.on_line_samples), (2268, 2239));
+    assert_eq!((w.set_pairs, w.act_pairs), (2263, 2263));
+    assert_eq!((p.samples, p.on_line_samples), (2263, 2239));
     assert_eq!((p.groove_set.n, p.groove_act.n), (2239, 2238));
 
     // the groove: the setpoints on the programmed start angle (measured
@@ -226,7 +226,7 @@ fn a_shifted_index_moves_the_groove_by_90_degrees() {
         "{text}"
     );
     assert!(
-        text.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0409°"),
+        text.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0408°"),
         "{text}"
     );
     // the encoder payloads differ: not within, as before
