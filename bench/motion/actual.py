@@ -58,10 +58,13 @@ def stop_all():
     started.clear()
 
 
-def machine_file(jerk, out):
-    """config/mill.toml at VEL, ACC and `jerk` m/s³ on every axis (as jerk.sh)."""
+def machine_file(jerk, out, accel_ff=0.0):
+    """config/mill.toml at VEL, ACC and `jerk` m/s³ on every axis (as jerk.sh),
+    with the simulated drives' acceleration feed-forward `accel_ff` (0: none)."""
     with open(os.path.join(ROOT, "config", "mill.toml")) as f:
         text = f.read()
+    if accel_ff:
+        text = re.sub(r"(?m)^(max_velocity_mm_s = .*)$", r"\1\nservo_accel_feed_forward = %g" % accel_ff, text)
     text = re.sub(r"(?m)^max_velocity_mm_s = .*", "max_velocity_mm_s = %d.0" % VEL, text)
     text = re.sub(r"(?m)^max_acceleration_mm_s2 = .*", "max_acceleration_mm_s2 = %d.0" % ACC, text)
     text = re.sub(r"(?m)^max_jerk_mm_s3 = .*", "max_jerk_mm_s3 = %.1f" % (float(jerk) * 1000), text)
@@ -223,6 +226,8 @@ def main():
     ap.add_argument("--jerks", nargs="*", default=["50", "200"], help="m/s³")
     ap.add_argument("--out", default=os.path.join(ROOT, "bench", "out", "actual"))
     ap.add_argument("--bin", default=os.path.join(ROOT, "target", "release"))
+    ap.add_argument("--accel-ff", type=float, default=0.0,
+                    help="the simulated drives' acceleration feed-forward, 0..1 (servo_accel_feed_forward)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     a.out = os.path.abspath(a.out)
@@ -237,7 +242,7 @@ def main():
     results = {}
     try:
         for jerk in a.jerks:
-            machine, delay_ms = machine_file(jerk, a.out)
+            machine, delay_ms = machine_file(jerk, a.out, a.accel_ff)
             s_off, a_off = offline(cnc, prog, machine, a.out, jerk)
             sp, st, reply, rec = over_dds(a, machine, a.out, jerk)
             # the job's span on the shared clock: its first to its last setpoint, and the

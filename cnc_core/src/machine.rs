@@ -44,6 +44,11 @@ pub struct AxisConfig {
     /// servo model: velocity-loop time constant, s
     #[serde(default = "default_lag")]
     pub servo_lag_s: f64,
+    /// servo model: acceleration feed-forward 0..=1, the share of the
+    /// velocity loop's lag under acceleration the drive makes up (0, the
+    /// default: none)
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub servo_accel_feed_forward: f64,
 }
 
 /// Longest setpoint delay a machine file may set, ms.
@@ -451,6 +456,12 @@ impl Machine {
                     );
                 }
             }
+            if !(0.0..=1.0).contains(&a.servo_accel_feed_forward) {
+                return bad(
+                    k("servo_accel_feed_forward"),
+                    "must be between 0 and 1".into(),
+                );
+            }
             if !(0.0..=1.0).contains(&a.servo_feed_forward) {
                 return bad(k("servo_feed_forward"), "must be between 0 and 1".into());
             }
@@ -639,7 +650,8 @@ impl Machine {
     /// coordinate, absent axes 0): a P loop with velocity feed-forward
     /// `ff` and a velocity loop of time constant τ, commanded `L` =
     /// (1 − ff)/kp ahead, stands `a·((τ − L)/kp + L²/2)` behind at a
-    /// constant acceleration `a` (τ/kp with full feed-forward). G33 adds
+    /// constant acceleration `a` (τ/kp with full feed-forward; τ is the lag
+    /// the acceleration feed-forward leaves, (1 − aff)·τ). G33 adds
     /// it times the lead axis's acceleration (weighted by
     /// `interpolation.thread_accel_lead`), so the tool stays on the
     /// thread line while the spindle's speed changes.
@@ -647,7 +659,8 @@ impl Machine {
         V3::from_fn(|i, _| {
             self.axis(i).map_or(0.0, |a| {
                 let l = ((1.0 - a.servo_feed_forward) / a.servo_kp).max(0.0);
-                ((a.servo_lag_s - l) / a.servo_kp + 0.5 * l * l).max(0.0)
+                let tau = a.servo_lag_s * (1.0 - a.servo_accel_feed_forward);
+                ((tau - l) / a.servo_kp + 0.5 * l * l).max(0.0)
             })
         })
     }
@@ -963,5 +976,23 @@ mod tests {
         let l = 0.05 / 60.0;
         let want = (0.002 - l) / 60.0 + 0.5 * l * l;
         assert!((m.servo_accel_lag_s2()[2] - want).abs() < 1e-15);
+        // acceleration feed-forward takes its share of τ out: half of it
+        // with full velocity feed-forward leaves τ/2/kp, all of it none
+        m.axes[1].servo_feed_forward = 1.0;
+        m.axes[1].servo_accel_feed_forward = 0.5;
+        assert!((m.servo_accel_lag_s2()[2] - 0.001 / 60.0).abs() < 1e-15);
+        m.axes[1].servo_accel_feed_forward = 1.0;
+        assert_eq!(m.servo_accel_lag_s2()[2], 0.0);
+        // a machine file's value out of 0..1 is refused, naming the key
+        let e = with(
+            "max_velocity_mm_s = 250.0",
+            "servo_accel_feed_forward = 1.5\nmax_velocity_mm_s = 250.0",
+        )
+        .unwrap_err();
+        assert!(
+            e.0.contains("servo_accel_feed_forward`: must be between 0 and 1"),
+            "{}",
+            e.0
+        );
     }
 }

@@ -20,6 +20,7 @@ pub fn model_for(machine: &Machine, seed: u64) -> MachineModel {
                     kp: a.servo_kp,
                     velocity_feed_forward: a.servo_feed_forward,
                     velocity_lag: a.servo_lag_s,
+                    acceleration_feed_forward: a.servo_accel_feed_forward,
                 },
                 a.home_mm,
             )
