@@ -25,9 +25,9 @@ pub(crate) struct MoveLimits {
     pub vlim: f64,
     /// a line under the path filter: the length of the path filter that
     /// keeps its jerk with the whole of it, should it run from rest to
-    /// rest ([`Profile::direct`](crate::profile::Profile::direct)); 0
+    /// rest ([`Profile::own_m`](crate::profile::Profile::own_m)); 0
     /// otherwise
-    pub direct: u32,
+    pub own_m: u32,
 }
 
 /// What the planner needs of a move before it looks at its neighbours:
@@ -59,7 +59,7 @@ impl MovePrep {
             vcap: 0.0,
             a: 0.0,
             vlim: 0.0,
-            direct: 0,
+            own_m: 0,
         };
         MovePrep {
             length,
@@ -215,12 +215,16 @@ impl PlanLimits {
                 a[2] = a[2].min(1.0 * self.amax[i] / u);
             }
         }
-        let direct = if own { self.direct_samples(u, a[2]) } else { 0 };
+        let own_m = if own {
+            self.own_filter_samples(u, a[2])
+        } else {
+            0
+        };
         let limits = |a: f64| MoveLimits {
             vcap: f.min(vlim),
             a,
             vlim,
-            direct,
+            own_m,
         };
         a.map(limits)
     }
@@ -233,7 +237,7 @@ impl PlanLimits {
     /// their turn, so M = ⌈2·a·max|u_i| / (j·dt)⌉, never longer than the
     /// path filter itself. 0 without the path filter.
     #[inline]
-    fn direct_samples(&self, u: &V3, a: f64) -> u32 {
+    fn own_filter_samples(&self, u: &V3, a: f64) -> u32 {
         let jb = &self.jerk;
         if !(jb.limited() && jb.m_s > 1) {
             return 0;
@@ -330,7 +334,7 @@ impl PlanLimits {
                 vcap: f.min(vgeo).min(centripetal(normal)).min(vj),
                 a: a.min(aj),
                 vlim,
-                direct: 0,
+                own_m: 0,
             }
         };
         [limits(LINE_SHARE), limits(FINE_SHARE), limits(1.0)]
@@ -405,7 +409,7 @@ mod tests {
                     vcap: f.min(vlim),
                     a,
                     vlim,
-                    direct: 0,
+                    own_m: 0,
                 }
             }
             Geom::Arc(arc) => {
@@ -439,7 +443,7 @@ mod tests {
                     vcap: f.min(vgeo).min(centripetal(normal)),
                     a,
                     vlim: vgeo.min(centripetal(normal_left)),
-                    direct: 0,
+                    own_m: 0,
                 }
             }
         }

@@ -323,9 +323,9 @@ impl Settle {
     /// Adds up the moves waiting.
     #[inline]
     fn settle(&mut self) {
-        for &([v0, v1, vcap, a, length], direct) in &self.waiting {
+        for &([v0, v1, vcap, a, length], own_m) in &self.waiting {
             let mut p = Profile::new(v0, v1, vcap, a, length);
-            p.direct = direct;
+            p.own_m = own_m;
             self.totals.planned((), p);
         }
         self.waiting.clear();
@@ -352,7 +352,7 @@ impl ItemSink for Settle {
             self.settle();
         }
         self.waiting
-            .push(([v0, v1, lim.vcap, lim.a, length], lim.direct));
+            .push(([v0, v1, lim.vcap, lim.a, length], lim.own_m));
     }
     #[inline]
     fn item(&mut self, item: Item) {

@@ -173,7 +173,7 @@ pub(crate) trait ItemSink {
         let mut profile = Profile::new(v0, v1, lim.vcap, lim.a, length);
         profile.vlim = lim.vlim;
         profile.a_join = a_join;
-        profile.direct = lim.direct;
+        profile.own_m = lim.own_m;
         self.planned(kept, profile);
     }
     /// Any other item.

@@ -26,11 +26,11 @@ pub struct Profile {
     /// sample step that reaches across a junction
     pub a_join: f64,
     /// a line's own path filter length, samples
-    /// ([`MoveLimits::direct`](crate::limits::MoveLimits::direct)): run
+    /// ([`MoveLimits::own_m`](crate::limits::MoveLimits::own_m)): run
     /// from rest to rest, the line is filtered with it alone (no XYZ
-    /// filter) and the hold after it is `direct − 1`; 0: the machine's
+    /// filter) and the hold after it is `own_m − 1`; 0: the machine's
     /// filters
-    pub direct: u32,
+    pub own_m: u32,
 }
 
 impl Profile {
@@ -66,7 +66,7 @@ impl Profile {
             duration: t_acc + t_cruise + t_dec,
             vlim: vcap,
             a_join: a,
-            direct: 0,
+            own_m: 0,
         }
     }
 
@@ -74,7 +74,7 @@ impl Profile {
     /// it does: a line from rest to rest under the path filter.
     #[inline]
     pub fn own_filter(&self) -> Option<u32> {
-        (self.direct > 0 && self.v0 == 0.0 && self.v1 == 0.0).then_some(self.direct)
+        (self.own_m > 0 && self.v0 == 0.0 && self.v1 == 0.0).then_some(self.own_m)
     }
 
     /// Distance along the move at time `t` after its start.
