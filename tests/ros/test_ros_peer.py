@@ -579,9 +579,14 @@ def test_the_simulated_axes_over_dds_move_as_the_offline_simulation(peer, tmp_pa
     # (debug builds in this suite: p90 0.007-0.01 µm, p99 0.02-0.09 µm, max
     # 0.7-3.5 µm where setpoints came late, more of them on a busy host; a
     # simulator that applied them on arrival, or a model that differed,
-    # would be tens of µm off at most samples)
+    # would be tens of µm off at most samples: the p90 bound. The largest
+    # difference is the host's: while a setpoint is late the simulator goes
+    # on at the last speed, so one 5 ms late while the axis accelerates at
+    # 2000 mm/s² moves it by a·t²/2 = 25 µm for a moment; a stalled CI host
+    # has made such delays. The max bound only catches what no lateness
+    # explains.)
     assert p90 < 0.00005, p90
-    assert diffs[-1] < 0.020, diffs[-1]
+    assert diffs[-1] < 0.100, diffs[-1]
     # and the axes do move: the offline actual lags its setpoint by up to
     # tens of µm at 50 mm/s, so a comparison of the setpoints with
     # themselves would not pass the bounds above
