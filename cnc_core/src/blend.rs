@@ -36,7 +36,7 @@
 use crate::canon::{Event, Feed, Src};
 use crate::geom::V3;
 use crate::geom::{Arc, Geom, Plane};
-use crate::jerk::{curvature, JerkBudget};
+use crate::jerk::{curvature, least_piece, JerkBudget};
 use std::collections::VecDeque;
 
 /// A held line: its (possibly trimmed) start, its end, feed and source,
@@ -188,8 +188,9 @@ impl StopCost {
             // (the planner cuts a line's ends into pieces that halve
             // towards the corner and caps a piece whole: the cap holds
             // over up to twice its reach, and at least the shortest piece)
-            let piece = (jb.lag_distance(v) / 64.0).max(crate::jerk::MIN_PIECE_MM);
-            let held = (2.0 * jb.lag_distance(vb)).max(piece).min(l);
+            let held = (2.0 * jb.lag_distance(vb))
+                .max(least_piece(jb.lag_distance(v)))
+                .min(l);
             blend += 0.5 * (v - vb) * (v - vb) / (a * v) + held * (1.0 / vb - 1.0 / v);
         }
         blend < stop + jb.hold_ticks() as f64 * jb.dt

@@ -237,7 +237,7 @@ impl JerkBudget {
 /// A long move's end pieces halve this many times towards its ends, down
 /// to this length (mm).
 const SPLIT_LEVELS: usize = 6;
-pub(crate) const MIN_PIECE_MM: f64 = 0.02;
+const MIN_PIECE_MM: f64 = 0.02;
 /// Moves shorter than this many times the reach stay whole (a cap over
 /// all of such a short move costs little time; its pieces cost the
 /// look-ahead a walk over each: on the bundled mill, the check of a
@@ -245,6 +245,14 @@ pub(crate) const MIN_PIECE_MM: f64 = 0.02;
 const SPLIT_FROM: f64 = 0.1;
 /// Most cuts [`piece_cuts`] makes.
 pub(crate) const MAX_CUTS: usize = 2 * SPLIT_LEVELS + 4;
+
+/// The shortest piece [`piece_cuts`] cuts for caps reaching `reach` mm:
+/// reach/64, at least [`MIN_PIECE_MM`]. (A cap holds over the whole of
+/// each piece it reaches.)
+#[inline]
+pub(crate) fn least_piece(reach: f64) -> f64 {
+    (reach / f64::from(1u32 << SPLIT_LEVELS)).max(MIN_PIECE_MM)
+}
 
 /// Where a move of `length` mm is cut into pieces so that caps reaching
 /// `reach` mm into it reach only its ends: at reach/64, /64, /32, ..., /2
@@ -257,7 +265,7 @@ pub(crate) fn piece_cuts(
     length: f64,
     inner_at: Option<f64>,
 ) -> Option<([f64; MAX_CUTS], usize)> {
-    let least = (reach / f64::from(1u32 << SPLIT_LEVELS)).max(MIN_PIECE_MM);
+    let least = least_piece(reach);
     if !(least > 0.0 && length > 3.0 * least && length > SPLIT_FROM * reach) {
         return None;
     }

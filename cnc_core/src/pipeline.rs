@@ -48,12 +48,15 @@ pub struct Front {
 
 impl Front {
     pub fn new(machine: &Machine) -> Self {
+        // (blends keep within the tolerance less the XYZ filter's error,
+        // `Machine::smoothing_error_mm`)
+        let jerk = machine.jerk_budget();
         Front {
             comp: Comp::new(machine.compensation.round_outside_corners, machine.home()),
             blend: Blender::new(
-                machine.smoothing_error_mm(),
+                jerk.error_mm(),
                 Some(StopCost {
-                    jerk: machine.jerk_budget(),
+                    jerk,
                     accel: machine.amax().min(),
                     vmax: machine.vmax().min(),
                 }),
