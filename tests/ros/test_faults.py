@@ -22,14 +22,13 @@ import time
 
 import pytest
 import rclpy
-from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
 from cnc_msgs.msg import ControllerStatus, SpindleEncoder
 from cnc_msgs.srv import RunProgram
-from ros_nodes import ROOT, TARGET, build, read_mcap, start, start_node, start_sim, SpinningPeer, stop
+from ros_nodes import ROOT, TARGET, build, deep_qos, hearing_peer, read_mcap, start, start_node, start_sim, SpinningPeer, stop
 
 DOMAIN = str(30 + os.getpid() % 60)
 NS, SIM = "/cnc", "/sim"
@@ -97,14 +96,14 @@ class Peer(SpinningPeer):
     """Setpoints (stamp ns, arrival s, positions m), status, the simulator's
     joint states and encoder, spindle commands; calls the service."""
 
-    def __init__(self, name):
-        super().__init__(name)
+    def __init__(self, name, own_participant=False):
+        super().__init__(name, own_participant)
         self.setpoints = []
         self.status = []  # (arrival s, message)
         self.joint_states = []  # (stamp ns, positions m)
         self.encoder = []  # (stamp ns, velocity rad/s)
         self.spindle = []  # rad/s
-        deep = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+        deep = deep_qos()
         self.node.create_subscription(JointState, NS + "/joint_setpoints", self._sp, deep)
         self.node.create_subscription(JointState, SIM + "/joint_states", self._js, deep)
         self.node.create_subscription(SpindleEncoder, SIM + "/spindle_encoder", self._enc, deep)
@@ -205,19 +204,15 @@ def rig(tmp_path_factory):
     try:
         # A peer's subscriptions have now and then matched nothing for
         # 10 s or more on a loaded CI machine (DDS discovery, seen once as
-        # every test of this module failing at setup): a second peer node
-        # is made before giving up, and what was missing is printed.
-        for attempt in (1, 2):
-            r.peer = Peer("faults_peer_%d" % (time.time_ns() % 100000))
-            missing = r.peer.streams_arrive(30.0)
-            if missing is None:
-                break
-            print("peer %d: %s; nodes running: %s, %s" % (attempt, missing, r.node.poll() is None,
-                                                         r.sim.poll() is None))
-            r.peer.close()
-            r.peer = None
-        assert r.peer is not None, "%s\n-- cnc_node log:\n%s\n-- sim_axes log:\n%s" % (
-            missing, r.node_stderr()[-2000:], open(r.sim_log, "rb").read().decode(errors="replace")[-2000:])
+        # every test of this module failing at setup): hearing_peer makes
+        # it again as a participant of its own before giving up.
+        try:
+            r.peer = hearing_peer(lambda own: Peer("faults_peer_%d" % (time.time_ns() % 100000), own),
+                                  Peer.streams_arrive)
+        except AssertionError as e:
+            raise AssertionError("%s; nodes running: %s, %s\n-- cnc_node log:\n%s\n-- sim_axes log:\n%s" % (
+                e, r.node.poll() is None, r.sim.poll() is None, r.node_stderr()[-2000:],
+                open(r.sim_log, "rb").read().decode(errors="replace")[-2000:])) from None
         yield r
         r.peer.close()
     finally:

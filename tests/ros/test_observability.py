@@ -42,7 +42,7 @@ from tf2_msgs.msg import TFMessage
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram, SetDelay
-from ros_nodes import ROOT, TARGET, build, start, start_sim, SpinningPeer, stop
+from ros_nodes import ROOT, TARGET, build, deep_qos, start, start_sim, SpinningPeer, stop
 
 # ROS_DOMAIN_ID is at most 232 (Fast DDS's ports); 230-232 are this module's
 DOMAIN = str(230 + os.getpid() % 3)
@@ -79,8 +79,7 @@ class Peer(SpinningPeer):
         self.tf_static = []
         self.node.create_subscription(Log, "/rosout", self._add(self.logs), ROSOUT_QOS)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._add(self.diags), 50)
-        deep = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-        self.node.create_subscription(JointState, NS + "/joint_setpoints", self._sp, deep)
+        self.node.create_subscription(JointState, NS + "/joint_setpoints", self._sp, deep_qos())
         self.node.create_subscription(ControllerStatus, NS + "/status", self._add(self.status), 100)
         self.node.create_subscription(TFMessage, "/tf", self._add(self.tf), QoSProfile(
             depth=100, reliability=ReliabilityPolicy.RELIABLE))
