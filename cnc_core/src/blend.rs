@@ -36,7 +36,7 @@
 use crate::canon::{Event, Feed, Src};
 use crate::geom::V3;
 use crate::geom::{Arc, Geom, Plane};
-use crate::jerk::{curvature, least_piece, JerkBudget};
+use crate::jerk::{curvature, least_piece, ArcPart, JerkBudget};
 use std::collections::VecDeque;
 
 /// A held line: its (possibly trimmed) start, its end, feed and source,
@@ -170,7 +170,7 @@ impl StopCost {
         }
         let a = self.accel;
         let vb = jb
-            .arc_caps(curvature(&Geom::Arc(*arc)), false)
+            .arc_caps(curvature(&Geom::Arc(*arc)), ArcPart::End)
             .0
             .min(feed[0].min(feed[1]))
             .min(self.vmax);
@@ -212,6 +212,16 @@ impl Blender {
             held: None,
             shrink,
             stops,
+        }
+    }
+
+    /// After an [`Event::Tolerance`] has passed (nothing is held): blends
+    /// shrink by the XYZ filter's error under the new tolerance, and
+    /// reckon stops with its budget.
+    pub(crate) fn follow_tolerance(&mut self, mm: f64) {
+        if let Some(s) = self.stops.as_mut() {
+            s.jerk = s.jerk.for_tolerance(mm);
+            self.shrink = s.jerk.error_mm();
         }
     }
 

@@ -62,6 +62,13 @@ pub enum Event {
     },
     /// G33: a thread block, synchronized with the spindle
     Thread(ThreadMove),
+    /// The path tolerance (G64 P, G61) changed so much that the jerk
+    /// filters must change with it (the front emits it only then): the
+    /// moves before it end in an exact stop, those after run with the XYZ
+    /// filter and caps for tolerance `mm` (0: G61).
+    Tolerance {
+        mm: f64,
+    },
     /// M02/M30 or the end of the text
     End {
         src: Src,

@@ -206,7 +206,14 @@ impl Batch {
 
     /// Runs the lines through the interpreter and keeps its events; with
     /// `prepare`, also what the planner works out of each move alone.
-    fn interpret(&mut self, interp: &mut Interpreter<Fed, Front>, prepare: Option<&PlanLimits>) {
+    /// `lim`: the planner's limits where these lines start (the events'
+    /// tolerance changes change its jerk budget as they do the planner's).
+    fn interpret(
+        &mut self,
+        interp: &mut Interpreter<Fed, Front>,
+        lim: &mut PlanLimits,
+        prepare: bool,
+    ) {
         let (mut t0, mut w0) = (0, 0);
         for l in &mut self.lines {
             if interp.is_finished() {
@@ -227,13 +234,13 @@ impl Batch {
         interp.take_events(&mut self.events);
         self.finished = interp.is_finished();
         self.preps.clear();
-        let Some(lim) = prepare else {
-            return;
-        };
         for ev in &self.events {
-            if let Event::Move { geom, feed, .. } = ev {
+            match ev {
                 // (the check's estimate does not use the speed limit over the feed)
-                self.preps.push(lim.prepare(geom, feed, false));
+                Event::Move { geom, feed, .. } if prepare => {
+                    self.preps.push(lim.prepare(geom, feed, false));
+                }
+                _ => lim.follow(ev),
             }
         }
     }
@@ -260,6 +267,9 @@ fn check_concurrently<S: ProgramSource>(
     // evens out the work.
     let queued = AtomicUsize::new(0);
     let queued = &queued;
+    // (the interpreting thread's limits start where `first` leaves them)
+    let mut lim_after_first = lim;
+    first.iter().for_each(|ev| lim_after_first.follow(ev));
     // (`move`: should this thread panic, the channels close as it unwinds
     // and the other thread ends, so the scope can join it)
     std::thread::scope(move |s| {
@@ -267,10 +277,11 @@ fn check_concurrently<S: ProgramSource>(
             .name("cnc-check-interp".into())
             .spawn_scoped(s, move || {
                 let mut interp = start_rx.recv().ok()?;
+                let mut lim = lim_after_first;
                 for mut batch in interp_rx {
                     // take work off the planner while keeping up with it
                     let behind = queued.fetch_sub(1, Ordering::Relaxed) > 1;
-                    batch.interpret(&mut interp, (!behind).then_some(&lim));
+                    batch.interpret(&mut interp, &mut lim, !behind);
                     if interp_tx.send(batch).is_err() {
                         break;
                     }
@@ -383,6 +394,7 @@ mod tests {
                         tl.finish_thread(&m);
                     }
                     Item::Tool { .. } => {}
+                    Item::Smoothing(b) => tl.set_hold(b.hold_ticks()),
                 }
             }
             ended |= ev.is_none();
@@ -393,7 +405,8 @@ mod tests {
 
     /// A long program of every kind of block, errors included: arcs
     /// (some that do not fit), lines, dwells, spindle and tool changes,
-    /// comments, blank lines and bad words.
+    /// path tolerances (a G64 P in the first batch, then G61 and G64 P:
+    /// the jerk budget follows them), comments, blank lines and bad words.
     fn program(lines: usize, seed: u64, dialect: Dialect) -> String {
         let mut x = seed;
         let mut next = move |n: u64| {
@@ -403,7 +416,8 @@ mod tests {
             (x >> 33) % n
         };
         let comment = dialect.comment_char() as char;
-        let mut s = String::from("N1 G17 G90 G94 G00 X100 Y100 Z10 S1000 M03\nN2 F1500\n");
+        let mut s =
+            String::from("N1 G17 G90 G94 G00 X100 Y100 Z10 S1000 M03\nN2 G64 P0.02 F1500\n");
         let (mut px, mut py) = (100.0f64, 100.0f64);
         for k in 3..lines as u64 {
             let line = match next(40) {
@@ -431,7 +445,11 @@ mod tests {
                     format!("N{k} G91 G01 X0.{dx} Y-0.{dy}\nG90")
                 }
                 9 => format!("N{k} G01 Z{}.{}", next(20), next(99)),
-                10..=24 => {
+                10 => format!(
+                    "N{k} {}",
+                    ["G61", "G64 P0.004", "G64 P0.05"][next(3) as usize]
+                ),
+                11..=24 => {
                     let (dx, dy) = (
                         next(2000) as f64 / 1000.0 - 1.0,
                         next(2000) as f64 / 1000.0 - 1.0,

@@ -767,6 +767,12 @@ impl<S: ProgramSource> Executor<S> {
                         self.src = src;
                         self.tool = number;
                     }
+                    Some(Item::Smoothing(b)) => {
+                        // (at rest, the hold over: the next group's start
+                        // makes the filters anew)
+                        self.filters = (b.m_s, b.m_f);
+                        self.pipe.timeline.set_hold(b.hold_ticks());
+                    }
                     Some(Item::Thread(m)) => {
                         self.cur = Some(Cur::Thread(ThreadRun {
                             m,

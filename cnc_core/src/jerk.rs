@@ -18,8 +18,12 @@
 //!    `a_n` ≤ b_step/2, a kink's velocity jump over one sample too, so any
 //!    two differ by at most `b_step`. Inside a long arc, where the window
 //!    sees nothing but the arc, the normal acceleration only turns and
-//!    grows: v³κ²·W and 2·v·a_t·κ·W within a quarter of `b_step` each, and
-//!    the speed there may be higher ([`JerkBudget::arc_caps`]). The turn of
+//!    grows: v³κ²·W within a quarter of `b_step` and 2·v·a_t·κ·W within
+//!    half of it (as fast as it may grow near the ends, 2·T·j·W: any two
+//!    samples within W, on the end or the inside, differ in size by half
+//!    of `b_step` at most), which leaves a quarter for a curvature step
+//!    of a curve's junction ([`JerkBudget::curve_speed`]); the speed there
+//!    may be higher ([`JerkBudget::arc_caps`]). The turn of
 //!    the tangential acceleration, a_t·v·κ, stays under
 //!    [`TURN_JERK_SHARE`]·j, and the path filter takes the rest. The XYZ
 //!    filter moves a point off a smooth path by at most
@@ -35,7 +39,10 @@
 //!    lines so that only their ends take a neighbour's cap).
 
 use crate::geom::{Geom, V3};
-use crate::shares::{NORMAL_JERK_SHARE, S_FILTER_SHARE, TURN_JERK_SHARE, XYZ_FILTER_ERROR_MM};
+use crate::shares::{
+    NORMAL_JERK_SHARE, S_FILTER_SHARE, TURN_JERK_SHARE, XYZ_FILTER_ERROR_MM,
+    XYZ_FILTER_TOLERANCE_SHARE,
+};
 use std::collections::VecDeque;
 
 /// Longest XYZ filter, samples.
@@ -98,18 +105,35 @@ impl JerkBudget {
     }
 
     /// The budget for jerk limit `j` (mm/s³, the least of the axes'), with
-    /// a path filter of `m_s` samples.
+    /// a path filter of `m_s` samples, for an exact path (G61): the XYZ
+    /// filter within [`XYZ_FILTER_ERROR_MM`].
     pub fn new(dt: f64, m_s: usize, j: Option<f64>) -> Self {
+        JerkBudget::with_error(dt, m_s, j, XYZ_FILTER_ERROR_MM)
+    }
+
+    /// [`new`](Self::new) with the XYZ filter within `error_mm` of the
+    /// path (at least [`XYZ_FILTER_ERROR_MM`]); for a larger error no
+    /// longer than the path filter or G61's XYZ filter (at M_f = M_s its
+    /// normal acceleration is 0.8 of the path's, and the hold after a stop
+    /// twice the path filter's).
+    pub fn with_error(dt: f64, m_s: usize, j: Option<f64>, error_mm: f64) -> Self {
         let Some(j) = j.filter(|j| j.is_finite() && *j > 0.0) else {
             return JerkBudget::none(dt);
+        };
+        let error_mm = error_mm.max(XYZ_FILTER_ERROR_MM);
+        // (a larger error: no longer than the path filter, or than G61's)
+        let top = if error_mm > XYZ_FILTER_ERROR_MM {
+            JerkBudget::new(dt, m_s, Some(j)).m_f.max(m_s)
+        } else {
+            MAX_XYZ_SAMPLES
         };
         // the XYZ filter: the longest normal acceleration both the jerk and
         // the deviation allow
         let (mut best_m, mut best_a) = (1, 0.0);
-        for m in 2..=MAX_XYZ_SAMPLES {
+        for m in 2..=top.min(MAX_XYZ_SAMPLES) {
             let w = (m - 1) as f64 * dt;
             let by_jerk = NORMAL_JERK_SHARE * j * m as f64 * dt / 2.0;
-            let by_error = 8.0 * XYZ_FILTER_ERROR_MM / (w * w);
+            let by_error = 8.0 * error_mm / (w * w);
             let a = by_jerk.min(by_error);
             if a > best_a {
                 best_m = m;
@@ -127,9 +151,26 @@ impl JerkBudget {
             j,
             a_n: best_a,
             b_step: NORMAL_JERK_SHARE * j * m * dt,
-            a_dev: 24.0 * XYZ_FILTER_ERROR_MM / ((m * m - 1.0) * dt * dt),
+            a_dev: 24.0 * error_mm / ((m * m - 1.0) * dt * dt),
             single_average_error_mm: None,
         }
+    }
+
+    /// The budget under path tolerance `tol` (G64 P, mm; 0: G61): the XYZ
+    /// filter may take [`XYZ_FILTER_TOLERANCE_SHARE`] of the tolerance
+    /// (never less than [`XYZ_FILTER_ERROR_MM`]), the corner blends keep
+    /// within the rest. A longer XYZ filter allows more normal
+    /// acceleration where curvature steps (lines meeting arcs, kinks): at
+    /// 50 m/s³ and P 0.01 mm, M_f 10 → 16 samples and `a_n` 99 → 160
+    /// mm/s². Without a jerk limit, or with the single average
+    /// ([`JerkBudget::single_average`]), the budget does not depend on the
+    /// tolerance.
+    pub fn for_tolerance(&self, tol: f64) -> JerkBudget {
+        if !self.limited() {
+            return *self;
+        }
+        let error = (XYZ_FILTER_TOLERANCE_SHARE * tol).max(XYZ_FILTER_ERROR_MM);
+        JerkBudget::with_error(self.dt, self.m_s, Some(self.j), error)
     }
 
     /// Whether the planner caps speeds and accelerations for the jerk
@@ -192,14 +233,25 @@ impl JerkBudget {
     }
 
     /// An arc's speed cap and tangential acceleration cap for curvature
-    /// `kappa` (1/mm). Near its ends: the normal acceleration within
-    /// `a_n`, the turn of the tangential acceleration a_t·v·κ within
-    /// [`TURN_JERK_SHARE`]·j. `inside` (the XYZ filter's window sees only
-    /// the arc): also any faster speed at which the normal acceleration
-    /// stays within `a_dev` and, over the filter's span W, its turn
-    /// v³κ²·W and its growth 2·v·a_t·κ·W within a quarter of `b_step`
-    /// each.
-    pub fn arc_caps(&self, kappa: f64, inside: bool) -> (f64, f64) {
+    /// `kappa` (1/mm) on `part` of it ([`ArcPart`]). Near an end: the
+    /// normal acceleration within `a_n`, the turn of the tangential
+    /// acceleration a_t·v·κ within [`TURN_JERK_SHARE`]·j. Beside a tangent
+    /// line or a stop: the normal acceleration within `b_step` (and
+    /// `a_dev`), its turn over the filter's span W, v³κ²·W, within a
+    /// quarter of `b_step`, and the same turn of the tangential one.
+    /// Inside (the XYZ filter's window sees only the arc): also any faster
+    /// speed at which the normal acceleration stays within `a_dev` and,
+    /// over W, its turn within a quarter of `b_step` and its growth
+    /// 2·v·a_t·κ·W within half of it.
+    pub fn arc_caps(&self, kappa: f64, part: ArcPart) -> (f64, f64) {
+        self.arc_caps_below(kappa, part, f64::INFINITY)
+    }
+
+    /// [`arc_caps`](Self::arc_caps) for an arc fed at `v_top`: beside a
+    /// line its speed cap is no higher than that (nor under the end's), so
+    /// that its tangential acceleration cap, which falls as the speed cap
+    /// rises, is as high as that speed allows.
+    pub fn arc_caps_below(&self, kappa: f64, part: ArcPart, v_top: f64) -> (f64, f64) {
         if !self.limited() || kappa <= 0.0 {
             return (f64::INFINITY, f64::INFINITY);
         }
@@ -208,15 +260,28 @@ impl JerkBudget {
         let by_size = (self.a_n / kappa).sqrt();
         let w = self.step_span();
         let q = 0.25 * self.b_step;
-        let by_change = (self.a_dev / kappa)
-            .sqrt()
-            .min((q / (w * kappa * kappa)).cbrt());
-        if !inside || by_change <= by_size {
-            return (by_size, TURN_JERK_SHARE * self.j / (by_size * kappa));
+        let by_turn = (q / (w * kappa * kappa)).cbrt();
+        let end = |v: f64| (v, TURN_JERK_SHARE * self.j / (v * kappa));
+        match part {
+            ArcPart::End => end(by_size),
+            // (beside a line or a stop the window holds the arc and normal
+            // accelerations of 0: any two of size up to `b_step` that turn
+            // by at most a quarter of it differ by at most `b_step`)
+            ArcPart::Beside => end((self.b_step.min(self.a_dev) / kappa)
+                .sqrt()
+                .min(by_turn)
+                .min(v_top)
+                .max(by_size)),
+            ArcPart::Inside => {
+                let by_change = (self.a_dev / kappa).sqrt().min(by_turn);
+                if by_change <= by_size {
+                    return end(by_size);
+                }
+                let v = by_change;
+                let a = (TURN_JERK_SHARE * self.j / (v * kappa)).min(q / (v * kappa * w));
+                (v, a)
+            }
         }
-        let v = by_change;
-        let a = (TURN_JERK_SHARE * self.j / (v * kappa)).min(q / (2.0 * v * kappa * w));
-        (v, a)
     }
 
     /// The speed cap of a kink whose unit tangent changes by `d` on some
@@ -232,6 +297,23 @@ impl JerkBudget {
     pub fn s_share(&self) -> f64 {
         S_FILTER_SHARE * self.j
     }
+}
+
+/// Where on an arc a piece lies, for its jerk caps
+/// ([`JerkBudget::arc_caps`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ArcPart {
+    /// within the XYZ filter's span of an end that anything may meet (a
+    /// line, another arc, a kink)
+    End,
+    /// within that span only of ends met by a stop or, tangent, by a line
+    /// at least that span long at the fastest path speed (so the window
+    /// holds no other curvature or kink), or farther than the span from
+    /// either end
+    Beside,
+    /// farther than the span from its ends, for the faster inside caps
+    /// (only where an arc is long enough to be worth it)
+    Inside,
 }
 
 /// A long move's end pieces halve this many times towards its ends, down
@@ -312,18 +394,34 @@ pub fn curvature_vector(g: &Geom, at_end: bool) -> V3 {
 }
 
 impl JerkBudget {
-    /// Whether a junction whose unit tangent changes by `dt_turn` (norm;
-    /// tangent or a fine kink) from curvature vector `k1` into `k2` keeps
-    /// the step of the normal acceleration, the curvature's and the
-    /// velocity jump's over one sample together, within a quarter of
-    /// `b_step` at any path speed up to `top` (arcs of one curve: a chain
-    /// of blend arcs, a circle programmed in quadrants), so that the XYZ
-    /// filter's window across it sees one curve: the arcs' insides' caps
-    /// hold there with the step beside the turn and growth they allow
-    /// ([`arc_caps`](Self::arc_caps)).
-    pub fn curvature_continues(&self, k1: &V3, k2: &V3, dt_turn: f64, top: f64) -> bool {
-        let step = top * top * (k1 - k2).norm() + top * dt_turn / self.dt;
-        self.limited() && k1.norm() > 0.0 && step <= 0.25 * self.b_step
+    /// The largest path speed at which a junction whose unit tangent
+    /// changes by `dt_turn` (norm; tangent or a fine kink) from curvature
+    /// vector `k1` into `k2` keeps the step of the normal acceleration,
+    /// the curvature's and the velocity jump's over one sample together,
+    /// v²·|k1 − k2| + v·`dt_turn`/dt, within a quarter of `b_step` (0:
+    /// none, or the move before is no arc). Under it the XYZ filter's
+    /// window across the junction sees one curve (a chain of blend arcs, a
+    /// circle programmed in quadrants): the arcs' insides' caps hold there
+    /// with the step beside the turn and growth they allow
+    /// ([`arc_caps`](Self::arc_caps)). At the top path speed or over, the
+    /// arcs run as one curve as they are; under it, with a cap on the
+    /// junction (held over the path filter's reach as any junction's), so
+    /// that two arcs of a CAM curve whose curvatures differ by its
+    /// rounding still do.
+    pub fn curve_speed(&self, k1: &V3, k2: &V3, dt_turn: f64) -> f64 {
+        if !self.limited() || k1.norm() <= 0.0 {
+            return 0.0;
+        }
+        // A·v² + B·v ≤ q
+        let (a, b, q) = ((k1 - k2).norm(), dt_turn / self.dt, 0.25 * self.b_step);
+        if a > 0.0 {
+            // (the positive root, in the form without cancellation)
+            2.0 * q / (b + (b * b + 4.0 * a * q).sqrt())
+        } else if b > 0.0 {
+            q / b
+        } else {
+            f64::INFINITY
+        }
     }
 }
 
@@ -459,6 +557,26 @@ mod tests {
     use super::*;
 
     #[test]
+    fn beside_a_line_an_arc_fed_slower_than_its_end_cap_keeps_the_ends_caps() {
+        // (a higher speed cap lowers the tangential acceleration cap: an
+        // arc beside a line takes the higher one only as far as its feed)
+        let jb = JerkBudget::new(0.001, 40, Some(2.0e5));
+        let kappa = 0.5;
+        let end = jb.arc_caps(kappa, ArcPart::End);
+        let beside = jb.arc_caps(kappa, ArcPart::Beside);
+        assert!(
+            beside.0 > end.0 * 1.3 && beside.1 < end.1,
+            "{end:?} {beside:?}"
+        );
+        assert_eq!(jb.arc_caps_below(kappa, ArcPart::Beside, 0.9 * end.0), end);
+        let v = 0.5 * (end.0 + beside.0);
+        let (vb, ab) = jb.arc_caps_below(kappa, ArcPart::Beside, v);
+        assert_eq!(vb, v);
+        assert!((ab * v * kappa - TURN_JERK_SHARE * 2.0e5).abs() < 1e-6);
+        assert_eq!(jb.arc_caps_below(kappa, ArcPart::Beside, 1e9), beside);
+    }
+
+    #[test]
     fn an_arcs_inside_keeps_its_budgets_and_is_never_slower_than_its_ends() {
         for j in [2.0e4, 5.0e4, 1.0e5, 3.0e5, 1.0e6] {
             for m_s in [4, 40, 400] {
@@ -466,8 +584,19 @@ mod tests {
                 let w = jb.step_span();
                 for r in [0.01, 0.1, 1.0, 2.0, 8.0, 50.0, 1000.0] {
                     let kappa = 1.0 / r;
-                    let (v_end, a_end) = jb.arc_caps(kappa, false);
-                    let (v, a) = jb.arc_caps(kappa, true);
+                    let (v_end, a_end) = jb.arc_caps(kappa, ArcPart::End);
+                    let (v_b, a_b) = jb.arc_caps(kappa, ArcPart::Beside);
+                    let (v, a) = jb.arc_caps(kappa, ArcPart::Inside);
+                    assert!(v_end <= v_b && v_b <= v.max(v_end), "{j} {r}");
+                    // beside a line: the normal acceleration within b_step
+                    // and a_dev, its turn over W within a quarter of b_step
+                    if v_b > v_end {
+                        assert!(v_b * v_b * kappa <= jb.b_step.min(jb.a_dev) * (1.0 + 1e-12));
+                        assert!(
+                            v_b * v_b * v_b * kappa * kappa * w <= 0.25 * jb.b_step * (1.0 + 1e-12)
+                        );
+                        assert!(a_b * v_b * kappa <= TURN_JERK_SHARE * j * (1.0 + 1e-12));
+                    }
                     assert!(v >= v_end && v.is_finite() && a > 0.0, "{j} {r}");
                     // at the ends: the normal acceleration within a_n
                     assert!(v_end * v_end * kappa <= jb.a_n * (1.0 + 1e-12));
@@ -477,7 +606,7 @@ mod tests {
                         let q = 0.25 * jb.b_step * (1.0 + 1e-12);
                         assert!(v * v * kappa <= jb.a_dev * (1.0 + 1e-12), "{j} {r}");
                         assert!(v * v * v * kappa * kappa * w <= q, "{j} {r}");
-                        assert!(2.0 * v * a * kappa * w <= q, "{j} {r}");
+                        assert!(2.0 * v * a * kappa * w <= 2.0 * q, "{j} {r}");
                         assert!(a * v * kappa <= TURN_JERK_SHARE * j * (1.0 + 1e-12));
                     }
                 }
@@ -514,7 +643,10 @@ mod tests {
             assert!(!b.limited() && b.filtered());
             assert_eq!(b.error_mm(), high.single_average_error_mm());
             assert!(b.error_mm() <= crate::shares::SINGLE_AVERAGE_ERROR_MM);
-            assert_eq!(b.arc_caps(0.1, false), (f64::INFINITY, f64::INFINITY));
+            assert_eq!(
+                b.arc_caps(0.1, ArcPart::End),
+                (f64::INFINITY, f64::INFINITY)
+            );
             assert_eq!(b.kink_cap(0.5), f64::INFINITY);
             // 50 m/s³: the caps, a longer path filter
             let mut low = m;

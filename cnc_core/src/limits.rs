@@ -4,9 +4,9 @@
 //! caps of [`crate::jerk`]), apart from the look-ahead (`plan.rs`) so the
 //! check can compute it on another thread.
 
-use crate::canon::Feed;
+use crate::canon::{Event, Feed};
 use crate::geom::{Arc, Geom, V3};
-use crate::jerk::JerkBudget;
+use crate::jerk::{ArcPart, JerkBudget};
 use crate::machine::Machine;
 use crate::shares::{
     ARC_NORMAL_MAX, FINE_KINK_SHARE, FINE_SHARE, KINK_SHARE, LINE_SHARE, SMOOTH_SHARE,
@@ -141,19 +141,18 @@ impl PlanLimits {
     /// with it).
     #[inline]
     pub(crate) fn prepare(&self, geom: &Geom, feed: &Feed, vlim: bool) -> MovePrep {
-        self.prepare_piece(geom, feed, vlim, false)
+        self.prepare_piece(geom, feed, vlim, ArcPart::End)
     }
 
-    /// [`prepare`](Self::prepare), for a piece of an arc that is `inside`
-    /// it under a jerk limit (the XYZ filter's window around it sees only
-    /// the arc: [`JerkBudget::arc_caps`]).
+    /// [`prepare`](Self::prepare), for `part` of an arc under a jerk
+    /// limit ([`JerkBudget::arc_caps`]).
     #[inline]
     pub(crate) fn prepare_piece(
         &self,
         geom: &Geom,
         feed: &Feed,
         vlim: bool,
-        inside: bool,
+        part: ArcPart,
     ) -> MovePrep {
         let vlim = vlim || self.jerk.limited();
         let f = feed.speed_mm_s();
@@ -185,7 +184,7 @@ impl PlanLimits {
                 if arc.length <= 0.0 {
                     return MovePrep::skipped(arc.length);
                 }
-                let l = self.arc_limits(arc, f, vlim, inside);
+                let l = self.arc_limits(arc, f, vlim, part);
                 MovePrep {
                     length: arc.length,
                     t_start: geom.start_tangent(),
@@ -196,6 +195,46 @@ impl PlanLimits {
                     stop: stops(&l, arc.length),
                 }
             }
+        }
+    }
+
+    /// Follows `ev` as the look-ahead does: a tolerance change
+    /// ([`Event::Tolerance`]) changes the jerk budget of the moves after it.
+    #[inline]
+    pub(crate) fn follow(&mut self, ev: &Event) {
+        if let Event::Tolerance { mm } = *ev {
+            self.jerk = self.jerk.for_tolerance(mm);
+        }
+    }
+
+    /// `prep` (what [`prepare`](Self::prepare) made of `geom`) with the
+    /// jerk caps of `part` of an arc: its limits anew, its length and
+    /// tangents as they are (a line's as it is, and an arc's beside a line
+    /// when it is fed so slowly that it keeps the end's caps).
+    pub(crate) fn repart(
+        &self,
+        prep: &MovePrep,
+        geom: &Geom,
+        feed: &Feed,
+        part: ArcPart,
+    ) -> MovePrep {
+        let Geom::Arc(arc) = geom else {
+            return *prep;
+        };
+        let f = feed.speed_mm_s();
+        // (beside a line an arc fed at f with f²κ ≤ a_n keeps the end's
+        // caps; κ ≤ 1/r)
+        let slow = part == ArcPart::Beside && f * f <= self.jerk.a_n * arc.radius;
+        if arc.length <= 0.0 || !self.jerk.limited() || slow {
+            return *prep;
+        }
+        let l = self.arc_limits(arc, f, true, part);
+        MovePrep {
+            red: l[0],
+            fine: l[1],
+            full: l[2],
+            stop: stops(&l, arc.length),
+            ..*prep
         }
     }
 
@@ -256,7 +295,7 @@ impl PlanLimits {
     /// [`ARC_NORMAL_MAX`]·share, and the tangential part the rest, so
     /// their vector sum stays under the share on every axis.
     #[inline]
-    fn arc_limits(&self, arc: &Arc, f: f64, vlim: bool, inside: bool) -> [MoveLimits; 3] {
+    fn arc_limits(&self, arc: &Arc, f: f64, vlim: bool, part: ArcPart) -> [MoveLimits; 3] {
         // A flat arc's length is its length in the plane, r·|sweep|, and
         // its plane fraction r·|sweep| / length is then exactly 1: the
         // limits with the literal 1, which the compiler takes out of its
@@ -265,14 +304,14 @@ impl PlanLimits {
         let plane_len = arc.radius * arc.sweep.abs();
         if arc.axial == 0.0 && arc.length == plane_len && plane_len.is_finite() && plane_len != 0.0
         {
-            self.arc_limits_with(arc, f, vlim, inside, 1.0, 0.0)
+            self.arc_limits_with(arc, f, vlim, part, 1.0, 0.0)
         } else {
             let h = if arc.length > 0.0 {
                 arc.axial.abs() / arc.length
             } else {
                 0.0
             };
-            self.arc_limits_with(arc, f, vlim, inside, arc.plane_fraction(), h)
+            self.arc_limits_with(arc, f, vlim, part, arc.plane_fraction(), h)
         }
     }
 
@@ -284,7 +323,7 @@ impl PlanLimits {
         arc: &Arc,
         f: f64,
         vlim: bool,
-        inside: bool,
+        part: ArcPart,
         c: f64,
         h: f64,
     ) -> [MoveLimits; 3] {
@@ -306,7 +345,9 @@ impl PlanLimits {
             } else {
                 0.0
             };
-            self.jerk.arc_caps(kappa, inside)
+            // (beside a line no faster than its feed: an override over
+            // 100 % has no more room than at the end's caps)
+            self.jerk.arc_caps_below(kappa, part, f.min(vgeo))
         } else {
             (f64::INFINITY, f64::INFINITY)
         };

@@ -727,7 +727,8 @@ impl Machine {
     /// [`crate::shares::SINGLE_AVERAGE_ERROR_MM`] (high jerk:
     /// [`Machine::single_average_error_mm`]), that filter alone
     /// ([`JerkBudget::single_average`]); else the path filter, the XYZ filter
-    /// and the caps ([`JerkBudget::new`]).
+    /// and the caps for the default path tolerance
+    /// ([`JerkBudget::for_tolerance`]; a program's G64 P or G61 changes it).
     pub fn jerk_budget(&self) -> JerkBudget {
         let dt = self.dt();
         let Some(j) = self.jerk_limit() else {
@@ -738,6 +739,7 @@ impl Machine {
             JerkBudget::single_average(dt, self.single_average_samples(), j, err)
         } else {
             JerkBudget::new(dt, self.smoothing_samples(), Some(j))
+                .for_tolerance(self.planner.path_tolerance_mm)
         }
     }
 

@@ -20,6 +20,7 @@ use crate::comp::{block_name, Comp};
 use crate::dialect::Dialect;
 use crate::geom::{Geom, V3};
 use crate::interp::{Interpreter, Modal};
+use crate::jerk::JerkBudget;
 use crate::limits::{MoveLimits, MovePrep};
 use crate::machine::Machine;
 use crate::plan::{Item, ItemSink, Lookahead, PlanLimits, Planner};
@@ -37,6 +38,8 @@ pub struct Front {
     blend: Blender,
     /// the path tolerance (G64 P), mm; 0: exact path (G61)
     tolerance: f64,
+    /// the jerk budget for it ([`JerkBudget::for_tolerance`])
+    budget: JerkBudget,
     travel: Travel,
     /// the bounding box of the compensated moves
     bbox: Option<(V3, V3)>,
@@ -51,6 +54,7 @@ impl Front {
         // (blends keep within the tolerance less the XYZ filter's error,
         // `Machine::smoothing_error_mm`)
         let jerk = machine.jerk_budget();
+        let tolerance = machine.planner.path_tolerance_mm;
         Front {
             comp: Comp::new(machine.compensation.round_outside_corners, machine.home()),
             blend: Blender::new(
@@ -61,7 +65,8 @@ impl Front {
                     vmax: machine.vmax().min(),
                 }),
             ),
-            tolerance: machine.planner.path_tolerance_mm,
+            tolerance,
+            budget: jerk,
             travel: Travel::new(machine),
             bbox: None,
             scratch: VecDeque::new(),
@@ -82,6 +87,10 @@ impl Front {
             self.blend.push(ev, self.tolerance, &mut self.out);
         } else {
             self.out.push_back(ev);
+        }
+        if let Event::Tolerance { mm } = ev {
+            // (the blends before it have been passed on)
+            self.blend.follow_tolerance(mm);
         }
     }
 }
@@ -141,6 +150,15 @@ impl Canon for Front {
 
     fn set_path_tolerance(&mut self, mm: f64) {
         self.tolerance = mm;
+        // the jerk filters follow the tolerance: where their budget
+        // changes, every stage behind changes it at an exact stop
+        let budget = self.budget.for_tolerance(mm);
+        if budget != self.budget {
+            self.budget = budget;
+            let mut errors = Vec::new();
+            self.command(Event::Tolerance { mm }, &mut errors);
+            debug_assert!(errors.is_empty());
+        }
     }
 
     fn compensating(&self) -> bool {
@@ -391,6 +409,7 @@ impl Totals {
                 self.tl.finish_thread(&m);
             }
             Item::Tool { .. } => {}
+            Item::Smoothing(b) => self.tl.set_hold(b.hold_ticks()),
         }
     }
 }

@@ -21,11 +21,10 @@
 use crate::canon::{Event, Feed, Src, ThreadMove};
 use crate::geom::Geom;
 use crate::geom::V3;
-use crate::jerk::{curvature_vector, piece_cuts};
+use crate::jerk::{curvature, curvature_vector, ArcPart, JerkBudget};
 pub use crate::limits::PlanLimits;
 use crate::limits::{MoveLimits, MovePrep, Turn};
 use crate::profile::Profile;
-use crate::shares::MAX_OVERRIDE;
 use std::collections::VecDeque;
 
 /// A move with its profile.
@@ -57,6 +56,9 @@ pub enum Item {
     },
     /// a G33 block: from rest (or from the thread block before it)
     Thread(ThreadMove),
+    /// after an exact stop: the jerk filters and caps of the moves that
+    /// follow ([`Event::Tolerance`])
+    Smoothing(JerkBudget),
     End {
         src: Src,
     },
@@ -115,8 +117,15 @@ struct Pending {
     /// whether it starts from a stop
     entry_stop: bool,
     /// whether the move before continues into it with its curvature
-    /// ([`JerkBudget::curvature_continues`](crate::jerk::JerkBudget::curvature_continues))
+    /// ([`JerkBudget::curve_speed`])
     entry_curve: bool,
+    /// whether it starts from a stop or from a long line, tangent
+    /// ([`ArcPart::Beside`])
+    entry_beside: bool,
+    /// a cap on its entry junction (∞: none): the speed up to which the
+    /// arc before continues into it as one curve
+    /// ([`JerkBudget::curve_speed`])
+    entry_cap: f64,
 }
 
 /// Jerk: the queue waits for the path filter's reach behind its head up to
@@ -218,6 +227,8 @@ pub(crate) struct Lookahead<K> {
     /// known (a move between two stops needs no pieces at its ends: no
     /// neighbour's cap reaches across a stop)
     pending: Option<Pending>,
+    /// jerk: the cap on the next queued move's entry junction (∞: none)
+    entry_cap: f64,
     /// planning everything to a stop
     flushing: bool,
     /// jerk: the queue's length behind its next head before the head is
@@ -237,6 +248,7 @@ impl<K: Copy> Lookahead<K> {
             a_before: f64::INFINITY,
             queued: 0.0,
             pending: None,
+            entry_cap: f64::INFINITY,
             flushing: false,
             extra: 0,
             reach_room: 2.0 * lim.jerk.lag_distance(lim.top)
@@ -254,39 +266,34 @@ impl<K: Copy> Lookahead<K> {
         prep: Option<&MovePrep>,
         out: &mut O,
     ) {
-        match *ev {
+        // (anything but a move is planned after a stop)
+        let item = match *ev {
             Event::Move {
                 ref geom,
                 feed,
                 src,
-            } => match prep {
-                Some(p) => self.push_move(geom, p, feed, src, out),
-                None => {
-                    let prep = self.lim.prepare(geom, &feed, O::VLIM);
-                    self.push_move(geom, &prep, feed, src, out)
+            } => {
+                match prep {
+                    Some(p) => self.push_move(geom, p, feed, src, out),
+                    None => {
+                        let prep = self.lim.prepare(geom, &feed, O::VLIM);
+                        self.push_move(geom, &prep, feed, src, out)
+                    }
                 }
-            },
-            Event::Dwell { seconds, src } => {
-                self.flush(out);
-                out.item(Item::Dwell { seconds, src });
+                return;
             }
-            Event::Spindle { rpm, src } => {
-                self.flush(out);
-                out.item(Item::Spindle { rpm, src });
-            }
-            Event::Tool { number, src } => {
-                self.flush(out);
-                out.item(Item::Tool { number, src });
-            }
-            Event::Thread(m) => {
-                self.flush(out);
-                out.item(Item::Thread(m));
-            }
-            Event::End { src } => {
-                self.flush(out);
-                out.item(Item::End { src });
-            }
+            Event::Dwell { seconds, src } => Item::Dwell { seconds, src },
+            Event::Spindle { rpm, src } => Item::Spindle { rpm, src },
+            Event::Tool { number, src } => Item::Tool { number, src },
+            Event::Thread(m) => Item::Thread(m),
+            Event::End { src } => Item::End { src },
+            Event::Tolerance { mm } => Item::Smoothing(self.lim.jerk.for_tolerance(mm)),
+        };
+        self.flush(out);
+        if let Item::Smoothing(b) = item {
+            self.lim.jerk = b;
         }
+        out.item(item);
     }
 
     #[inline]
@@ -307,28 +314,51 @@ impl<K: Copy> Lookahead<K> {
         }
         // jerk: the move before is released now that its exit is known;
         // this one waits for its own
-        let (entry_stop, entry_curve) = match (&self.pending, self.queue.back()) {
+        // (a line the XYZ filter's span long at the top speed: the window
+        // across its junction with an arc holds no other curvature or kink)
+        let span = self.xyz_span();
+        let long_line = |g: &Geom, length: f64| matches!(g, Geom::Line { .. }) && length >= span;
+        let mut entry_cap = f64::INFINITY;
+        let (entry_stop, entry_curve, beside) = match (&self.pending, self.queue.back()) {
             (Some(p), _) => {
                 let (v, turn) = self.lim.junction(&p.prep.t_end, &prep.t_start);
-                // (only an arc continues a curvature)
-                let curve = v > 0.0
-                    && turn != Turn::Kink
-                    && matches!(p.geom, Geom::Arc(_))
-                    && self.lim.jerk.curvature_continues(
+                // (only an arc continues a curvature: at any speed, or
+                // under a cap on the junction where that is faster than
+                // both ends' caps, as on a CAM curve's rounded blends)
+                let jb = &self.lim.jerk;
+                let curve_v = if v > 0.0 && turn != Turn::Kink && matches!(p.geom, Geom::Arc(_)) {
+                    jb.curve_speed(
                         &curvature_vector(&p.geom, true),
                         &curvature_vector(geom, false),
                         (prep.t_start - p.prep.t_end).norm(),
-                        self.lim.top,
-                    );
-                (v == 0.0, curve)
+                    )
+                } else {
+                    0.0
+                };
+                let end_cap = |g: &Geom| jb.arc_caps(curvature(g), ArcPart::End).0;
+                let curve = curve_v >= self.lim.top
+                    || (curve_v > 0.0
+                        && matches!(geom, Geom::Arc(_))
+                        && curve_v >= end_cap(&p.geom).max(end_cap(geom)));
+                if curve {
+                    entry_cap = curve_v;
+                }
+                // (whether the move before ends beside this one, and this
+                // one starts beside that one)
+                let smooth = v == 0.0 || turn == Turn::Smooth;
+                let beside = (
+                    smooth && (v == 0.0 || long_line(geom, prep.length)),
+                    smooth && (v == 0.0 || long_line(&p.geom, p.prep.length)),
+                );
+                (v == 0.0, curve, beside)
             }
-            (None, Some(prev)) => (
-                self.lim.junction(&prev.t_end, &prep.t_start).0 == 0.0,
-                false,
-            ),
-            (None, None) => (self.v_head == 0.0, false),
+            (None, Some(prev)) => {
+                let stop = self.lim.junction(&prev.t_end, &prep.t_start).0 == 0.0;
+                (stop, false, (false, stop))
+            }
+            (None, None) => (self.v_head == 0.0, false, (false, self.v_head == 0.0)),
         };
-        self.release(entry_stop, entry_curve, out);
+        self.release(entry_stop, entry_curve, beside.0, out);
         self.pending = Some(Pending {
             geom: *geom,
             feed,
@@ -336,6 +366,8 @@ impl<K: Copy> Lookahead<K> {
             prep: *prep,
             entry_stop,
             entry_curve,
+            entry_beside: beside.1,
+            entry_cap,
         });
     }
 
@@ -344,17 +376,32 @@ impl<K: Copy> Lookahead<K> {
     /// arc cut only where its inside starts), else in pieces. An arc whose
     /// neighbours both continue its curvature (`exit_curve` the next one)
     /// is inside a longer curve: all of it has the caps of an arc's inside.
-    fn release<O: ItemSink<Kept = K>>(&mut self, exit_stop: bool, exit_curve: bool, out: &mut O) {
+    fn release<O: ItemSink<Kept = K>>(
+        &mut self,
+        exit_stop: bool,
+        exit_curve: bool,
+        exit_beside: bool,
+        out: &mut O,
+    ) {
         let Some(p) = self.pending.take() else {
             return;
         };
+        // (the first piece queued takes it)
+        self.entry_cap = p.entry_cap;
         if p.entry_curve && exit_curve && matches!(p.geom, Geom::Arc(_)) {
             self.curve_inside(&p, out);
             return;
         }
         let ends = !(p.entry_stop && exit_stop);
-        if !self.split(&p.geom, &p.prep, p.feed, p.src, ends, out) {
-            self.enqueue(O::keep(&p.geom, p.feed, p.src), &p.prep, out);
+        let beside = (p.entry_beside, exit_beside);
+        if !self.split(&p, ends, beside, out) {
+            let kept = O::keep(&p.geom, p.feed, p.src);
+            if beside == (true, true) {
+                let prep = self.lim.repart(&p.prep, &p.geom, &p.feed, ArcPart::Beside);
+                self.enqueue(kept, &prep, out);
+            } else {
+                self.enqueue(kept, &p.prep, out);
+            }
         }
     }
 
@@ -367,8 +414,14 @@ impl<K: Copy> Lookahead<K> {
         // the entry junction; a smooth one lets the move before take its
         // whole acceleration (its exit is now known) and this one keep the
         // chance of it
+        // (a curve's cap on the junction, [`Pending::entry_cap`]: the
+        // move before is still queued, its exit not yet final)
+        let cap = std::mem::replace(&mut self.entry_cap, f64::INFINITY);
         let (j_kink, turn) = match self.queue.back() {
-            Some(prev) => self.lim.junction(&prev.t_end, &t2),
+            Some(prev) => {
+                let (j, turn) = self.lim.junction(&prev.t_end, &t2);
+                (j.min(cap), turn)
+            }
             None => (self.v_head, Turn::Smooth),
         };
         match (turn, self.queue.back_mut()) {
@@ -428,103 +481,6 @@ impl<K: Copy> Lookahead<K> {
             self.backward_pass(self.queue.len() - 1);
         }
         self.commit(false, out);
-    }
-
-    /// Jerk: an arc inside a longer curve, as pieces towards its ends if
-    /// it is long (a neighbour's caps then reach only its ends), every
-    /// piece with the caps of an arc's inside.
-    fn curve_inside<O: ItemSink<Kept = K>>(&mut self, p: &Pending, out: &mut O) {
-        let (geom, feed, src) = (&p.geom, p.feed, p.src);
-        let inner = self.lim.prepare_piece(geom, &feed, O::VLIM, true);
-        let reach = self
-            .lim
-            .jerk
-            .lag_distance(inner.full.vlim.min(self.lim.top));
-        let Some((cuts, n)) = piece_cuts(reach, inner.length, None) else {
-            self.enqueue(O::keep(geom, feed, src), &inner, out);
-            return;
-        };
-        self.enqueue_pieces(geom, feed, src, &cuts[..n], inner.length, |_, _| true, out);
-    }
-
-    /// Jerk: queues `geom` (of `length`) cut at `cuts` as pieces, each
-    /// prepared with the caps of an arc's inside where `inside(from, to)`.
-    #[allow(clippy::too_many_arguments)]
-    fn enqueue_pieces<O: ItemSink<Kept = K>>(
-        &mut self,
-        geom: &Geom,
-        feed: Feed,
-        src: Src,
-        cuts: &[f64],
-        length: f64,
-        inside: impl Fn(f64, f64) -> bool,
-        out: &mut O,
-    ) {
-        self.extra += cuts.len() as u64;
-        let mut from = 0.0;
-        for &d in cuts.iter().chain(std::iter::once(&length)) {
-            let g = geom.piece(from, d);
-            let p = self.lim.prepare_piece(&g, &feed, O::VLIM, inside(from, d));
-            self.enqueue(O::keep(&g, feed, src), &p, out);
-            from = d;
-        }
-    }
-
-    /// Jerk: a long move is planned as pieces, so that a neighbour's caps
-    /// reach only its ends: a middle and, at either end, pieces of
-    /// reach/64, /64, /32, ..., /2 (a cap reaching r holds over at most
-    /// 2r). An arc's pieces farther than the XYZ filter's span (at the
-    /// arc's speed inside) from its ends see only the arc in the filter's
-    /// window and may go faster ([`crate::jerk::JerkBudget::arc_caps`]);
-    /// they start a further cap's reach (the ends' speed) in, so that the
-    /// ends' caps do not reach them. `ends`: whether a neighbour's caps
-    /// may reach its ends (else only an arc's inside is cut off). Whether
-    /// the move was split.
-    fn split<O: ItemSink<Kept = K>>(
-        &mut self,
-        geom: &Geom,
-        prep: &MovePrep,
-        feed: Feed,
-        src: Src,
-        ends: bool,
-        out: &mut O,
-    ) -> bool {
-        let (jb, top, length) = (self.lim.jerk, self.lim.top, prep.length);
-        let ends_v = prep.full.vlim.min(top);
-        // an arc's inside: from `edge` on, pieces from `inner_at` on (not
-        // where even the largest override keeps it under the ends' speed;
-        // between two stops, not where the feed does)
-        let over = if ends { MAX_OVERRIDE } else { 1.0 };
-        let (inner, edge, inner_at) = match geom {
-            Geom::Arc(_) if over * prep.full.vcap > ends_v => {
-                let inner = self.lim.prepare_piece(geom, &feed, O::VLIM, true);
-                let v = inner.full.vlim.min(top);
-                let edge = jb.step_span() * v;
-                let at = edge + jb.lag_distance(ends_v);
-                (v > ends_v && length > 2.0 * at).then_some((v, edge, at))
-            }
-            Geom::Arc(_) | Geom::Line { .. } => None,
-        }
-        .map_or((None, 0.0, 0.0), |(v, e, at)| (Some(v), e, at));
-        let reach = jb.lag_distance(inner.unwrap_or(ends_v));
-        let (cuts, n) = if ends {
-            let Some(c) = piece_cuts(reach, length, inner.map(|_| inner_at)) else {
-                return false;
-            };
-            c
-        } else {
-            // between two stops: the ends and the inside
-            if inner.is_none() {
-                return false;
-            }
-            let mut c = [0.0; crate::jerk::MAX_CUTS];
-            c[0] = inner_at;
-            c[1] = length - inner_at;
-            (c, 2)
-        };
-        let inside = |from: f64, d: f64| inner.is_some() && from >= edge && d <= length - edge;
-        self.enqueue_pieces(geom, feed, src, &cuts[..n], length, inside, out);
-        true
     }
 
     /// Jerk: the path filter's setpoint at a point moves with the speed and
@@ -746,7 +702,7 @@ impl<K: Copy> Lookahead<K> {
     /// Plans everything queued to a stop.
     pub(crate) fn flush<O: ItemSink<Kept = K>>(&mut self, out: &mut O) {
         // the move held back ends in a stop
-        self.release(true, false, out);
+        self.release(true, false, true, out);
         // the tail's exit is a stop: smooth
         self.flushing = true;
         self.upgrade_tail();
@@ -794,5 +750,6 @@ impl Planner {
     }
 }
 
+mod pieces;
 #[cfg(test)]
 mod tests;

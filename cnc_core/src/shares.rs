@@ -43,9 +43,17 @@ pub const NORMAL_JERK_SHARE: f64 = 0.4;
 /// What is left, for the turn of the tangential acceleration on arcs.
 pub const TURN_JERK_SHARE: f64 = 1.0 - S_FILTER_SHARE - NORMAL_JERK_SHARE;
 /// Largest distance, mm, by which the XYZ filter may move a setpoint off
-/// a curve (programmed arcs and blend arcs): the planner caps the normal
-/// acceleration for it. Also what a G61 path may deviate.
+/// a curve (programmed arcs and blend arcs) under G61, and the least it
+/// may under G64 P: the planner caps the normal acceleration for it. Also
+/// what a G61 path may deviate.
 pub const XYZ_FILTER_ERROR_MM: f64 = 0.001;
+/// Share of the path tolerance (G64 P) the XYZ filter may move a setpoint
+/// off a curve ([`crate::jerk::JerkBudget::for_tolerance`]); the corner
+/// blends keep within the rest. Half: on bench/motion's CAM program at 50
+/// m/s³ and P 0.01 mm, 0.3, 0.4, 0.5, 0.6 and 0.7 of P gave 28.99,
+/// 28.57, 28.31, 28.13 and 30.21 s (0.1: 31.81 s): more makes the blends
+/// of fine polylines smaller than their kinks need.
+pub const XYZ_FILTER_TOLERANCE_SHARE: f64 = 0.5;
 /// Jerk: a machine whose single XYZ moving average (the design before the
 /// path filter, [`crate::Machine::single_average_error_mm`]) keeps the
 /// path within this many mm runs that filter alone, without the path

@@ -53,6 +53,12 @@ impl Timeline {
         }
     }
 
+    /// The jerk filters of the moves that follow changed (after a stop):
+    /// the hold after their stops, ticks.
+    pub(crate) fn set_hold(&mut self, ticks: u64) {
+        self.hold = ticks;
+    }
+
     /// Whole ticks covering `seconds` (a hair of rounding is forgiven).
     #[inline]
     pub fn ticks(&self, seconds: f64) -> u64 {

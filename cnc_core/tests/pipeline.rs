@@ -1,6 +1,7 @@
 //! End-to-end tests of the core pipeline: text -> samples. Values in mm.
 
 use cnc_core::exec::{Executor, Sample};
+use cnc_core::jerk::ArcPart;
 use cnc_core::source::StrSource;
 use cnc_core::{check, Dialect, Machine, V3};
 
@@ -52,6 +53,39 @@ fn limit_ratios(samples: &[Sample], m: &Machine) -> (f64, f64) {
         }
     }
     (rv, ra)
+}
+
+/// bench/motion's machine (jerk.sh) at 50 m/s³: X/Y/Z 100 mm/s, 1000
+/// mm/s².
+fn bench_mill_50() -> Machine {
+    bench_mill(5e4)
+}
+
+/// bench/motion's machine (jerk.sh) at `jerk` mm/s³.
+fn bench_mill(jerk: f64) -> Machine {
+    let mut m = mill();
+    for a in &mut m.axes {
+        a.max_velocity_mm_s = 100.0;
+        a.max_acceleration_mm_s2 = 1000.0;
+        a.max_jerk_mm_s3 = Some(jerk);
+    }
+    m
+}
+
+/// Largest |jerk| of any axis over the samples, mm/s³ (third
+/// differences).
+fn largest_jerk(s: &[Sample], dt: f64) -> f64 {
+    (0..3)
+        .map(|i| {
+            s.windows(4)
+                .map(|w| {
+                    ((w[3].pos[i] - 3.0 * w[2].pos[i] + 3.0 * w[1].pos[i] - w[0].pos[i])
+                        / (dt * dt * dt))
+                        .abs()
+                })
+                .fold(0.0, f64::max)
+        })
+        .fold(0.0, f64::max)
 }
 
 fn on_line(samples: &[Sample], line: u32) -> Vec<&Sample> {
@@ -253,12 +287,7 @@ fn under_a_jerk_limit_a_sharp_corner_stops_where_its_blend_would_be_slower() {
     // stretch of either line; each corner blended cost 6.972 s in all,
     // each an exact stop 5.812 s (5.273 s now that a line from rest to
     // rest has a path filter of its own)
-    let mut m = mill();
-    for a in &mut m.axes {
-        a.max_velocity_mm_s = 100.0;
-        a.max_acceleration_mm_s2 = 1000.0;
-        a.max_jerk_mm_s3 = Some(5e4);
-    }
+    let m = bench_mill_50();
     let prog = |mode: &str| {
         format!(
             "G17 G90 G94\n{mode}\nG00 Z5\nG00 X20 Y20\nG01 Z-1 F600\nG01 X60 F6000\nG01 Y60\n\
@@ -337,4 +366,153 @@ fn lathe_diameter_mode_and_default_plane() {
     // N30: arc about (x=40, z=-20) radius 10 in the ZX plane
     assert_on_circle(&m, &s, 3, (-20.0, 40.0), 10.0, (2, 0, 1), 0.0);
     assert_eq!(s.last().unwrap().pos, V3::new(100.0, 0.0, 20.0));
+}
+
+#[test]
+fn the_xyz_filter_takes_half_of_the_path_tolerance_and_changes_at_a_stop() {
+    // bench/motion's R5 slot end on X/Y/Z 100 mm/s, 1000 mm/s², 50 m/s³:
+    // under G61 (and any P up to 2 µm) the XYZ filter keeps within 1 µm,
+    // 10 samples, and caps the normal acceleration where the lines meet
+    // the arc at 99 mm/s²; under P 0.01 it may take 5 µm, 16 samples
+    // and 160 mm/s², and the blends the other 5 µm
+    let m = bench_mill_50();
+    let exact = m.jerk_budget();
+    let loose = exact.for_tolerance(0.01);
+    assert_eq!((exact.m_f, loose.m_f), (10, 16));
+    assert_eq!((exact.a_n.round(), loose.a_n.round()), (99.0, 160.0));
+    assert!(exact.error_mm() <= 0.001 + 1e-12 && loose.error_mm() <= 0.005 + 1e-12);
+    assert_eq!(exact.for_tolerance(0.002), exact);
+    // lines 4-6: the slot's end; line 5 is the arc
+    let prog = |mode: &str, mode2: &str| {
+        format!(
+            "G17 G90 G94\n{mode}\nG00 X200 Y20\nG01 X240 F6000\n{mode2}G03 X240 Y30 I0 J5\nG01 X200\nM30\n"
+        )
+    };
+    let off_path = |s: &[Sample]| {
+        s.iter()
+            .filter(|p| (4..=7).contains(&p.src.line))
+            .map(|p| {
+                let (x, y) = (p.pos[0], p.pos[1]);
+                if x <= 240.0 {
+                    (y - 20.0).abs().min((y - 30.0).abs())
+                } else {
+                    ((x - 240.0).hypot(y - 25.0) - 5.0).abs()
+                }
+            })
+            .fold(0.0, f64::max)
+    };
+    let g61 = run(&prog("G61", ""), &m);
+    let p2 = run(&prog("G64 P0.002", ""), &m);
+    let p10 = run(&prog("G64 P0.01", ""), &m);
+    assert_eq!(g61.len(), p2.len());
+    assert_eq!((p2.len(), p10.len()), (3817, 3658));
+    assert!(off_path(&g61) <= 0.001, "{} mm", off_path(&g61));
+    let d10 = off_path(&p10);
+    assert!(d10 > 0.002 && d10 <= 0.01, "{d10} mm");
+    // a tolerance that changes the filter stops the path where it
+    // changes: the line's end is reached at rest (its own path filter
+    // settled there), and the arc runs with G61's filters from there
+    let mixed = run(&prog("G64 P0.01", "G61\n"), &m);
+    let corner = V3::new(240.0, 20.0, 0.0);
+    let slowest_near_corner = |s: &[Sample]| {
+        s.windows(2)
+            .filter(|w| (w[0].pos - corner).norm() < 0.5)
+            .map(|w| (w[1].pos - w[0].pos).norm() / m.dt())
+            .fold(f64::MAX, f64::min)
+    };
+    assert!(
+        slowest_near_corner(&mixed) < 1e-3,
+        "{} mm/s",
+        slowest_near_corner(&mixed)
+    );
+    assert!(mixed.iter().any(|s| s.pos == corner));
+    assert!(
+        slowest_near_corner(&p10) > 20.0,
+        "{} mm/s",
+        slowest_near_corner(&p10)
+    );
+    assert_eq!(mixed.len(), 3829);
+    assert!(off_path(&mixed) <= 0.005, "{} mm", off_path(&mixed));
+}
+
+#[test]
+fn an_arc_beside_tangent_lines_takes_the_whole_normal_step() {
+    // the R5 slot end at 50 m/s³ under G61: where only a long tangent
+    // line (or a stop) meets an arc, the XYZ filter's window across the
+    // junction holds the arc and normal accelerations of 0, so the arc's
+    // ends may take the whole step budget b_step (and a_dev, and the turn
+    // within a quarter of b_step) instead of a_n = b_step/2, which any
+    // neighbour allows: 22.2 → 31.6 mm/s at R5 (G61: b_step 198 mm/s²)
+    let m = bench_mill_50();
+    let b = m.jerk_budget();
+    let kappa = 0.2;
+    let (end, _) = b.arc_caps(kappa, ArcPart::End);
+    let (beside, _) = b.arc_caps(kappa, ArcPart::Beside);
+    assert_eq!((end * 10.0).round(), 222.0);
+    assert_eq!((beside * 10.0).round(), 316.0);
+    let s = run(
+        "G17 G90 G94\nG00 X200 Y20\nG01 X240 F6000\nG03 X240 Y30 I0 J5\nG01 X200\nM30\n",
+        &m,
+    );
+    // the speed where the line meets the arc, as the setpoints move
+    let dt = m.dt();
+    let junction = V3::new(240.0, 20.0, 0.0);
+    let k = (0..s.len() - 1)
+        .min_by(|&a, &b| {
+            let d = |i: usize| (s[i].pos - junction).norm();
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap();
+    let v = (s[k + 1].pos - s[k].pos).norm() / dt;
+    assert!(
+        v > end * 1.3 && v <= beside * 1.001,
+        "{v} mm/s at the junction"
+    );
+    // jerk at every sample within the limit on every axis
+    let j_max = largest_jerk(&s, dt);
+    assert!(j_max <= 5e4 * (1.0 + 1e-6), "{j_max} mm/s³");
+    assert_eq!(s.len(), 3817);
+}
+
+#[test]
+fn a_rounded_cam_circle_runs_as_one_curve_under_a_cap_on_its_junctions() {
+    // bench/motion's polyline helix flat: R10, 3° per line, vertices
+    // rounded to 1 µm, G64 P0.01 at 20 m/s³. Its blend arcs' curvatures
+    // differ by the rounding, more than the XYZ filter's step budget
+    // allows at the top speed (100 mm/s), so each arc was an end of its
+    // own, at √(a_n/κ); under a cap on each junction (the speed at which
+    // the step is within a quarter of the budget) they run as one curve
+    // with the caps of an arc's inside
+    let m = bench_mill(2e4);
+    let b = m.jerk_budget().for_tolerance(0.01);
+    let (end, _) = b.arc_caps(0.1, ArcPart::End);
+    let (inside, _) = b.arc_caps(0.1, ArcPart::Inside);
+    assert_eq!(
+        ((end * 10.0).round(), (inside * 10.0).round()),
+        (297.0, 498.0)
+    );
+    let mut text = String::from("G17 G90 G64 P0.01\nG00 X110 Y100\nG01 Z-1 F6000\n");
+    for k in 1..=240 {
+        let a = (3.0 * k as f64).to_radians();
+        text += &format!(
+            "G01 X{:.3} Y{:.3}\n",
+            100.0 + 10.0 * a.cos(),
+            100.0 + 10.0 * a.sin()
+        );
+    }
+    let s = run(&text, &m);
+    let dt = m.dt();
+    // the speed over the second turn
+    let speeds: Vec<f64> = s
+        .windows(2)
+        .filter(|w| w[0].src.line > 4 + 130 && w[0].src.line < 4 + 200)
+        .map(|w| (w[1].pos - w[0].pos).norm() / dt)
+        .collect();
+    let slowest = speeds.iter().cloned().fold(f64::MAX, f64::min);
+    assert!(
+        slowest > 1.3 * end && slowest <= inside * 1.001,
+        "{slowest} mm/s"
+    );
+    assert!(largest_jerk(&s, dt) <= 2e4 * (1.0 + 1e-6));
+    assert_eq!(s.len(), 4532);
 }

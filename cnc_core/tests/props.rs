@@ -31,6 +31,9 @@ enum Mv {
         quarters: u8,
         ccw: bool,
     },
+    /// the path tolerance changes to this share of the program's (G61
+    /// under 0.2): where the jerk filters change with it, the path stops
+    Tol { share: f64 },
 }
 
 fn mv() -> impl Strategy<Value = Mv> {
@@ -57,6 +60,7 @@ fn mv() -> impl Strategy<Value = Mv> {
                 ccw,
             }
         }),
+        (0.0..1.0f64).prop_map(|share| Mv::Tol { share }),
     ]
 }
 
@@ -348,6 +352,8 @@ fn program_path(moves: &[Mv], feed: f64, tol: f64) -> (String, V3, Vec<El>) {
                 els.push(El::Arc(g.center, g.radius, g.theta0, g.sweep));
                 p = e;
             }
+            Mv::Tol { share } if share < 0.2 => s += "G61\n",
+            Mv::Tol { share } => s += &format!("G64 P{}\n", r4(tol * share)),
             Mv::Line { dx, dy, dz, rapid } => {
                 let e = V3::new(
                     r4(p.x + dx),
@@ -394,8 +400,9 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: cases(128), ..ProptestConfig::default() })]
 
     /// Jerk-limited motion: for any jerk limit from 20 to 1000 m/s³ (a
-    /// path filter of 8 to 400 samples, an XYZ filter of 4 to 14), path
-    /// tolerance (G61, P0.001 and 0.001..0.2 mm), look-ahead (200 or 2-11
+    /// path filter of 8 to 400 samples, an XYZ filter of 4 to 14 under G61),
+    /// path tolerance (G61, P0.001 and 0.001..0.2 mm, changing between
+    /// moves to a smaller one or G61), look-ahead (200 or 2-11
     /// blocks) and feed, with a feed
     /// hold or an override of 5-200 %
     /// for a while somewhere, no

@@ -118,8 +118,8 @@ fn arcs_that_continue_one_circle_run_at_the_inside_speed_and_its_ends_at_the_end
         a.max_jerk_mm_s3 = Some(5.0e4);
     }
     let lim = PlanLimits::from_machine(&m);
-    let (end_cap, _) = lim.jerk.arc_caps(0.1, false);
-    let (inside_cap, _) = lim.jerk.arc_caps(0.1, true);
+    let (end_cap, _) = lim.jerk.arc_caps(0.1, ArcPart::End);
+    let (inside_cap, _) = lim.jerk.arc_caps(0.1, ArcPart::Inside);
     // (31.5 and 49.3 mm/s: the inside's offset within the XYZ filter's
     // 1 µm allows more than the ends' a_n)
     assert!(end_cap > 31.0 && end_cap < 32.0, "{end_cap}");
