@@ -122,6 +122,21 @@ class SpinningPeer:
         if self.context is not None:
             self.context.try_shutdown()
 
+    def unheard(self, clients, heard, topic, timeout=30.0):
+        """For `hearing_peer`: what has not come within `timeout` s each,
+        or None: the services of `clients`, then a sample of `topic`
+        (`heard()` true)."""
+        for c in clients:
+            if not c.wait_for_service(timeout_sec=timeout):
+                return "no service %s" % c.srv_name
+        t0 = time.time()
+        while not heard() and time.time() - t0 < timeout:
+            time.sleep(0.01)
+        if heard():
+            return None
+        return "no sample of %s in %.0f s (this peer knows %d publisher(s) of it)" % (
+            topic, timeout, self.publishers(topic))
+
     def publishers(self, topic):
         """The publishers of `topic` this peer's participant knows."""
         return len(self.node.get_publishers_info_by_topic(topic))

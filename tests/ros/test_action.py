@@ -68,15 +68,7 @@ class Peer(SpinningPeer):
         server, the run_program service, a setpoint."""
         if not self.action.wait_for_server(timeout_sec=timeout):
             return "no %s action server" % ACTION
-        if not self.run.wait_for_service(timeout_sec=timeout):
-            return "no %s/run_program service" % NS
-        t0 = time.time()
-        while not self.setpoints and time.time() - t0 < timeout:
-            time.sleep(0.01)
-        if self.setpoints:
-            return None
-        return "no setpoint in %.0f s (this peer knows %d publisher(s) of it)" % (
-            timeout, self.publishers(NS + "/joint_setpoints"))
+        return self.unheard([self.run], lambda: self.setpoints, NS + "/joint_setpoints", timeout)
 
     def _sp(self, m):
         with self.lock:

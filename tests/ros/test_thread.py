@@ -30,7 +30,7 @@ from std_srvs.srv import SetBool
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram, SetDelay
-from ros_nodes import ROOT, TARGET, build, read_mcap, start, SpinningPeer, stamp_s, stop
+from ros_nodes import ROOT, TARGET, build, hearing_peer, read_mcap, start, SpinningPeer, stamp_s, stop
 
 DOMAIN = str(100 + os.getpid() % 100)
 NS, SIM = "/cnc", "/sim"
@@ -85,7 +85,10 @@ def machine(request, tmp_path_factory):
     rclpy.init()
     peer = None
     try:
-        peer = Peer("thread_peer_%d" % (time.time_ns() % 100000), sim_log, node_log)
+        # (a peer whose readers the nodes never matched is made again as a
+        # participant of its own: ros_nodes.hearing_peer)
+        peer = hearing_peer(lambda own: Peer("thread_peer_%d" % (time.time_ns() % 100000), sim_log, node_log, own),
+                            Peer.missing)
         yield peer
     finally:
         if peer is not None:
@@ -115,8 +118,8 @@ class Peer(SpinningPeer):
     calls the fault injection services; `where()` is the newest setpoint
     (a subscription that keeps only the newest: it never falls behind)."""
 
-    def __init__(self, name, sim_log, node_log):
-        super().__init__(name)
+    def __init__(self, name, sim_log, node_log, own_participant=False):
+        super().__init__(name, own_participant)
         self.sim_log, self.node_log = sim_log, node_log
         self.status = []
         self.spindle = []  # rad/s, in arrival order
@@ -131,9 +134,12 @@ class Peer(SpinningPeer):
         self.spindle_stalled = self.node.create_client(SetBool, SIM + "/spindle_stalled")
         self.setpoint_delay = self.node.create_client(SetDelay, SIM + "/setpoint_delay")
         self.spin()
-        for c in (self.run, self.encoder_enabled, self.spindle_stalled, self.setpoint_delay):
-            assert c.wait_for_service(timeout_sec=30.0), "no service %s" % c.srv_name
-        self.wait_for("setpoints", lambda: self.newest is not None, 10)
+
+    def missing(self, timeout=30.0):
+        """What has not come within `timeout` s, or None: the node's and
+        the simulator's services, a setpoint."""
+        return self.unheard([self.run, self.encoder_enabled, self.spindle_stalled, self.setpoint_delay],
+                            lambda: self.where() is not None, NS + "/joint_setpoints", timeout)
 
     def _sp(self, m):
         with self.lock:
