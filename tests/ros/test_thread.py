@@ -60,9 +60,9 @@ def machine(request, tmp_path_factory):
     # the node's loop reports and "job N recorded" lines
     sim_log = os.path.join(tmp, "sim_axes.log")
     node_log = os.path.join(tmp, "cnc_node.log")
-    # CNC_LOOP_STATS=S: the node logs its loop's lateness and the encoder
-    # readings' age every S seconds
-    stats = ["--loop-stats", os.environ["CNC_LOOP_STATS"]] if os.environ.get("CNC_LOOP_STATS") else []
+    # the node logs its loop's lateness and the encoder readings' age every
+    # S seconds (CNC_LOOP_STATS=S, default 2; Peer.reading_age reads it)
+    stats = ["--loop-stats", os.environ.get("CNC_LOOP_STATS") or "2"]
     # the machine file with readings missing 50 ms (not 10) taken for a
     # lost encoder: this VM's kernel holds up even the simulator's
     # real-time loop for 10-20 ms now and then while other processes work,
@@ -199,6 +199,15 @@ class Peer(SpinningPeer):
                 return done in f.read().decode(errors="replace")
         self.wait_for("the recording of job %d closed" % reply.job_id, closed, timeout)
         return read_recording(reply.recording, actual)
+
+    def reading_age(self):
+        """The node's newest summary of the encoder readings' age at its
+        cycles in jobs (`--loop-stats`): (p50, p99) µs."""
+        with open(self.node_log, "rb") as f:
+            text = f.read().decode(errors="replace")
+        found = re.findall(r"encoder reading age n=\d+ p50<=(\d+) us p99<=(\d+) us", text)
+        assert found, "no encoder reading age in the node's log"
+        return tuple(float(x) for x in found[-1])
 
     def run_to_end(self, text):
         r = self.run_program(text)
@@ -654,6 +663,16 @@ def test_thread_the_cut_groove_stays_put_at_s200_s800_s2000_with_ripple(machine,
         assert a_spread <= 0.5, (rpm, a_spread)
     # the ripple's acceleration at S2000 (+-2 % at 5 Hz): +-0.25 deg of lead
     assert 0.15 <= rows[-1][4] <= 0.35, rows[-1]
+    # the node's cycles come half a period after the simulator samples the
+    # spindle (it moved its grid there at rest), so the newest reading at
+    # a cycle is 500 us old, not anything from 0 to 1 ms plus a period
+    # when the reading had not arrived yet (the grids left to chance).
+    # Measured with the cycles 50 us after the sampling instead: S2000
+    # worst 0.33 and 0.35 deg, age p50 1051 us; at 500 us: 0.30 and 0.33 deg
+    time.sleep(2.5)
+    p50, p99 = peer.reading_age()
+    print("encoder reading age at the node's cycles: p50 %.0f us, p99 %.0f us" % (p50, p99))
+    assert 450 <= p50 <= 551, (p50, p99)
 
 
 @pytest.mark.parametrize("machine", ["lathe"], indirect=True)

@@ -88,6 +88,13 @@ impl Grid {
         last + 1 - self.next
     }
 
+    /// Moves every instant from the next cycle on `by` later (a loop at
+    /// rest that lines its cycles up with another clock's; the stamps of
+    /// the cycles before and after are then not whole periods apart).
+    pub fn delay(&mut self, by: Duration) {
+        self.origin += by;
+    }
+
     /// Marks the next cycle as run; returns its number.
     pub fn advance(&mut self) -> u64 {
         self.next += 1;

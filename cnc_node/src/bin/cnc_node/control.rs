@@ -34,6 +34,40 @@ const FRESH_PERIODS: i64 = 3;
 /// starts, and the executor judges the readings as always).
 const MAX_START_WAIT_S: f64 = 0.05;
 
+/// Where a cycle stands against the encoder's sampling, as a share of a
+/// period: the loop's cycles come this long after the instants the
+/// simulator (or drive) samples the spindle at, so that a cycle finds the
+/// reading of the instant before it already arrived (its transport on
+/// one host takes a few hundred µs) and predicts the spindle angle from a
+/// reading of a known age. Left to chance, the two grids stand anywhere
+/// against each other, and at a phase under the transport time the loop
+/// takes every reading a period late: a G33 setpoint then extrapolates a
+/// rippling spindle over a period more.
+const ENCODER_PHASE: f64 = 0.5;
+/// At rest the loop moves its grid when its phase against the readings is
+/// further off [`ENCODER_PHASE`] than this share of a period, and has
+/// held still to within [`PHASE_STILL`] since the reading before.
+const PHASE_TOLERANCE: f64 = 0.1;
+const PHASE_STILL: f64 = 0.02;
+
+/// How much later (ns, under a period) the cycles must come for a cycle
+/// at `now_ns` to stand [`ENCODER_PHASE`] of a period after the last
+/// sampling instant, given `phase_ns`, where it stands now ([`phase_of`]);
+/// None: within [`PHASE_TOLERANCE`].
+fn phase_delay(phase_ns: i64, period_ns: i64) -> Option<i64> {
+    let want = (ENCODER_PHASE * period_ns as f64).round() as i64;
+    let off = phase_ns - want;
+    let tol = (PHASE_TOLERANCE * period_ns as f64) as i64;
+    (off.abs() > tol).then(|| (-off).rem_euclid(period_ns))
+}
+
+/// How long after the last sampling instant of the encoder (a reading
+/// stamped `reading_ns`, on a grid of `period_ns`) a cycle at `now_ns`
+/// stands, ns, under a period.
+fn phase_of(now_ns: i64, reading_ns: i64, period_ns: i64) -> i64 {
+    (now_ns - reading_ns).rem_euclid(period_ns)
+}
+
 /// A checked job waiting for its start (see [`Loop::cycle`]).
 struct Pending {
     job: Job,
@@ -63,6 +97,10 @@ struct Loop {
     /// with loop_stats)
     enc_age: Option<ros::Lateness>,
     newest_enc: i64,
+    /// at rest: the phase against the readings at the last reading
+    /// ([`phase_of`]), and a move of the grid asked for ([`phase_delay`])
+    last_phase: Option<i64>,
+    rephase: Option<i64>,
     /// when the samples go out: every cycle while a job runs (and a
     /// second after), else at the resting rate
     pace: ros::Pace,
@@ -113,6 +151,8 @@ pub(super) fn control_loop(
         pending_rec: None,
         enc_age: Some(ros::Lateness::new()),
         newest_enc: 0,
+        last_phase: None,
+        rephase: None,
     };
     loop {
         // cycles are meant for the instants of a fixed grid and stamped
@@ -160,6 +200,17 @@ pub(super) fn control_loop(
             let stamp = clock.stamp(grid.at(n));
             if !lp.cycle(n, stamp) {
                 return;
+            }
+        }
+        // at rest, the cycles lined up with the encoder's sampling
+        if let Some(d) = lp.rephase.take() {
+            if lp.resting(grid.next()) {
+                grid.delay(Duration::from_nanos(d as u64));
+                ros_info!(
+                    "control cycles moved {} us later: they now come {:.0} us after the encoder's sampling",
+                    d / 1000,
+                    ENCODER_PHASE * dt * 1e6
+                );
             }
         }
         let now_stats = live.loop_stats();
@@ -236,9 +287,25 @@ impl Loop {
             }
         }
         let now_ns = time_ns(&stamp);
+        let mut read = false;
         while let Ok(e) = self.encoder.try_recv() {
             self.newest_enc = self.newest_enc.max(e.stamp_ns);
             self.ctl.encoder(e);
+            read = true;
+        }
+        if read && self.resting(n) {
+            let phase = phase_of(now_ns, self.newest_enc, self.period_ns);
+            let still = (PHASE_STILL * self.period_ns as f64) as i64;
+            let steady = self.last_phase.is_some_and(|p| {
+                let d = (phase - p).rem_euclid(self.period_ns);
+                d.min(self.period_ns - d) <= still
+            });
+            self.rephase = phase_delay(phase, self.period_ns).filter(|_| steady);
+            self.last_phase = if self.rephase.is_some() {
+                None
+            } else {
+                Some(phase)
+            };
         }
         while let Ok(a) = self.actual.try_recv() {
             self.ctl.actual(a);
@@ -311,5 +378,38 @@ impl Loop {
             }
         }
         true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MS: i64 = 1_000_000;
+
+    #[test]
+    fn cycles_are_moved_to_half_a_period_after_the_sampling() {
+        // a cycle 269 us after the reading's instant (as two grids started
+        // at random stood in a test run): 231 us later
+        let reading = 1_700_000_000_000 * MS + 123_456;
+        let now = reading + 7 * MS + 269_000;
+        let phase = phase_of(now, reading, MS);
+        assert_eq!(phase, 269_000);
+        assert_eq!(phase_delay(phase, MS), Some(231_000));
+        // 30 us after: 470 us later
+        assert_eq!(
+            phase_delay(phase_of(reading + 30_000, reading, MS), MS),
+            Some(470_000)
+        );
+        // 900 us after: 600 us later (then 500 us after the next one)
+        assert_eq!(phase_delay(900_000, MS), Some(600_000));
+        // a reading stamped after the cycle (the clocks' offsets moved)
+        assert_eq!(phase_of(reading - 200_000, reading, MS), 800_000);
+        // within 100 us of half a period: left as it is
+        assert_eq!(phase_delay(400_000, MS), None);
+        assert_eq!(phase_delay(600_000, MS), None);
+        assert_eq!(phase_delay(399_999, MS), Some(100_001));
+        // at 250 Hz: 2 ms after
+        assert_eq!(phase_delay(0, 4 * MS), Some(2 * MS));
     }
 }
