@@ -668,7 +668,7 @@ def test_thread_the_cut_groove_stays_put_at_s200_s800_s2000_with_ripple(machine,
     # a cycle is 500 us old, not anything from 0 to 1 ms plus a period
     # when the reading had not arrived yet (the grids left to chance).
     # Measured with the cycles 50 us after the sampling instead: S2000
-    # worst 0.33 and 0.35 deg, age p50 1051 us; at 500 us: 0.30 and 0.33 deg
+    # worst 0.33 and 0.35 deg, age p50 1051 us; at 500 us: 0.29-0.33 deg
     time.sleep(2.5)
     p50, p99 = peer.reading_age()
     print("encoder reading age at the node's cycles: p50 %.0f us, p99 %.0f us" % (p50, p99))

@@ -46,9 +46,12 @@ const MAX_START_WAIT_S: f64 = 0.05;
 const ENCODER_PHASE: f64 = 0.5;
 /// At rest the loop moves its grid when its phase against the readings is
 /// further off [`ENCODER_PHASE`] than this share of a period, and has
-/// held still to within [`PHASE_STILL`] since the reading before.
+/// held still to within [`PHASE_STILL`] of a period over [`PHASE_READINGS`]
+/// readings in a row (readings not on a grid of the loop's period, as a
+/// drive's own timestamps may be, never do).
 const PHASE_TOLERANCE: f64 = 0.1;
 const PHASE_STILL: f64 = 0.02;
+const PHASE_READINGS: u32 = 5;
 
 /// How much later (ns, under a period) the cycles must come for a cycle
 /// at `now_ns` to stand [`ENCODER_PHASE`] of a period after the last
@@ -97,9 +100,10 @@ struct Loop {
     /// with loop_stats)
     enc_age: Option<ros::Lateness>,
     newest_enc: i64,
-    /// at rest: the phase against the readings at the last reading
-    /// ([`phase_of`]), and a move of the grid asked for ([`phase_delay`])
-    last_phase: Option<i64>,
+    /// at rest: the phase against the readings ([`phase_of`]) at the first
+    /// of the readings in a row that kept to it, and how many, and a move
+    /// of the grid asked for ([`phase_delay`])
+    phase_run: Option<(i64, u32)>,
     rephase: Option<i64>,
     /// when the samples go out: every cycle while a job runs (and a
     /// second after), else at the resting rate
@@ -151,7 +155,7 @@ pub(super) fn control_loop(
         pending_rec: None,
         enc_age: Some(ros::Lateness::new()),
         newest_enc: 0,
-        last_phase: None,
+        phase_run: None,
         rephase: None,
     };
     loop {
@@ -295,17 +299,20 @@ impl Loop {
         }
         if read && self.resting(n) {
             let phase = phase_of(now_ns, self.newest_enc, self.period_ns);
-            let still = (PHASE_STILL * self.period_ns as f64) as i64;
-            let steady = self.last_phase.is_some_and(|p| {
-                let d = (phase - p).rem_euclid(self.period_ns);
-                d.min(self.period_ns - d) <= still
-            });
-            self.rephase = phase_delay(phase, self.period_ns).filter(|_| steady);
-            self.last_phase = if self.rephase.is_some() {
-                None
-            } else {
-                Some(phase)
+            let (still, period) = ((PHASE_STILL * self.period_ns as f64) as i64, self.period_ns);
+            let near = |p: i64| {
+                let d = (phase - p).rem_euclid(period);
+                d.min(period - d) <= still
             };
+            self.phase_run = match self.phase_run {
+                Some((p, k)) if near(p) => Some((p, k + 1)),
+                _ => Some((phase, 1)),
+            };
+            let steady = self.phase_run.is_some_and(|(_, k)| k >= PHASE_READINGS);
+            self.rephase = phase_delay(phase, period).filter(|_| steady);
+            if self.rephase.is_some() {
+                self.phase_run = None;
+            }
         }
         while let Ok(a) = self.actual.try_recv() {
             self.ctl.actual(a);
