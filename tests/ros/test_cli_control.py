@@ -117,7 +117,8 @@ def test_hold_longer_than_the_old_give_up_then_override_and_resume(env, peer, tm
     assert "job %d done" % job in out, out
     time.sleep(1.5)  # (the recording is closed after the job)
     assert abs(last_setpoint(job)[0] - 20.0) < 1e-9
-    assert cnc(env, "override", "100")[0] == 0
+    rc, out, err = cnc(env, "override", "100")
+    assert rc == 0, err
     rc, out, err = cnc(env, "override", "500")
     assert rc == 2 and "must be between 0 and 200 %" in err, (rc, err)
 

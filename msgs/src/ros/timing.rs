@@ -373,6 +373,21 @@ mod tests {
     }
 
     #[test]
+    fn a_delayed_grid_keeps_its_count_and_moves_its_instants() {
+        let o = Instant::now();
+        let mut g = Grid::new(o, 0.001);
+        g.advance();
+        g.advance();
+        g.delay(Duration::from_micros(231));
+        assert_eq!(g.next(), 2);
+        assert_eq!(g.at(2) - o, Duration::from_micros(2231));
+        // cycle 2 is not due until its moved instant
+        assert_eq!(g.due(o + Duration::from_micros(2230)), 0);
+        assert_eq!(g.due(o + Duration::from_micros(2231)), 1);
+        assert_eq!(g.due(o + Duration::from_micros(3231)), 2);
+    }
+
+    #[test]
     fn grid_waits_for_its_instants_and_spreads_a_catch_up() {
         let o = Instant::now() + Duration::from_millis(2);
         let mut g = Grid::new(o, 0.001);
