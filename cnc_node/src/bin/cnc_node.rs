@@ -1,6 +1,7 @@
 //! The controller as a ROS 2 node (`docs/ros_interface.md`).
 //!
-//! Four threads, so the control loop never waits on DDS, a file or a check:
+//! Five threads, so the control loop never waits on DDS, a file or a check,
+//! and the DDS thread never on a file:
 //! - control (`cnc_node/control.rs`): at the interpolation rate (on the instants of a fixed grid,
 //!   catching up after a late wake-up) it takes commands and encoder
 //!   readings without blocking, computes one sample and hands it to the DDS
@@ -10,8 +11,11 @@
 //!   to the control loop as it arrives (bounded queue, `try_send`);
 //! - check worker: reads and checks programs, answers run_program and the
 //!   goals of execute_program;
-//! - main (DDS): services, the action (`cnc_node::action`), publishers,
-//!   recordings.
+//! - main (DDS): services, the action (`cnc_node::action`), publishers;
+//!   hands a recorded job's messages to
+//! - recorder (`cnc_node/recording.rs`): writes the job's recording (an
+//!   unbounded queue, so the DDS thread never waits and no message is
+//!   lost), at normal priority.
 //!
 //! With `--rt-priority P` the control loop runs under SCHED_FIFO P and the
 //! DDS threads (started by the main thread, which the encoder thread and
@@ -47,6 +51,9 @@ use std::time::{Duration, Instant};
 #[path = "cnc_node/control.rs"]
 mod control;
 use control::control_loop;
+#[path = "cnc_node/recording.rs"]
+mod recording;
+use recording::{Msg, Recording};
 
 type Rec = Box<JobRecorder>;
 
@@ -259,7 +266,8 @@ fn run(setup: Setup) -> Result<(), String> {
     );
     let mut last_spindle = f64::NAN;
     let mut spindle_sent = Instant::now();
-    let mut recording: Option<(u32, Rec)> = None;
+    // the recording of a job, written on a thread of its own
+    let mut recording = Recording::start(dds_rt > 0)?;
     let mut polled = Instant::now();
     let mut stopping: Option<Instant> = None;
     loop {
@@ -273,10 +281,8 @@ fn run(setup: Setup) -> Result<(), String> {
             });
             let s = state.load(Ordering::Relaxed);
             let moving = s == State::Running as u32 || s == State::Hold as u32;
-            if (!moving && recording.is_none()) || since.elapsed() >= SHUTDOWN_GRACE {
-                if let Some((id, rec)) = recording.take() {
-                    finish_recording(id, rec, None);
-                }
+            if (!moving && recording.job().is_none()) || since.elapsed() >= SHUTDOWN_GRACE {
+                recording.close();
                 ros_info!("shut down");
                 return Ok(());
             }
@@ -325,9 +331,7 @@ fn run(setup: Setup) -> Result<(), String> {
         }
         while let Ok(m) = enc_rec_rx.try_recv() {
             obs.encoder(&m);
-            if let Some((_, rec)) = recording.as_mut() {
-                let _ = rec.encoder(&m);
-            }
+            recording.send(Msg::Encoder(m));
         }
         while let Ok(Some((m, _))) = sub_js.take() {
             let mut a = ActualSample {
@@ -350,16 +354,14 @@ fn run(setup: Setup) -> Result<(), String> {
             if all {
                 let _ = act_tx.try_send(a);
             }
-            if let Some((_, rec)) = recording.as_mut() {
-                let _ = rec.joint_states(&m);
-            }
+            recording.send(Msg::Joints(m));
         }
         // samples from the control loop, every one published and recorded
         // (a job's samples come every cycle; at rest this waits up to
         // SERVICE_POLL)
         drain(&out_rx, SERVICE_POLL, |mut o| {
-            if let Some(r) = o.recorder.take() {
-                recording = Some(r);
+            if let Some((id, rec)) = o.recorder.take() {
+                recording.send(Msg::Start(id, rec));
                 // the recording starts with the spindle command in force
                 last_spindle = f64::NAN;
             }
@@ -371,19 +373,17 @@ fn run(setup: Setup) -> Result<(), String> {
             });
             obs.sample(o.stamp, t, o.status.as_ref());
             let status = o.status.as_ref().map(|s| convert::status(s, o.stamp));
-            if let Some((id, rec)) = recording.as_mut() {
-                let r = rec
-                    .setpoints(&js)
-                    .and_then(|_| match &spindle {
-                        Some(f) => rec.spindle(stamp_ns(&o.stamp), f),
-                        None => Ok(()),
-                    })
-                    .and_then(|_| status.as_ref().map_or(Ok(()), |s| rec.status(s)));
-                let over = o.job != *id;
-                if r.is_err() || over {
-                    if let Some((id, rec)) = recording.take() {
-                        finish_recording(id, rec, r.err());
-                    }
+            if let Some(id) = recording.job() {
+                recording.send(Msg::Setpoints(js.clone()));
+                if let Some(f) = &spindle {
+                    recording.send(Msg::Spindle(stamp_ns(&o.stamp), f.clone()));
+                }
+                if let Some(s) = &status {
+                    recording.send(Msg::Status(s.clone()));
+                }
+                // (the job's recording holds the first sample after it)
+                if o.job != id {
+                    recording.send(Msg::Finish);
                 }
             }
             if o.setpoints {
@@ -470,7 +470,7 @@ fn ask(
     }
 }
 
-/// Closes a job's recording (file I/O on the DDS thread, never the loop's).
+/// Closes a job's recording (on the recorder thread, `recording.rs`).
 fn finish_recording(id: u32, rec: Rec, err: Option<String>) {
     let file = rec.file.clone();
     match err.map_or_else(|| rec.finish(), Err) {

@@ -1,0 +1,133 @@
+//! The recorder thread (in [`super`]): a job's recording is written here,
+//! off the DDS thread. Writing a recording compresses a chunk every
+//! second (zstd) and closes the file with its summary at the job's end;
+//! on the DDS thread each of those held up the setpoints behind it by
+//! several ms, past the simulator's setpoint delay (3 ms: it counted 1-3
+//! late setpoints about every other second of a recorded job, and 19 at
+//! its end). The DDS thread now only hands each message over (an
+//! unbounded queue: it never waits, and every message is kept); this
+//! thread runs at normal priority.
+
+use super::{finish_recording, Rec};
+use cnc_msgs::ros;
+use cnc_msgs::{ControllerStatus, Float64, JointState, SpindleEncoder};
+use std::sync::mpsc::{self, Sender};
+use std::thread::JoinHandle;
+
+/// What the DDS thread hands the recorder thread, in the order it saw it.
+pub(super) enum Msg {
+    /// a job's recording starts (its id, the recorder)
+    Start(u32, Rec),
+    Setpoints(JointState),
+    /// the spindle command and its stamp, ns
+    Spindle(u64, Float64),
+    Status(ControllerStatus),
+    Encoder(SpindleEncoder),
+    Joints(JointState),
+    /// the job's recording ends (the last message before was its last)
+    Finish,
+}
+
+/// The recorder thread and the queue to it.
+pub(super) struct Recording {
+    tx: Option<Sender<Msg>>,
+    thread: Option<JoinHandle<()>>,
+    /// the job being recorded
+    job: Option<u32>,
+}
+
+impl Recording {
+    /// Starts the thread (at normal priority: `lower` when the DDS threads
+    /// run under SCHED_FIFO).
+    pub(super) fn start(lower: bool) -> Result<Recording, String> {
+        let (tx, rx) = mpsc::channel::<Msg>();
+        let thread = std::thread::Builder::new()
+            .name("recorder".into())
+            .spawn(move || {
+                if lower {
+                    let _ = ros::set_normal();
+                }
+                let mut open: Option<(u32, Rec)> = None;
+                for m in rx {
+                    let r = match m {
+                        Msg::Start(id, rec) => {
+                            if let Some((id, rec)) = open.take() {
+                                finish_recording(id, rec, None);
+                            }
+                            open = Some((id, rec));
+                            Ok(())
+                        }
+                        Msg::Finish => {
+                            if let Some((id, rec)) = open.take() {
+                                finish_recording(id, rec, None);
+                            }
+                            Ok(())
+                        }
+                        m => match open.as_mut() {
+                            None => Ok(()),
+                            Some((_, rec)) => match m {
+                                Msg::Setpoints(js) => rec.setpoints(&js),
+                                Msg::Spindle(ns, f) => rec.spindle(ns, &f),
+                                Msg::Status(s) => rec.status(&s),
+                                // (a failed encoder or joint state write
+                                // loses that message only, as it did on the
+                                // DDS thread)
+                                Msg::Encoder(e) => {
+                                    let _ = rec.encoder(&e);
+                                    Ok(())
+                                }
+                                Msg::Joints(j) => {
+                                    let _ = rec.joint_states(&j);
+                                    Ok(())
+                                }
+                                Msg::Start(..) | Msg::Finish => Ok(()),
+                            },
+                        },
+                    };
+                    if let Err(e) = r {
+                        if let Some((id, rec)) = open.take() {
+                            finish_recording(id, rec, Some(e));
+                        }
+                    }
+                }
+                // the node ends: the recording open is closed
+                if let Some((id, rec)) = open.take() {
+                    finish_recording(id, rec, None);
+                }
+            })
+            .map_err(|e| e.to_string())?;
+        Ok(Recording {
+            tx: Some(tx),
+            thread: Some(thread),
+            job: None,
+        })
+    }
+
+    /// The job being recorded, if any.
+    pub(super) fn job(&self) -> Option<u32> {
+        self.job
+    }
+
+    /// Hands `m` over when a job is being recorded (a `Start` always).
+    pub(super) fn send(&mut self, m: Msg) {
+        match &m {
+            Msg::Start(id, _) => self.job = Some(*id),
+            Msg::Finish => self.job = None,
+            _ if self.job.is_none() => return,
+            _ => {}
+        }
+        if let Some(tx) = &self.tx {
+            let _ = tx.send(m);
+        }
+    }
+
+    /// Closes the recording open (if any) and waits until the thread has
+    /// written everything handed over.
+    pub(super) fn close(&mut self) {
+        self.job = None;
+        self.tx = None;
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
