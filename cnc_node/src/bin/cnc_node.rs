@@ -19,8 +19,8 @@
 //!
 //! With `--rt-priority P` the control loop runs under SCHED_FIFO P and the
 //! DDS threads (started by the main thread, which the encoder thread and
-//! DDS's own threads inherit from) under P − 20; the check worker runs at
-//! normal priority.
+//! DDS's own threads inherit from) under P − 20; the check worker and the
+//! recorder run at normal priority.
 //!
 //! Time: the control loop stamps each cycle's setpoints with the instant
 //! its sample is meant for, in the system clock (`ros::WallClock` of its
@@ -182,8 +182,8 @@ fn run(setup: Setup) -> Result<(), String> {
     let (chk_tx, chk_rx) = mpsc::channel();
     let (resp_tx, resp_rx) = mpsc::channel();
     // encoder readings to the control loop as they arrive (a thread of
-    // their own waits for them), and on to this thread for recordings:
-    // bounded, never blocking
+    // their own waits for them), and on to this thread for the observer
+    // and recordings: bounded, never blocking
     let (enc_tx, enc_rx) = mpsc::sync_channel::<EncoderSample>(256);
     let (enc_rec_tx, enc_rec_rx) = mpsc::sync_channel::<SpindleEncoder>(256);
     // the machine's joint states to the control loop (a thread's phase

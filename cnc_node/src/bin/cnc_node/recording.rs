@@ -28,6 +28,34 @@ pub(super) enum Msg {
     Finish,
 }
 
+/// Writes a message into the open recording; an error ends it (a failed
+/// encoder or joint state write loses that message only, as it did on the
+/// DDS thread).
+fn write(rec: &mut Rec, m: Msg) -> Result<(), String> {
+    match m {
+        Msg::Setpoints(js) => rec.setpoints(&js),
+        Msg::Spindle(ns, f) => rec.spindle(ns, &f),
+        Msg::Status(s) => rec.status(&s),
+        Msg::Encoder(e) => {
+            let _ = rec.encoder(&e);
+            Ok(())
+        }
+        Msg::Joints(j) => {
+            let _ = rec.joint_states(&j);
+            Ok(())
+        }
+        // (the thread opens and closes the recording itself)
+        Msg::Start(..) | Msg::Finish => Ok(()),
+    }
+}
+
+/// Closes the recording open, if any (`err`: it failed with that).
+fn close(open: &mut Option<(u32, Rec)>, err: Option<String>) {
+    if let Some((id, rec)) = open.take() {
+        finish_recording(id, rec, err);
+    }
+}
+
 /// The recorder thread and the queue to it.
 pub(super) struct Recording {
     tx: Option<Sender<Msg>>,
@@ -51,49 +79,22 @@ impl Recording {
                 for m in rx {
                     let r = match m {
                         Msg::Start(id, rec) => {
-                            if let Some((id, rec)) = open.take() {
-                                finish_recording(id, rec, None);
-                            }
+                            close(&mut open, None);
                             open = Some((id, rec));
                             Ok(())
                         }
                         Msg::Finish => {
-                            if let Some((id, rec)) = open.take() {
-                                finish_recording(id, rec, None);
-                            }
+                            close(&mut open, None);
                             Ok(())
                         }
-                        m => match open.as_mut() {
-                            None => Ok(()),
-                            Some((_, rec)) => match m {
-                                Msg::Setpoints(js) => rec.setpoints(&js),
-                                Msg::Spindle(ns, f) => rec.spindle(ns, &f),
-                                Msg::Status(s) => rec.status(&s),
-                                // (a failed encoder or joint state write
-                                // loses that message only, as it did on the
-                                // DDS thread)
-                                Msg::Encoder(e) => {
-                                    let _ = rec.encoder(&e);
-                                    Ok(())
-                                }
-                                Msg::Joints(j) => {
-                                    let _ = rec.joint_states(&j);
-                                    Ok(())
-                                }
-                                Msg::Start(..) | Msg::Finish => Ok(()),
-                            },
-                        },
+                        m => open.as_mut().map_or(Ok(()), |(_, rec)| write(rec, m)),
                     };
                     if let Err(e) = r {
-                        if let Some((id, rec)) = open.take() {
-                            finish_recording(id, rec, Some(e));
-                        }
+                        close(&mut open, Some(e));
                     }
                 }
                 // the node ends: the recording open is closed
-                if let Some((id, rec)) = open.take() {
-                    finish_recording(id, rec, None);
-                }
+                close(&mut open, None);
             })
             .map_err(|e| e.to_string())?;
         Ok(Recording {
