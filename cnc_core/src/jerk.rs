@@ -260,7 +260,8 @@ impl JerkBudget {
         let by_size = (self.a_n / kappa).sqrt();
         let w = self.step_span();
         let q = 0.25 * self.b_step;
-        let by_turn = (q / (w * kappa * kappa)).cbrt();
+        // (a cube root: only for the parts that use it)
+        let by_turn = || (q / (w * kappa * kappa)).cbrt();
         let end = |v: f64| (v, TURN_JERK_SHARE * self.j / (v * kappa));
         match part {
             ArcPart::End => end(by_size),
@@ -269,11 +270,11 @@ impl JerkBudget {
             // by at most a quarter of it differ by at most `b_step`)
             ArcPart::Beside => end((self.b_step.min(self.a_dev) / kappa)
                 .sqrt()
-                .min(by_turn)
+                .min(by_turn())
                 .min(v_top)
                 .max(by_size)),
             ArcPart::Inside => {
-                let by_change = (self.a_dev / kappa).sqrt().min(by_turn);
+                let by_change = (self.a_dev / kappa).sqrt().min(by_turn());
                 if by_change <= by_size {
                     return end(by_size);
                 }
