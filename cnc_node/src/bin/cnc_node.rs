@@ -1,14 +1,13 @@
 //! The controller as a ROS 2 node (`docs/ros_interface.md`).
 //!
-//! Five threads, so the control loop never waits on DDS, a file or a check,
-//! and the DDS thread never on a file:
+//! Four threads, so the control loop never waits on a file or a check, nor
+//! for a message, and the DDS thread never on a file:
 //! - control (`cnc_node/control.rs`): at the interpolation rate (on the instants of a fixed grid,
-//!   catching up after a late wake-up) it takes commands and encoder
-//!   readings without blocking, computes one sample and hands it to the DDS
-//!   thread through a bounded queue (`try_send`: a full queue drops, it
-//!   never blocks);
-//! - encoder: waits for the spindle encoder's readings and passes each on
-//!   to the control loop as it arrives (bounded queue, `try_send`);
+//!   catching up after a late wake-up) it takes commands and the spindle
+//!   encoder's readings without blocking (the readings straight from their
+//!   subscription's cache, as the simulator's loop takes its setpoints),
+//!   computes one sample and hands it to the DDS thread through a bounded
+//!   queue (`try_send`: a full queue drops, it never blocks);
 //! - check worker: reads and checks programs, answers run_program and the
 //!   goals of execute_program;
 //! - main (DDS): services, the action (`cnc_node::action`), publishers;
@@ -18,8 +17,8 @@
 //!   lost), at normal priority.
 //!
 //! With `--rt-priority P` the control loop runs under SCHED_FIFO P and the
-//! DDS threads (started by the main thread, which the encoder thread and
-//! DDS's own threads inherit from) under P − 20; the check worker and the
+//! DDS threads (started by the main thread, which DDS's own threads
+//! inherit from) under P − 20; the check worker and the
 //! recorder run at normal priority.
 //!
 //! Time: the control loop stamps each cycle's setpoints with the instant
@@ -36,7 +35,7 @@ use cnc_msgs::ros;
 use cnc_msgs::*;
 use cnc_node::action::{Cycle, ExecuteProgram, GoalKey};
 use cnc_node::admit::{admit, fit_run_reply, recorder, RecordOpts, Refusal};
-use cnc_node::controller::{ActualSample, EncoderSample, Job, Place, State, Status, Tick};
+use cnc_node::controller::{ActualSample, Job, Place, State, Status, Tick};
 use cnc_node::convert::{self, stamp_ns, time_ns};
 use cnc_node::files::load_machine;
 use cnc_node::observe::{self, Observer};
@@ -50,7 +49,7 @@ use std::time::{Duration, Instant};
 
 #[path = "cnc_node/control.rs"]
 mod control;
-use control::control_loop;
+use control::{control_loop, Readings};
 #[path = "cnc_node/recording.rs"]
 mod recording;
 use recording::{Msg, Recording};
@@ -181,36 +180,16 @@ fn run(setup: Setup) -> Result<(), String> {
     let (out_tx, out_rx) = mpsc::sync_channel::<Out>(8192);
     let (chk_tx, chk_rx) = mpsc::channel();
     let (resp_tx, resp_rx) = mpsc::channel();
-    // encoder readings to the control loop as they arrive (a thread of
-    // their own waits for them), and on to this thread for the observer
-    // and recordings: bounded, never blocking
-    let (enc_tx, enc_rx) = mpsc::sync_channel::<EncoderSample>(256);
+    // the encoder readings the control loop takes, on to this thread for
+    // the observer and recordings: bounded, never blocking
     let (enc_rec_tx, enc_rec_rx) = mpsc::sync_channel::<SpindleEncoder>(256);
+    let readings = Readings {
+        sub: sub_enc,
+        to_dds: enc_rec_tx,
+    };
     // the machine's joint states to the control loop (a thread's phase
     // is watched against them): bounded, never blocking
     let (act_tx, act_rx) = mpsc::sync_channel::<ActualSample>(256);
-    std::thread::Builder::new()
-        .name("encoder".into())
-        .spawn(move || {
-            smol::block_on(async {
-                loop {
-                    let Ok((m, _)) = sub_enc.async_take().await else {
-                        continue;
-                    };
-                    // a full queue drops: the loop is stuck, and the
-                    // executor's timeout says so
-                    let _ = enc_tx.try_send(EncoderSample {
-                        stamp_ns: time_ns(&m.stamp),
-                        count: m.count,
-                        counts_per_rev: m.counts_per_rev,
-                        index_count: m.index_count,
-                        count_at_index: m.count_at_index,
-                    });
-                    let _ = enc_rec_tx.try_send(m);
-                }
-            })
-        })
-        .map_err(|e| e.to_string())?;
     {
         let m = machine.clone();
         let here = here.clone();
@@ -232,7 +211,7 @@ fn run(setup: Setup) -> Result<(), String> {
                 control_loop(
                     m,
                     cmd_rx,
-                    (enc_rx, act_rx),
+                    (readings, act_rx),
                     out_tx,
                     here,
                     (state, checking),
