@@ -410,7 +410,13 @@ def test_tf_puts_the_tool_at_the_last_setpoint_after_a_move(rig):
     assert r.accepted, r.message
     st = peer.final_status(r.job_id)
     assert st.state == IDLE, st.last_error
-    end_ns = ns_of(st.header.stamp)
+    # the job's end: its first status after running (the last one may be a
+    # later status at rest, and the transform sent at the change of state
+    # then falls inside the window of the running ones below)
+    with peer.lock:
+        mine = [m for _, m in peer.status if m.job_id == r.job_id]
+    ran = max(i for i, m in enumerate(mine) if m.state == RUNNING)
+    end_ns = ns_of(mine[ran + 1].header.stamp)
     # a transform of the tool's slide stamped at or after the job's end
     peer.wait_for("/tf after the job's end", lambda: any(
         t.header.stamp.sec * 10**9 + t.header.stamp.nanosec >= end_ns

@@ -387,6 +387,7 @@ fn run(setup: Setup) -> Result<(), String> {
             }
         })
         .map_err(|_| "the control loop stopped".to_string())?;
+        recording.flush_due();
     }
 }
 
