@@ -336,9 +336,9 @@ fn run(setup: Setup) -> Result<(), String> {
             recording.send(Msg::Joints(m));
         }
         // samples from the control loop, every one published and recorded
-        // (a job's samples come every cycle; at rest this waits up to
-        // SERVICE_POLL)
-        drain(&out_rx, SERVICE_POLL, |mut o| {
+        // (a job's samples come every cycle; at rest this waits for the
+        // next one, up to REST_WAIT)
+        drain(&out_rx, REST_WAIT, |mut o| {
             if let Some((id, rec)) = o.recorder.take() {
                 recording.send(Msg::Start(id, rec));
                 // the recording starts with the spindle command in force
@@ -422,8 +422,17 @@ fn drain<T>(rx: &Receiver<T>, wait: Duration, mut f: impl FnMut(T)) -> Result<()
 const SHUTDOWN_GRACE: Duration = Duration::from_secs(4);
 
 /// How often the DDS thread looks for service requests and the feed
-/// override.
+/// override while samples come every cycle (a job, and the second after
+/// one); at rest it looks at every resting sample, [`REST_WAIT`].
 const SERVICE_POLL: Duration = Duration::from_millis(4);
+
+/// How long the DDS thread waits for a sample at most: at rest one comes
+/// every 1 / `ros::REST_RATE_HZ` (20 ms), so it then wakes about 50 times
+/// a second instead of every [`SERVICE_POLL`] (250: 2.1 % of a core idle
+/// on a slow host, BENCHMARKS.md "CPU per machine"). A request at rest is
+/// answered up to 20 ms later; while samples come every cycle this wait
+/// never runs out, and nothing changes.
+const REST_WAIT: Duration = Duration::from_micros((1e6 / ros::REST_RATE_HZ) as u64);
 
 /// The spindle command is published on change and at least this often:
 /// the topic is volatile, and a simulator (or drive bridge) that starts
