@@ -285,6 +285,18 @@ def pairs_at(setpoints, encoder, axis, start, lo, hi, max_gap=0.004, ahead=AHEAD
     return out
 
 
+# The largest spread (max - min over a pass) of the setpoints' lead error
+# against the encoder readings over DDS, counts of 4096 a revolution: 5 is
+# 0.44 deg. It is the readings' delivery (offline the executor stays within
+# one count, cnc_node/tests/thread.rs), so it follows the host: 0.8-3.2
+# counts on the hosts of 2026-11-25, and 3.6-4.5 in Example 2 on the
+# slower host of 2026-11-28 (7 runs, main before and after that day's
+# change, 4 of them over the 4 this was), where the groove phase stayed
+# within 0.002 deg. The phase
+# assertions (0.05 deg) are what catch a controller that is off.
+SPREAD_COUNTS = 5.0
+
+
 def lead_stats(pairs, start, sign, pitch, cpr):
     """Lead error spread in counts (after removing the pass's mean) and the
     groove's phase in degrees, in (-180, 180]: the mean of
@@ -343,7 +355,7 @@ def test_thread_example_1_lead_and_phase_at_s200_and_s800(machine):
         # (over DDS on this VM: 0.8-3.2 counts; offline the same executor
         # stays within one count of the true angle, tests in
         # cnc_node/tests/thread.rs. The rest here is the readings' delivery.)
-        assert spread <= 4.0, (rpm, spread)
+        assert spread <= SPREAD_COUNTS, (rpm, spread)
         # I0: the groove starts on the index
         assert abs(phase) <= 0.05, (rpm, phase)
     d = wrap(res[800][1] - res[200][1])
@@ -479,7 +491,7 @@ def test_thread_example_2_in_y_starts_180_degrees_after_the_index(machine):
     spread, phase, _ = lead_stats(pairs, 10.0, 1.0, 1.5, cpr)
     print("Example 2: lead error spread %.2f counts, groove phase %.3f deg (want -180)" % (spread, phase))
     # measured: spreads 1.1-2.5 counts, phase 180.000 deg
-    assert spread <= 4.0, spread  # (measured 1.0-3.2 counts over DDS)
+    assert spread <= SPREAD_COUNTS, spread  # (measured 1.0-3.2 counts over DDS; 3.6-4.5 on a slower host)
     # (y_start - y)/1.5 - revs = -0.5 rev (mod 1): 180 degrees
     assert abs(wrap(phase - 180.0)) <= 0.05, phase
     end = sps[-1][1]
@@ -504,7 +516,7 @@ def test_thread_examples_3_taper_and_4_runout(machine):
     pairs = pairs_at(sps, enc, 1, 5.0, -35.0, -2.0)
     spread, phase, _ = lead_stats(pairs, 5.0, 1.0, 2.0, cpr)
     print("Example 3: lead error spread %.2f counts, groove phase %.3f deg" % (spread, phase))
-    assert spread <= 4.0 and abs(phase) <= 0.05, (spread, phase)
+    assert spread <= SPREAD_COUNTS and abs(phase) <= 0.05, (spread, phase)
     # Example 4: runout J3 at 30 degrees on X (machine constant 8): X
     # (radius 10) leaves the thread over the last 3 mm and ends 3 tan 30
     # further out, then the empty block, then a block with every axis
