@@ -610,48 +610,62 @@ def test_thread_the_cut_groove_stays_put_at_s200_s800_s2000_with_ripple(machine,
     peer = machine
     rows = []
     for rpm in (200, 800, 2000):
-        for _ in peer.attempts("groove S%d" % rpm):
-            r = peer.run_program(GROOVE % rpm)
-            assert r.accepted, r.message
-            st = peer.final_status(r.job_id, timeout=r.estimated_duration + 30.0)
-        assert st.state == IDLE and st.last_error == "", (rpm, st.state, st.last_error)
-        sps, enc, _, act = peer.recording(r, actual=True)
-        assert enc, "the recording holds the encoder"
-        span = 33.0 / 1.5 / (rpm / 60.0)
-        sp = pairs_at(sps, enc, 1, 5.0, -35.0, -2.0)
-        ac = pairs_at(act, enc, 1, 5.0, -35.0, -2.0, ahead=0.0)
-        assert len(sp) > 0.9 * span * 1000 and len(ac) > 0.9 * span * 1000, (len(sp), len(ac), span)
-        # the setpoints' lead for the servo's lag under the spindle's
-        # acceleration at the instant each is for, degrees
-        ts = [e[0] for e in enc]
-        lead = [ACCEL_LAG_S2 * spindle_accel(enc, ts, t) * 360.0 for t, _, _ in sp]
-        s_mean, s_worst, s_spread, _ = groove(sp, 5.0, 1.5, 90.0, lead)
-        r_mean, r_worst, _, _ = groove(sp, 5.0, 1.5, 90.0)
-        a_mean, a_worst, a_spread, _ = groove(ac, 5.0, 1.5, 90.0)
-        rows.append((rpm, s_mean, s_worst, r_worst, max(abs(x) for x in lead), a_mean, a_worst, a_spread))
-        print("S%d: setpoints (at stamp + %.1f ms, less their acceleration lead) mean %+.3f deg, worst %.3f deg "
-              "(as published: worst %.3f deg, lead up to %.3f deg); actual mean %+.3f deg, "
-              "worst %.3f deg, spread %.3f deg (%d / %d points)"
-              % (rpm, AHEAD_S * 1000, s_mean, s_worst, r_worst, rows[-1][4], a_mean, a_worst, a_spread,
-                 len(sp), len(ac)))
-        # the controller's own measurement of the recording (`cnc plot
-        # --thread`, the same pairing in Rust: setpoints as published, at
-        # their stamp + the setpoint delay + the servo lag; joint states at
-        # their own stamps) agrees with this one over the same part of the
-        # pass: the whole synchronized part it prints (from the end of the
-        # run-in, where the axis still settles, which this test's window
-        # leaves out; and the setpoints' acceleration lead follows the
-        # ripple, so their mean depends on the span by up to 0.015 deg at
-        # S2000)
-        r_set, r_act, (z0, z1) = cnc_plot_thread(r.recording, str(tmp_path / ("s%d.svg" % rpm)))
-        lo, hi = min(z0, z1), max(z0, z1)
-        s_mean_all = groove(pairs_at(sps, enc, 1, 5.0, lo, hi), 5.0, 1.5, 90.0)[0]
-        a_mean_all = groove(pairs_at(act, enc, 1, 5.0, lo, hi, ahead=0.0), 5.0, 1.5, 90.0)[0]
-        print("S%d: cnc plot --thread over Z %.3f..%.3f: setpoints mean %+.4f deg (here %+.4f; as published "
-              "over -35..-2: %+.4f), actual mean %+.4f deg (here %+.4f)"
-              % (rpm, z0, z1, r_set, s_mean_all, r_mean, r_act, a_mean_all))
-        assert abs(r_set - s_mean_all) <= 0.02, (rpm, r_set, s_mean_all)
-        assert abs(r_act - a_mean_all) <= 0.02, (rpm, r_act, a_mean_all)
+        # a job measured while the simulator reported a stall or late
+        # setpoints (a busy VM holding up its real-time loop: the axes
+        # then really ran behind) and out of the bounds below is measured
+        # again, up to three times; out of them without a stall fails
+        for measure in range(3):
+            since = peer.log_size()
+            for _ in peer.attempts("groove S%d" % rpm):
+                r = peer.run_program(GROOVE % rpm)
+                assert r.accepted, r.message
+                st = peer.final_status(r.job_id, timeout=r.estimated_duration + 30.0)
+            assert st.state == IDLE and st.last_error == "", (rpm, st.state, st.last_error)
+            sps, enc, _, act = peer.recording(r, actual=True)
+            assert enc, "the recording holds the encoder"
+            span = 33.0 / 1.5 / (rpm / 60.0)
+            sp = pairs_at(sps, enc, 1, 5.0, -35.0, -2.0)
+            ac = pairs_at(act, enc, 1, 5.0, -35.0, -2.0, ahead=0.0)
+            assert len(sp) > 0.9 * span * 1000 and len(ac) > 0.9 * span * 1000, (len(sp), len(ac), span)
+            # the setpoints' lead for the servo's lag under the spindle's
+            # acceleration at the instant each is for, degrees
+            ts = [e[0] for e in enc]
+            lead = [ACCEL_LAG_S2 * spindle_accel(enc, ts, t) * 360.0 for t, _, _ in sp]
+            s_mean, s_worst, s_spread, _ = groove(sp, 5.0, 1.5, 90.0, lead)
+            r_mean, r_worst, _, _ = groove(sp, 5.0, 1.5, 90.0)
+            a_mean, a_worst, a_spread, _ = groove(ac, 5.0, 1.5, 90.0)
+            rows.append((rpm, s_mean, s_worst, r_worst, max(abs(x) for x in lead), a_mean, a_worst, a_spread))
+            print("S%d: setpoints (at stamp + %.1f ms, less their acceleration lead) mean %+.3f deg, worst %.3f deg "
+                  "(as published: worst %.3f deg, lead up to %.3f deg); actual mean %+.3f deg, "
+                  "worst %.3f deg, spread %.3f deg (%d / %d points)"
+                  % (rpm, AHEAD_S * 1000, s_mean, s_worst, r_worst, rows[-1][4], a_mean, a_worst, a_spread,
+                     len(sp), len(ac)))
+            # the controller's own measurement of the recording (`cnc plot
+            # --thread`, the same pairing in Rust: setpoints as published, at
+            # their stamp + the setpoint delay + the servo lag; joint states at
+            # their own stamps) agrees with this one over the same part of the
+            # pass: the whole synchronized part it prints (from the end of the
+            # run-in, where the axis still settles, which this test's window
+            # leaves out; and the setpoints' acceleration lead follows the
+            # ripple, so their mean depends on the span by up to 0.015 deg at
+            # S2000)
+            r_set, r_act, (z0, z1) = cnc_plot_thread(r.recording, str(tmp_path / ("s%d.svg" % rpm)))
+            lo, hi = min(z0, z1), max(z0, z1)
+            s_mean_all = groove(pairs_at(sps, enc, 1, 5.0, lo, hi), 5.0, 1.5, 90.0)[0]
+            a_mean_all = groove(pairs_at(act, enc, 1, 5.0, lo, hi, ahead=0.0), 5.0, 1.5, 90.0)[0]
+            print("S%d: cnc plot --thread over Z %.3f..%.3f: setpoints mean %+.4f deg (here %+.4f; as published "
+                  "over -35..-2: %+.4f), actual mean %+.4f deg (here %+.4f)"
+                  % (rpm, z0, z1, r_set, s_mean_all, r_mean, r_act, a_mean_all))
+            assert abs(r_set - s_mean_all) <= 0.02, (rpm, r_set, s_mean_all)
+            assert abs(r_act - a_mean_all) <= 0.02, (rpm, r_act, a_mean_all)
+            s_bound = 0.3 if rpm < 2000 else 0.5
+            within = abs(s_mean) <= 0.05 and s_worst <= s_bound and abs(a_mean) <= 0.5 and a_spread <= 0.5
+            stalls = peer.sim_stalls(since)
+            if within or not stalls or measure == 2:
+                break
+            print("groove S%d: measurement %d out of bounds after the simulator %s; again"
+                  % (rpm, measure + 1, stalls[-1]))
+            rows.pop()
     print("| S | setpoints mean | setpoints worst | as published: worst | acceleration lead | actual mean "
           "| actual worst | actual spread |")
     for row in rows:
