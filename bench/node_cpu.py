@@ -11,9 +11,13 @@ Each run: both nodes started (lathe, their own namespaces), 4 s to settle,
 an idle window, then bench/fleet/lathe_job.nc (G95, G33; 24 s) and a
 window inside the job. With --node-args/--sim-args more options (e.g.
 '--rt-priority 0'), with --no-sim the controller alone (idle only).
+First it prints a host reference: the CPU time of the first build's
+`cnc check` on bench/gen_program.py's 100,000 blocks, so shares taken on
+hosts of different speed can be set side by side.
 """
 import argparse
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -145,6 +149,29 @@ def one(a, label, bindir, run_no, node):
                 p.wait()
 
 
+def host_reference(bindir, blocks=100000, reps=3):
+    """CPU seconds of `cnc check` on a fixed generated program (median of
+    `reps`): how fast this host is, so CPU shares measured on different
+    hosts can be set side by side (the same build's share of a core grows
+    as the host gets slower). None without the build's `cnc`."""
+    cnc = os.path.join(bindir, "cnc")
+    if not os.access(cnc, os.X_OK):
+        return None
+    prog = os.path.join(ROOT, "bench", "out", "host_ref_%d.ngc" % blocks)
+    if not os.path.exists(prog):
+        os.makedirs(os.path.dirname(prog), exist_ok=True)
+        subprocess.run([sys.executable, os.path.join(HERE, "gen_program.py"), "--blocks", str(blocks),
+                        "--out", prog], check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    cpu = []
+    for _ in range(reps):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        subprocess.run([cnc, "check", prog, "--machine", os.path.join(ROOT, "config", "mill.toml"),
+                        "--dialect", "cnc836"], check=True, stdout=subprocess.DEVNULL)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu.append((after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime))
+    return statistics.median(cpu)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--build", action="append", required=True, help="LABEL=BINDIR")
@@ -160,6 +187,10 @@ def main():
     rclpy.init()
     node = rclpy.create_node("cpu_probe")
     print("%d cores, load average before: %s" % (os.cpu_count(), open("/proc/loadavg").read().split()[:3]))
+    ref = host_reference(builds[0][1])
+    if ref is not None:
+        print("host reference: `cnc check` (%s) of bench/gen_program.py's 100,000 blocks: %.3f s of CPU "
+              "(median of 3)" % (builds[0][0], ref), flush=True)
     got = {lab: [] for lab, _ in builds}
     for r in range(a.runs):
         for lab, d in builds:
