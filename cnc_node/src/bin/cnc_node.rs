@@ -428,8 +428,8 @@ const SERVICE_POLL: Duration = Duration::from_millis(4);
 
 /// How long the DDS thread waits for a sample at most: at rest one comes
 /// every 1 / `ros::REST_RATE_HZ` (20 ms), so it then wakes about 50 times
-/// a second instead of every [`SERVICE_POLL`] (250: 2.1 % of a core idle
-/// on a slow host, BENCHMARKS.md "CPU per machine"). A request at rest is
+/// a second instead of every [`SERVICE_POLL`] (250: 2.4–2.6 % of a core
+/// idle on a slow host, BENCHMARKS.md "CPU per machine"). A request at rest is
 /// answered up to 20 ms later; while samples come every cycle this wait
 /// never runs out, and nothing changes.
 const REST_WAIT: Duration = Duration::from_micros((1e6 / ros::REST_RATE_HZ) as u64);
