@@ -9,6 +9,20 @@ ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 TARGET = os.environ.get("CNC_TARGET_DIR", os.path.join(ROOT, "target", "debug"))
 
 
+def domain(slot):
+    """The DDS domain of the test module numbered `slot` (0-9): 1 +
+    10 slot + pid mod 10, so no two modules of a run share one (a node
+    that outlives its module is never heard by the next), and two runs on
+    one host seldom do. All are 1-100: DDS takes its ports from the
+    domain (7400 + 250 per domain), and above about 101 they fall in
+    Linux's ephemeral range (32768-60999), where any socket the host
+    opens may hold one before a participant binds it (ROS 2's advice for
+    ROS_DOMAIN_ID on Linux; a module's peer once heard nothing of the
+    controller for 90 s on domain 150-199)."""
+    assert 0 <= slot <= 9
+    return str(1 + 10 * slot + os.getpid() % 10)
+
+
 def build():
     """Builds both nodes (unless CNC_SKIP_BUILD: scripts/test.sh built them)."""
     if not os.environ.get("CNC_SKIP_BUILD"):

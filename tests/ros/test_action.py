@@ -25,14 +25,14 @@ from sensor_msgs.msg import JointState
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram
-from ros_nodes import ROOT, deep_qos, hearing_peer, session, SpinningPeer, stamp_s
+from ros_nodes import ROOT, deep_qos, domain, hearing_peer, session, SpinningPeer, stamp_s
 
 try:
     from cnc_msgs.action import ExecuteProgram
 except ImportError:  # a cnc_msgs built before the action: run setup.sh again
     pytestmark = pytest.mark.skip(reason="cnc_msgs has no action: run scripts/ros_peer/setup.sh again")
 
-DOMAIN = str(200 + os.getpid() % 30)
+DOMAIN = domain(5)
 NS = "/cnc"
 ACTION = NS + "/execute_program"
 

@@ -18,9 +18,9 @@ import pytest
 import rclpy
 
 from cnc_msgs.msg import ControllerStatus
-from ros_nodes import ROOT, TARGET, build, read_mcap, start, SpinningPeer, stop
+from ros_nodes import ROOT, TARGET, build, domain, read_mcap, SpinningPeer, start, stop
 
-DOMAIN = str(150 + os.getpid() % 50)
+DOMAIN = domain(4)
 NS = "/cnc"
 RECORDINGS = os.path.join(ROOT, "target", "test-recordings-cli")
 
@@ -63,9 +63,11 @@ class Peer(SpinningPeer):
 @pytest.fixture
 def peer(env):
     p = Peer("cli_peer_%d" % (time.time_ns() % 100000))
-    p.wait_for("a status", lambda: bool(p.status), 30.0)
-    yield p
-    p.close()
+    try:
+        p.wait_for("a status", lambda: bool(p.status), 30.0)
+        yield p
+    finally:
+        p.close()
 
 
 def cnc(env, *args, timeout=60):

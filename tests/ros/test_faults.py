@@ -28,9 +28,9 @@ from std_srvs.srv import Trigger
 
 from cnc_msgs.msg import ControllerStatus, SpindleEncoder
 from cnc_msgs.srv import RunProgram
-from ros_nodes import ROOT, TARGET, build, deep_qos, hearing_peer, read_mcap, start, start_node, start_sim, SpinningPeer, stop
+from ros_nodes import ROOT, TARGET, build, deep_qos, domain, hearing_peer, read_mcap, SpinningPeer, start, start_node, start_sim, stop
 
-DOMAIN = str(30 + os.getpid() % 60)
+DOMAIN = domain(0)
 NS, SIM = "/cnc", "/sim"
 # the bundled mill's interpolation.setpoint_delay_ms (the simulator applies
 # each setpoint this long after its stamp)

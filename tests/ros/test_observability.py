@@ -42,10 +42,9 @@ from tf2_msgs.msg import TFMessage
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram, SetDelay
-from ros_nodes import ROOT, TARGET, build, deep_qos, hearing_peer, start, start_sim, SpinningPeer, stop
+from ros_nodes import ROOT, TARGET, build, deep_qos, domain, hearing_peer, SpinningPeer, start, start_sim, stop
 
-# ROS_DOMAIN_ID is at most 232 (Fast DDS's ports); 230-232 are this module's
-DOMAIN = str(230 + os.getpid() % 3)
+DOMAIN = domain(7)
 NS, SIM = "/cnc", "/sim"
 NODE_LOGGER, SIM_LOGGER = "cnc.cnc_node", "sim.sim_axes"
 IDLE, RUNNING, ERROR = ControllerStatus.STATE_IDLE, ControllerStatus.STATE_RUNNING, ControllerStatus.STATE_ERROR

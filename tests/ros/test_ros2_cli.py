@@ -19,9 +19,9 @@ import time
 
 import pytest
 
-from ros_nodes import ROOT, TARGET, build, read_mcap, SpinningPeer, stamp_s
+from ros_nodes import ROOT, TARGET, build, domain, read_mcap, SpinningPeer, stamp_s
 
-DOMAIN = str(200 + os.getpid() % 30)
+DOMAIN = domain(6)
 DISCOVERY_S = 30.0
 
 

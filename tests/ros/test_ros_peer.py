@@ -16,9 +16,9 @@ from std_srvs.srv import SetBool, Trigger
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram
-from ros_nodes import ROOT, TARGET, build, deep_qos, hearing_peer, read_mcap, start, SpinningPeer, stamp_s, stop
+from ros_nodes import ROOT, TARGET, build, deep_qos, domain, hearing_peer, read_mcap, SpinningPeer, stamp_s, start, stop
 
-DOMAIN = str(100 + os.getpid() % 100)
+DOMAIN = domain(1)
 NS = "/cnc"
 
 
@@ -443,7 +443,7 @@ def test_bag_replay_republishes_a_recording_and_bag_record_records_live_topics(n
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
 
-    env = dict(os.environ, ROS_DOMAIN_ID=str(int(DOMAIN) + 50))
+    env = dict(os.environ, ROS_DOMAIN_ID=domain(2))
     cnc = os.path.join(TARGET, "cnc")
     out = tmp_path / "live.mcap"
     # replay into namespace /cnc of another domain (no controller there)

@@ -30,9 +30,9 @@ from std_srvs.srv import SetBool
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram, SetDelay
-from ros_nodes import ROOT, TARGET, build, hearing_peer, read_mcap, start, SpinningPeer, stamp_s, stop
+from ros_nodes import ROOT, TARGET, build, domain, hearing_peer, read_mcap, SpinningPeer, stamp_s, start, stop
 
-DOMAIN = str(100 + os.getpid() % 100)
+DOMAIN = domain(3)
 NS, SIM = "/cnc", "/sim"
 ERROR = ControllerStatus.STATE_ERROR
 IDLE = ControllerStatus.STATE_IDLE
