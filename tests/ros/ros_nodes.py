@@ -81,6 +81,36 @@ def stop(procs, timeout=5):
             p.kill()
 
 
+class HostWatch:
+    """A thread of the test's own that sleeps 1 ms at a time and notes
+    when it woke far later: the host held every process up (a VM's steal
+    time, another tenant), the nodes' real-time loops too. Evidence for
+    a test that runs a job again when the nodes rightly stopped it on a
+    stall the simulator did not see (Python threads take turns every 5 ms,
+    so only gaps over `threshold` count)."""
+
+    def __init__(self, threshold=0.05):
+        self.threshold = threshold
+        self.gaps = []  # (monotonic s at wake-up, gap s)
+        self.lock = threading.Lock()
+        threading.Thread(target=self._run, daemon=True).start()
+
+    def _run(self):
+        last = time.monotonic()
+        while True:
+            time.sleep(0.001)
+            now = time.monotonic()
+            if now - last > self.threshold:
+                with self.lock:
+                    self.gaps.append((now, now - last))
+            last = now
+
+    def since(self, t):
+        """The gaps seen since monotonic time `t` (s each)."""
+        with self.lock:
+            return [g for w, g in self.gaps if w >= t]
+
+
 class SpinningPeer:
     """An rclpy node spun in a thread of its own, where its subscriptions'
     callbacks run. Subclasses make their subscriptions and clients after

@@ -30,7 +30,7 @@ from std_srvs.srv import SetBool
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram, SetDelay
-from ros_nodes import ROOT, TARGET, build, domain, hearing_peer, read_mcap, SpinningPeer, stamp_s, start, stop
+from ros_nodes import ROOT, TARGET, build, domain, hearing_peer, HostWatch, read_mcap, SpinningPeer, stamp_s, start, stop
 
 DOMAIN = domain(3)
 NS, SIM = "/cnc", "/sim"
@@ -125,6 +125,7 @@ class Peer(SpinningPeer):
         self.spindle = []  # rad/s, in arrival order
         self.newest = None  # (stamp s, positions m)
         self.last_end = None
+        self.watch = HostWatch()
         newest = QoSProfile(depth=1, history=HistoryPolicy.KEEP_LAST, reliability=ReliabilityPolicy.BEST_EFFORT)
         self.node.create_subscription(JointState, NS + "/joint_setpoints", self._sp, newest)
         self.node.create_subscription(Float64, NS + "/spindle_command", self._spin, 10)
@@ -226,25 +227,47 @@ class Peer(SpinningPeer):
             return [l for l in f.read().decode(errors="replace").splitlines()
                     if "stalled" in l or "arrived after their instant" in l]
 
-    def attempts(self, what, n=3):
-        """Runs of a job: the next one only when the last ended with the
-        encoder lost while the simulator reported a stall. On a machine
-        that holds up the simulator's real-time loop for 10 ms and more
-        (a busy VM without a real-time kernel) the readings really were
-        missing that long, and the controller is right to stop; any other
-        loss of the encoder fails the test. The same for a thread the
-        controller stopped because the axis fell behind the line while the
-        simulator reported a stall or setpoints that came after their
-        instant (the setpoint delay did not cover the transport then)."""
+    def mark(self):
+        """Where the evidence of stalls starts: (the simulator's log size,
+        monotonic time)."""
+        return self.log_size(), time.monotonic()
+
+    def stalls(self, mark):
+        """Stalls since `mark`: the simulator's reports, then the host's
+        hold-ups this process saw itself (`HostWatch`)."""
+        size, t = mark
+        return self.sim_stalls(size) + ["the host held this test up for %.0f ms" % (g * 1000.0)
+                                        for g in self.watch.since(t)]
+
+    def to_thread_start(self):
+        """Z back at the threads' start (X20 Z5) after a job that stopped
+        on the thread: the next attempt's rapid there is not part of the
+        job it measures."""
+        st, _, _ = self.run_to_end("N5 G00 X20 Z5\n")
+        assert st.state == IDLE, st.last_error
+
+    def attempts(self, what, n=4):
+        """Runs of a job, up to `n`: the next one only when the last ended
+        with the encoder lost while the simulator reported a stall or this
+        process saw the host stop (`stalls`). On a machine that holds up
+        the simulator's real-time loop for 10 ms and more (a busy VM
+        without a real-time kernel) the readings really were missing that
+        long, and the controller is right to stop; any other loss of the
+        encoder fails the test. The same for a thread the controller
+        stopped because the axis fell behind the line while the simulator
+        reported a stall or setpoints that came after their instant (the
+        setpoint delay did not cover the transport then). (Four: on a VM
+        with 5-14 % steal time three runs of a lathe job in a row each had
+        setpoints come late, 2026-11-28.)"""
         for i in range(n):
-            since = self.log_size()
+            since = self.mark()
             self.last_end = None
             yield i
             st = self.last_end
             if st is None or st.state != ERROR or not (
                     "encoder signal lost" in st.last_error or "behind the thread line" in st.last_error):
                 return
-            stalls = self.sim_stalls(since)
+            stalls = self.stalls(since)
             if not stalls:
                 return
             print("%s: attempt %d ended with %r after the simulator %s; again"
@@ -383,15 +406,16 @@ def wait_lead_past(peer, job_id, axis, limit, timeout=30.0):
 def test_thread_lost_encoder_stops_the_axes_under_control(machine):
     peer = machine
     prog = example1(800, z_end=-20)
-    for attempt in range(3):
-        since = peer.log_size()
+    for attempt in range(4):
+        peer.to_thread_start()
+        since = peer.mark()
         r = peer.run_program(prog)
         assert r.accepted, r.message
         # stop the encoder once Z passes -10
         z = wait_lead_past(peer, r.job_id, 1, -0.010)
         if z is None:
             st = peer.final_status(r.job_id)
-            stalls = peer.sim_stalls(since)
+            stalls = peer.stalls(since)
             assert stalls and "encoder signal lost" in st.last_error, \
                 "Z never passed -10: %r" % st.last_error
             print("attempt %d ended with %r after the simulator %s; again" % (attempt + 1, st.last_error, stalls[-1]))
@@ -408,9 +432,17 @@ def test_thread_lost_encoder_stops_the_axes_under_control(machine):
             # (the rest needs no encoder): the job ended well, and runs again
             print("attempt %d: the encoder stopped only after the thread; again" % (attempt + 1))
             continue
+        m = re.match(r"^line 3: spindle encoder signal lost: no reading for (\d+) ms", st.last_error)
+        stalls = peer.stalls(since)
+        if m and int(m.group(1)) >= ENCODER_TIMEOUT_MS + 20 and stalls:
+            # the node saw the loss late because the host held it up
+            # (its loop or the readings' delivery): that says nothing of
+            # when it looks, and runs again
+            print("attempt %d: the loss seen after %s ms, after %s; again" % (attempt + 1, m.group(1), stalls[-1]))
+            continue
         break
     else:
-        raise AssertionError("three attempts, none stopped the encoder during the thread")
+        raise AssertionError("four attempts, none stopped the encoder during the thread on a host that kept up")
     sps, _, rec_spin = peer.recording(r)
     time.sleep(0.3)
     standing = peer.where()
@@ -624,7 +656,7 @@ def test_thread_the_cut_groove_stays_put_at_s200_s800_s2000_with_ripple(machine,
         # then really ran behind) and out of the bounds below is measured
         # again, up to three times; out of them without a stall fails
         for measure in range(3):
-            since = peer.log_size()
+            since = peer.mark()
             for _ in peer.attempts("groove S%d" % rpm):
                 r = peer.run_program(GROOVE % rpm)
                 assert r.accepted, r.message
@@ -670,7 +702,7 @@ def test_thread_the_cut_groove_stays_put_at_s200_s800_s2000_with_ripple(machine,
             b = groove_bounds(rpm)
             within = (abs(s_mean) <= b["s_mean"] and s_worst <= b["s_worst"]
                       and abs(a_mean) <= b["a_mean"] and a_spread <= b["a_spread"])
-            stalls = peer.sim_stalls(since)
+            stalls = peer.stalls(since)
             if within or not stalls or measure == 2:
                 break
             print("groove S%d: measurement %d out of bounds after the simulator %s; again"
@@ -720,9 +752,8 @@ def test_thread_setpoint_delay_raised_mid_job_stops_the_thread_with_a_clear_erro
     setpoints within the axis's speed and acceleration) and ends the job
     in error saying so."""
     peer = machine
-    st, _, _ = peer.run_to_end("N5 G00 X20 Z5\n")
-    assert st.state == IDLE, st.last_error
     for attempt in range(3):
+        peer.to_thread_start()
         r = peer.run_program(GROOVE % 800)
         assert r.accepted, r.message
         z = wait_lead_past(peer, r.job_id, 1, -0.010)
