@@ -60,7 +60,7 @@ impl CheckReport {
 
 /// Events planned before the check decides to use a second thread.
 const FIRST_EVENTS: usize = 512;
-/// Lines read and parsed at a time by the reading thread. (Each batch
+/// Lines read at a time by the reading thread. (Each batch
 /// handed over may wake the other thread: with 2048 lines a 1,000,000-line
 /// program makes about 120 context switches instead of 1,600 with 512, for
 /// about 3 MiB more memory in the batches.)
@@ -71,13 +71,14 @@ const IN_FLIGHT: usize = 4;
 /// Checks a whole program.
 ///
 /// A program of more than a few hundred moves is checked by two threads in
-/// a pipeline: this one reads and parses lines, a second one interprets
-/// them, and this one plans the events that come back. (Reading, parsing
-/// and planning together weigh about as much as interpreting with its arc
-/// geometry; what the planner works out of each move alone (length,
-/// tangents, limits) goes to whichever thread has time.) Every stage sees everything in program order and
-/// nothing flows backwards (the reader only runs ahead by a few batches),
-/// so the report is the one a single thread makes, bit for bit.
+/// a pipeline: this one reads lines, a second one parses and interprets
+/// them, and this one plans the events that come back. (Planning weighs
+/// more than interpreting with its arc geometry, so the parse goes to the
+/// second thread, and what the planner works out of each move alone
+/// (length, tangents, limits) to whichever thread has time.) Every stage
+/// sees everything in program order and nothing flows backwards (the
+/// reader only runs ahead by a few batches), so the report is the one a
+/// single thread makes, bit for bit.
 pub fn check<S: ProgramSource>(source: S, dialect: Dialect, machine: &Machine) -> CheckReport {
     let lim = PlanLimits::from_machine(machine);
     let mut interp = Interpreter::new(source, dialect, machine).with_loop_scan();
@@ -148,8 +149,8 @@ struct ParsedLine {
     error: Option<Box<Diagnostic>>,
 }
 
-/// Lines read and parsed by the reader, passed to the interpreter, and
-/// back with the events made of them. Batches are reused.
+/// Lines read by the reader, parsed and interpreted by the interpreting
+/// thread, and back with the events made of them. Batches are reused.
 #[derive(Default)]
 struct Batch {
     lines: Vec<ParsedLine>,
@@ -168,8 +169,8 @@ struct Batch {
 }
 
 impl Batch {
-    /// Reads and parses up to `LINES` lines, as `Interpreter::step` would.
-    fn read<S: ProgramSource>(&mut self, src: &mut S, dialect: Dialect) {
+    /// Reads up to `LINES` lines; [`Batch::parse`] parses them.
+    fn read<S: ProgramSource>(&mut self, src: &mut S) {
         self.lines.clear();
         self.text.clear();
         self.words.clear();
@@ -177,20 +178,12 @@ impl Batch {
         while self.lines.len() < LINES {
             let start = self.text.len();
             match src.append_line(&mut self.text) {
-                Ok(Some(pos)) => {
-                    let mut words = Appended {
-                        start: self.words.len(),
-                        words: &mut self.words,
-                    };
-                    let line = &self.text[start..];
-                    let parsed = parse_words(dialect, pos.line, line, &mut words, &mut false);
-                    self.lines.push(ParsedLine {
-                        pos,
-                        text_end: self.text.len(),
-                        words_end: self.words.len(),
-                        error: parsed.err().map(Box::new),
-                    });
-                }
+                Ok(Some(pos)) => self.lines.push(ParsedLine {
+                    pos,
+                    text_end: self.text.len(),
+                    words_end: 0,
+                    error: None,
+                }),
                 Ok(None) => {
                     self.end = Some(Ok(()));
                     return;
@@ -201,6 +194,23 @@ impl Batch {
                     return;
                 }
             }
+        }
+    }
+
+    /// Parses the lines read, as `Interpreter::step` would (on the
+    /// interpreting thread: the planner weighs more than the interpreter).
+    fn parse(&mut self, dialect: Dialect) {
+        let mut t0 = 0;
+        for l in &mut self.lines {
+            let mut words = Appended {
+                start: self.words.len(),
+                words: &mut self.words,
+            };
+            let line = &self.text[t0..l.text_end];
+            let parsed = parse_words(dialect, l.pos.line, line, &mut words, &mut false);
+            l.words_end = self.words.len();
+            l.error = parsed.err().map(Box::new);
+            t0 = l.text_end;
         }
     }
 
@@ -281,6 +291,7 @@ fn check_concurrently<S: ProgramSource>(
                 for mut batch in interp_rx {
                     // take work off the planner while keeping up with it
                     let behind = queued.fetch_sub(1, Ordering::Relaxed) > 1;
+                    batch.parse(dialect);
                     batch.interpret(&mut interp, &mut lim, !behind);
                     if interp_tx.send(batch).is_err() {
                         break;
@@ -302,7 +313,7 @@ fn check_concurrently<S: ProgramSource>(
         loop {
             let back = if reading && in_flight < IN_FLIGHT {
                 let mut batch = spare.pop().unwrap_or_default();
-                batch.read(&mut source, dialect);
+                batch.read(&mut source);
                 reading = batch.end.is_none();
                 // never blocks: at most IN_FLIGHT batches are out
                 queued.fetch_add(1, Ordering::Relaxed);

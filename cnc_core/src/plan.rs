@@ -550,7 +550,6 @@ impl<K: Copy> Lookahead<K> {
     /// `capped`, some queued move's; else only the tail's own limits and
     /// where the stop margin ends changed).
     fn recompute(&mut self, capped: bool) {
-        let n = self.queue.len();
         // the stop is planned `margin` before the tail's end: what a move
         // still to come may cap (speeds and accelerations over at most
         // lag·top behind it) is not used for braking
@@ -571,13 +570,12 @@ impl<K: Copy> Lookahead<K> {
         // so no margin, and an unchanged limit there leaves every one
         // before it unchanged)
         let mut past_stop = false;
-        for k in (0..n).rev() {
-            let before = if k > 0 {
-                self.queue[k - 1].lim.vcap
-            } else {
-                f64::INFINITY
-            };
-            let s = &mut self.queue[k];
+        // (from the tail back, each move with the one before it)
+        let mut moves = self.queue.iter_mut().rev();
+        let mut earlier = moves.next();
+        while let Some(s) = earlier {
+            earlier = moves.next();
+            let before = earlier.as_ref().map_or(f64::INFINITY, |p| p.lim.vcap);
             s.j = s.j.min(before);
             s.j_max = s.j_max.min(before);
             let b = if margin >= s.length {
