@@ -614,7 +614,9 @@ impl<K: Copy> Lookahead<K> {
         t.stop = stop;
         t.j = t.j_max;
         if self.lim.jerk.limited() {
-            self.recompute(false);
+            // (both callers walk the queue again right after, `recompute`,
+            // from a tail at least as far on: that walk reaches this move
+            // and takes its new limits back as far as they change anything)
             return;
         }
         t.entry_b = t.entry_to_stop();
