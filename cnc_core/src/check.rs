@@ -140,12 +140,14 @@ impl ProgramSource for Fed {
     }
 }
 
-/// One line as `parse_line` made it.
+/// One line of a batch: read (`Batch::read`), then parsed (`Batch::parse`).
 struct ParsedLine {
     pos: SourcePos,
     /// end of its text in `Batch::text`, of its words in `Batch::words`
+    /// (the words' once parsed)
     text_end: usize,
     words_end: usize,
+    /// its parse error, once parsed
     error: Option<Box<Diagnostic>>,
 }
 

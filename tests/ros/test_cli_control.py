@@ -52,14 +52,7 @@ class Peer(SpinningPeer):
 
     def missing(self, timeout=30.0):
         """For `hearing_peer`: None once a status came, else what did not."""
-        t0 = time.time()
-        while time.time() - t0 < timeout:
-            with self.lock:
-                if self.status:
-                    return None
-            time.sleep(0.01)
-        return "no status in %.0f s (this peer knows %d publisher(s) of it)" % (
-            timeout, self.publishers(NS + "/status"))
+        return self.unheard([], lambda: bool(self.latest()), NS + "/status", timeout)
 
     def latest(self):
         with self.lock:

@@ -30,7 +30,7 @@ from std_srvs.srv import SetBool
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram, SetDelay
-from ros_nodes import ROOT, TARGET, build, domain, hearing_peer, HostWatch, read_mcap, SpinningPeer, stamp_s, start, stop
+from ros_nodes import ROOT, TARGET, build, domain, hearing_peer, host_watch, read_mcap, SpinningPeer, stamp_s, start, stop
 
 DOMAIN = domain(3)
 NS, SIM = "/cnc", "/sim"
@@ -125,7 +125,7 @@ class Peer(SpinningPeer):
         self.spindle = []  # rad/s, in arrival order
         self.newest = None  # (stamp s, positions m)
         self.last_end = None
-        self.watch = HostWatch()
+        self.watch = host_watch()
         newest = QoSProfile(depth=1, history=HistoryPolicy.KEEP_LAST, reliability=ReliabilityPolicy.BEST_EFFORT)
         self.node.create_subscription(JointState, NS + "/joint_setpoints", self._sp, newest)
         self.node.create_subscription(Float64, NS + "/spindle_command", self._spin, 10)
@@ -240,9 +240,9 @@ class Peer(SpinningPeer):
                                         for g in self.watch.since(t)]
 
     def to_thread_start(self):
-        """Z back at the threads' start (X20 Z5) after a job that stopped
-        on the thread: the next attempt's rapid there is not part of the
-        job it measures."""
+        """Z back at the threads' start (X20 Z5), e.g. after a job that
+        stopped on the thread: the next attempt's rapid there is not part
+        of the job it measures."""
         st, _, _ = self.run_to_end("N5 G00 X20 Z5\n")
         assert st.state == IDLE, st.last_error
 
@@ -489,8 +489,7 @@ def test_thread_lost_encoder_stops_the_axes_under_control(machine):
 def test_thread_stalled_spindle_is_an_error_and_the_thread_does_not_move(machine):
     peer = machine
     # back to the start of the thread first
-    st, _, _ = peer.run_to_end("N5 G00 X20 Z5\n")
-    assert st.state == IDLE, st.last_error
+    peer.to_thread_start()
     for _ in peer.attempts("stalled spindle"):
         peer.set(peer.spindle_stalled, True)
         try:
@@ -800,5 +799,4 @@ def test_thread_setpoint_delay_raised_mid_job_stops_the_thread_with_a_clear_erro
     print("actual groove before the change: %+.3f deg (%d points)" % (a_mean, len(ac)))
     assert abs(a_mean) <= 0.5, a_mean
     # the node goes on: the next thread, at the delay restored, cuts in the groove
-    st, _, _ = peer.run_to_end("N5 G00 X20 Z5\n")
-    assert st.state == IDLE, st.last_error
+    peer.to_thread_start()
