@@ -20,14 +20,27 @@ from ros_nodes import ROOT, TARGET, build, deep_qos, domain, hearing_peer, read_
 
 DOMAIN = domain(1)
 NS = "/cnc"
+SIM_LOG = None  # the simulator's stderr (the nodes fixture)
+
+
+def sim_log_since(offset):
+    """The simulator's stderr lines from byte `offset` on."""
+    with open(SIM_LOG, "rb") as f:
+        f.seek(offset)
+        return f.read().decode(errors="replace").splitlines()
 
 
 @pytest.fixture(scope="module")
-def nodes():
+def nodes(tmp_path_factory):
     env = dict(os.environ, ROS_DOMAIN_ID=DOMAIN, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     build()
-    procs = start(env, ["--machine", "mill"],
-                  ["--machine", "mill", "--record-dir", os.path.join("target", "test-recordings")])
+    # (the simulator's stderr to a file the tests read: its stalls)
+    global SIM_LOG
+    SIM_LOG = str(tmp_path_factory.mktemp("sim") / "sim_axes.log")
+    with open(SIM_LOG, "ab") as log:
+        procs = start(env, ["--machine", "mill"],
+                      ["--machine", "mill", "--record-dir", os.path.join("target", "test-recordings")],
+                      sim_stderr=log)
     os.environ["ROS_DOMAIN_ID"] = DOMAIN
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     rclpy.init()
@@ -541,6 +554,7 @@ def test_the_simulated_axes_over_dds_move_as_the_offline_simulation(peer, tmp_pa
     req = RunProgram.Request()
     req.program = prog
     req.record = True
+    since = os.path.getsize(SIM_LOG)
     r = peer.call(peer.run, req)
     assert r.accepted and r.recording, r
     peer.wait_state(r.job_id, ControllerStatus.STATE_RUNNING)
@@ -549,10 +563,19 @@ def test_the_simulated_axes_over_dds_move_as_the_offline_simulation(peer, tmp_pa
     sps = sorted((stamp_s(d.header.stamp), [p * 1000 for p in d.position]) for _, d in rec["/cnc/joint_setpoints"])
     sts = sorted((stamp_s(d.header.stamp), [p * 1000 for p in d.position]) for _, d in rec["/sim/joint_states"])
     t0, t1 = sps[0][0], sps[-1][0]
-    # every cycle of the job, on both sides, none missing
+    # every cycle of the job: the setpoints (the node's own) none missing
     assert abs((t1 - t0) * 1000 + 1 - len(sps)) < 0.5 and len(sps) > 2000, (len(sps), t1 - t0)
     job = [s for s in sts if t0 <= s[0] <= t1]
-    assert abs((job[-1][0] - job[0][0]) * 1000 + 1 - len(job)) < 0.5, len(job)
+    # the node takes the joint states best effort (docs/ros_interface.md
+    # §2): one may be lost on the way, and only where the host held the
+    # nodes up (the simulator reports a stall of its loop, or setpoints
+    # that reached it late, a line a second at most)
+    missing = round((job[-1][0] - job[0][0]) * 1000 + 1 - len(job))
+    if missing:
+        time.sleep(1.2)
+        held = [ln for ln in sim_log_since(since) if "sim_axes: stalled:" in ln or "arrived after their instant" in ln]
+        print("%d joint states of %d lost on the way; the simulator's log: %s" % (missing, len(job) + missing, held))
+        assert held and 0 < missing <= 3, (missing, held)
     # the offline run of the same program
     prog_file = tmp_path / "p.nc"
     prog_file.write_text(prog)

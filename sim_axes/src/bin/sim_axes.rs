@@ -52,7 +52,8 @@ use sim_axes::machine::{load_machine, model_for};
 use sim_axes::SetpointQueue;
 use std::time::Instant;
 
-/// A wake-up this late is reported on stderr (at most once a second), s.
+/// A wake-up this late is reported on stderr (at most a line a second,
+/// which counts the stalls since the line before: see [`Stalls`]), s.
 const STALL_WARN_S: f64 = 0.005;
 /// A loop further behind than this skips the missed steps (the simulated
 /// machine pauses) instead of running them all, s.
@@ -179,6 +180,7 @@ fn run(setup: params::Setup) -> Result<(), String> {
     let mut grid = Grid::new(start, dt).without_spin();
     let mut clock = WallClock::new();
     let mut last_warn: Option<Instant> = None;
+    let mut stalls = Stalls::default();
     let mut last_late: Option<Instant> = None;
     let mut states: Vec<JointState> = Vec::new();
     let mut pace = ros::Pace::new(rate);
@@ -309,15 +311,15 @@ fn run(setup: params::Setup) -> Result<(), String> {
             grid.skip(due - 1);
             due = 1;
         }
-        if late as f64 * dt >= STALL_WARN_S && last_warn.is_none_or(|w| w.elapsed().as_secs() >= 1)
-        {
+        if late as f64 * dt >= STALL_WARN_S {
+            stalls.note(late);
+        }
+        if last_warn.is_none_or(|w| w.elapsed().as_secs() >= 1) {
             // (a reader of the encoder sees these readings late)
-            ros_warn!(
-                "stalled: {} steps ({:.0} ms) ran late at once",
-                late,
-                late as f64 * dt * 1000.0
-            );
-            last_warn = Some(Instant::now());
+            if let Some(line) = stalls.report(dt) {
+                ros_warn!("{line}");
+                last_warn = Some(Instant::now());
+            }
         }
         if busy {
             pace.busy(grid.next());
@@ -476,4 +478,64 @@ fn applied(ms: f64) -> String {
 
 fn time_ns(t: &Time) -> i64 {
     i64::from(t.sec) * 1_000_000_000 + i64::from(t.nanosec)
+}
+
+/// The stalls not reported yet: a line a second at most, and none lost
+/// to that limit (a test that runs a job again on a stall reads them).
+#[derive(Default)]
+struct Stalls {
+    /// stalls since the last line, and the longest of them (steps)
+    count: u64,
+    worst: u64,
+}
+
+impl Stalls {
+    fn note(&mut self, steps: u64) {
+        self.count += 1;
+        self.worst = self.worst.max(steps);
+    }
+
+    /// The line for the stalls noted since the last one (None: none),
+    /// with steps of `dt` s.
+    fn report(&mut self, dt: f64) -> Option<String> {
+        let line = match self.count {
+            0 => return None,
+            1 => format!(
+                "stalled: {} steps ({:.0} ms) ran late at once",
+                self.worst,
+                self.worst as f64 * dt * 1000.0
+            ),
+            n => format!(
+                "stalled: {n} times since the last report, up to {} steps ({:.0} ms) late at once",
+                self.worst,
+                self.worst as f64 * dt * 1000.0
+            ),
+        };
+        *self = Stalls::default();
+        Some(line)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Stalls;
+
+    #[test]
+    fn stalls_within_a_second_are_counted_in_the_next_line() {
+        let mut s = Stalls::default();
+        assert_eq!(s.report(0.001), None);
+        s.note(5);
+        assert_eq!(
+            s.report(0.001).as_deref(),
+            Some("stalled: 5 steps (5 ms) ran late at once")
+        );
+        s.note(6);
+        s.note(12);
+        s.note(7);
+        assert_eq!(
+            s.report(0.001).as_deref(),
+            Some("stalled: 3 times since the last report, up to 12 steps (12 ms) late at once")
+        );
+        assert_eq!(s.report(0.001), None);
+    }
 }
