@@ -12,7 +12,7 @@
 //!   reading (now minus its stamp), the longest it got in the period,
 //!   readings per second, whether the index was seen, the speed. ERROR
 //!   while the newest reading is older than the encoder timeout (the one
-//!   that ends G33/G95 jobs: `spindle.encoder_timeout_ms`, default 10
+//!   that ends G33/G95 jobs: `spindle.encoder_timeout_ms`, default 25
 //!   cycles); WARN when it was older than that in the period, or before
 //!   the first reading; OK otherwise (and on a machine without spindle).
 //! - `cnc_node: job` ([`JobWatch`]): state, job id, line, block, progress,
@@ -256,7 +256,7 @@ pub struct EncoderWatch {
 
 impl EncoderWatch {
     /// For `machine`: its encoder timeout (`spindle.encoder_timeout_ms`,
-    /// else 10 interpolation cycles, as the executor's).
+    /// else 25 interpolation cycles, as the executor's).
     pub fn new(machine: &Machine) -> Self {
         let timeout_ns = machine.spindle.as_ref().map(|s| {
             let t = s.encoder_timeout_ms.map_or(
@@ -597,7 +597,7 @@ mod tests {
         assert_eq!(value(&s, "age of last reading (ms)"), "0.8");
         assert_eq!(value(&s, "readings per s"), "1000");
         assert_eq!(value(&s, "index seen"), "true");
-        assert_eq!(value(&s, "timeout (ms)"), "10");
+        assert_eq!(value(&s, "timeout (ms)"), "25");
         assert_eq!(value(&s, "speed (rpm)"), "1000");
         // the angle of the newest reading: 99 900 counts of 4096 a turn
         assert!((e.angle() - 99_900.0 / 4096.0 * std::f64::consts::TAU).abs() < 1e-9);
@@ -617,7 +617,7 @@ mod tests {
         assert_eq!(s.level, DiagnosticStatus::ERROR);
         assert_eq!(
             s.message,
-            "encoder signal lost: no reading for 1500 ms (timeout 10 ms)"
+            "encoder signal lost: no reading for 1500 ms (timeout 25 ms)"
         );
         assert_eq!(value(&s, "age of last reading (ms)"), "1500");
         assert_eq!(value(&s, "readings per s"), "0");
@@ -682,7 +682,7 @@ mod tests {
             Some((Level::Warn, "job 2 aborted at line 3".into()))
         );
         w.status(&status(State::Running, 3, 1, ""), s);
-        let err = "line 3: spindle encoder signal lost: no reading for 11 ms";
+        let err = "line 3: spindle encoder signal lost: no reading for 26 ms";
         assert_eq!(
             w.status(&status(State::Error, 3, 3, err), s),
             Some((Level::Error, format!("job 3 failed: {err}")))
