@@ -282,6 +282,32 @@ class Peer(SpinningPeer):
                   % (what, i + 1, st.last_error, stalls[-1]))
 
 
+    def spread_runs(self, what, prog, spread_of, start=START, n=3):
+        """`prog` run to its end (through `attempts`) and its lead error's
+        spread in counts measured by `spread_of(setpoints, readings)`; run
+        and measured again, up to `n` times, when the spread is over
+        SPREAD_COUNTS while the simulator or the host stalled: readings
+        held up make the executor extrapolate the spindle further (2.4
+        counts offline with 8 ms stalls, 3.8 with 20 ms:
+        cnc_node/tests/controller_thread.rs), and such a VM has made 5-7
+        counts over DDS. A spread over the bound with no stall fails the
+        test. The last run's (status, setpoints, readings)."""
+        for m in range(n):
+            if m > 0:
+                self.to_thread_start(start)
+            since = self.mark()
+            for _ in self.attempts(what, start=start):
+                st, sps, enc = self.run_to_end(prog)
+            if st.state != IDLE:
+                return st, sps, enc
+            spread = spread_of(sps, enc)
+            stalls = self.stalls(since)
+            if spread <= SPREAD_COUNTS or not stalls or m == n - 1:
+                return st, sps, enc
+            print("%s: lead error spread %.2f counts after the simulator %s; measured again"
+                  % (what, spread, stalls[-1]))
+
+
 def pairs_at(setpoints, encoder, axis, start, lo, hi, max_gap=0.004, ahead=AHEAD_S):
     """(stamp, position mm, revolutions from the index) of the setpoints of
     a pass in -`axis` from `start` whose `axis` is within lo..hi mm, with the encoder count interpolated at
@@ -359,8 +385,9 @@ def test_thread_example_1_lead_and_phase_at_s200_and_s800(machine):
     peer = machine
     res = {}
     for rpm in (200, 800):
-        for _ in peer.attempts("S%d" % rpm):
-            st, sps, enc = peer.run_to_end(example1(rpm))
+        st, sps, enc = peer.spread_runs(
+            "S%d" % rpm, example1(rpm),
+            lambda sps, enc: lead_stats(pairs_at(sps, enc, 1, 5.0, -35.0, -2.0), 5.0, 1.0, 1.0, enc[-1][2])[0])
         assert st.state == IDLE and st.last_error == "", (st.state, st.last_error)
         # lathe joints: x (radius), z; the end: X30 (radius 15), Z5
         end = sps[-1][1]
@@ -521,8 +548,10 @@ def test_thread_stalled_spindle_is_an_error_and_the_thread_does_not_move(machine
 def test_thread_example_2_in_y_starts_180_degrees_after_the_index(machine):
     peer = machine
     prog = "N5 G00 X50 Y10 Z10\nN10 M03 S600\nN20 G33 Y-30 F1.5 I180\nN30 G00 Z50\nN40 M30\n"
-    for _ in peer.attempts("Example 2", start=prog.splitlines(True)[0]):
-        st, sps, enc = peer.run_to_end(prog)
+    st, sps, enc = peer.spread_runs(
+        "Example 2", prog,
+        lambda sps, enc: lead_stats(pairs_at(sps, enc, 1, 10.0, -25.0, 8.0), 10.0, 1.0, 1.5, enc[-1][2])[0],
+        start=prog.splitlines(True)[0])
     assert st.state == IDLE and st.last_error == "", (st.state, st.last_error)
     cpr = enc[-1][2]
     pairs = pairs_at(sps, enc, 1, 10.0, -25.0, 8.0)
@@ -542,9 +571,10 @@ def test_thread_examples_3_taper_and_4_runout(machine):
     peer = machine
     # Example 3: a taper thread, X (diameter 10 -> 12, radius 5 -> 6) moves
     # in proportion while Z leads with the pitch, 2 mm/rev
-    for _ in peer.attempts("Example 3", start="N5 G00 X10 Z5\n"):
-        st, sps, enc = peer.run_to_end(
-            "N5 G00 X10 Z5\nN10 M03 S800\nN20 G33 X12 Z-40 F2\nN30 G00 X30\nN40 Z5\nN50 M30\n")
+    st, sps, enc = peer.spread_runs(
+        "Example 3", "N5 G00 X10 Z5\nN10 M03 S800\nN20 G33 X12 Z-40 F2\nN30 G00 X30\nN40 Z5\nN50 M30\n",
+        lambda sps, enc: lead_stats(pairs_at(sps, enc, 1, 5.0, -35.0, -2.0), 5.0, 1.0, 2.0, enc[-1][2])[0],
+        start="N5 G00 X10 Z5\n")
     assert st.state == IDLE and st.last_error == "", (st.state, st.last_error)
     on = [(x * 1000.0, z * 1000.0) for _, (x, z) in sps if -39.0 <= z * 1000.0 <= 4.0 and x * 1000.0 < 6.5]
     assert len(on) > 1000, len(on)
