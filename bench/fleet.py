@@ -153,12 +153,12 @@ def one_round(a, n, out):
         slog, nlog = os.path.join(out, "sim%d.log" % k), os.path.join(out, "cnc%d.log" % k)
         with open(slog, "wb") as s, open(nlog, "wb") as g:
             sims.append(subprocess.Popen(
-                [os.path.join(a.bin, "sim_axes"), "--machine", "lathe", "--namespace", "/sim%d" % k,
+                [os.path.join(a.bin, "sim_axes"), "--machine", a.machine, "--namespace", "/sim%d" % k,
                  "--controller-namespace", "/cnc%d" % k, "--seed", str(k)] + sim_extra,
                 cwd=ROOT, env=env, stderr=s))
             started.append(sims[-1])
             nodes.append(subprocess.Popen(
-                [os.path.join(a.bin, "cnc_node"), "--machine", "lathe", "--namespace", "/cnc%d" % k,
+                [os.path.join(a.bin, "cnc_node"), "--machine", a.machine, "--namespace", "/cnc%d" % k,
                  "--sim-namespace", "/sim%d" % k, "--program-dir", os.path.join(HERE, "fleet"),
                  "--record-all", "--record-dir", os.path.join(out, "rec%d" % k), "--loop-stats", "1"] + extra,
                 cwd=ROOT, env=env, stderr=g))
@@ -272,6 +272,9 @@ def main():
     ap.add_argument("--bin", default=os.path.join(ROOT, "target", "release"))
     ap.add_argument("--out", default=os.path.join(ROOT, "bench", "out", "fleet"))
     ap.add_argument("--max-n", type=int, default=10, help="never more twins than this")
+    ap.add_argument("--machine", default="lathe",
+                    help="both nodes' machine: the bundled lathe, or a lathe's machine file (e.g. another "
+                         "spindle.encoder_timeout_ms)")
     ap.add_argument("--settle", type=float, default=3.0, help="s after discovery before measuring")
     ap.add_argument("--idle", type=float, default=10.0, help="idle CPU window, s")
     ap.add_argument("--node-args", default="", help="more cnc_node options, e.g. '--rt-priority 0'")

@@ -132,7 +132,15 @@ def test_known_program_end_positions_and_rate(peer):
     assert abs(r.estimated_duration * 1000 - round(r.estimated_duration * 1000)) < 1e-6
     peer.wait_state(r.job_id, ControllerStatus.STATE_RUNNING)
     peer.wait_state(r.job_id, ControllerStatus.STATE_IDLE)
-    time.sleep(0.3)
+    # every setpoint of the job taken: the node goes on publishing at rest,
+    # so one stamped after the IDLE status comes after all of them, however
+    # far this peer's thread is behind (CI's host once had it 0.9 mm short
+    # of the end 0.3 s after IDLE)
+    with peer.lock:
+        idle = next(m for m in peer.status if m.job_id == r.job_id and m.state == ControllerStatus.STATE_IDLE)
+    t_idle = stamp_s(idle.header.stamp)
+    peer.wait_for("a setpoint stamped after the job's end",
+                  lambda: peer.setpoints and peer.setpoints[-1][0] >= t_idle, 10.0)
     with peer.lock:
         sps = list(peer.setpoints)
         sts = list(peer.status)
