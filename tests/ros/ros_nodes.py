@@ -62,6 +62,23 @@ def session(domain, sim_args, node_args):
         stop(procs)
 
 
+def sim_stall_reports(sim_log, offset, wait=0.0):
+    """The simulator's reports, in its stderr `sim_log` from byte `offset`
+    on, that the host held it up: a stall of its loop ("sim_axes:
+    stalled: ...") or setpoints that reached it after their instant. It
+    writes at most a line a second of each, so a caller that has just
+    seen the effect may `wait` up to that many s for the line."""
+    t0 = time.monotonic()
+    while True:
+        with open(sim_log, "rb") as f:
+            f.seek(offset)
+            lines = [ln for ln in f.read().decode(errors="replace").splitlines()
+                     if "sim_axes: stalled:" in ln or "arrived after their instant" in ln]
+        if lines or time.monotonic() - t0 >= wait:
+            return lines
+        time.sleep(0.1)
+
+
 def deep_qos():
     """Reliable, the last 1000 samples: a 1 kHz topic's samples wait in
     the reader for a peer's thread that the machine's load holds back

@@ -28,7 +28,8 @@ from std_srvs.srv import Trigger
 
 from cnc_msgs.msg import ControllerStatus, SpindleEncoder
 from cnc_msgs.srv import RunProgram
-from ros_nodes import ROOT, TARGET, build, deep_qos, domain, hearing_peer, read_mcap, SpinningPeer, start, start_node, start_sim, stop
+from ros_nodes import (ROOT, TARGET, build, deep_qos, domain, hearing_peer, read_mcap, sim_stall_reports, SpinningPeer,
+                       start, start_node, start_sim, stop)
 
 DOMAIN = domain(0)
 NS, SIM = "/cnc", "/sim"
@@ -708,14 +709,7 @@ def test_simulator_killed_during_a_g95_move_ends_the_job_with_the_encoder_lost(r
         if mine[-1].state != ERROR:
             break
         assert "encoder signal lost" in mine[-1].last_error, mine[-1].last_error
-        stalls = []
-        t0 = time.time()
-        while not stalls and time.time() - t0 < 1.5:
-            time.sleep(0.1)
-            with open(rig.sim_log, "rb") as f:
-                f.seek(since)
-                stalls = [l for l in f.read().decode(errors="replace").splitlines()
-                          if "sim_axes: stalled:" in l or "arrived after their instant" in l]
+        stalls = sim_stall_reports(rig.sim_log, since, wait=1.5)
         assert stalls, "%s, and the simulator reported no stall" % mine[-1].last_error
         print("attempt %d: %r after the simulator %s; again" % (attempt + 1, mine[-1].last_error, stalls[-1]))
     rig.kill_sim()

@@ -16,18 +16,13 @@ from std_srvs.srv import SetBool, Trigger
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram
-from ros_nodes import ROOT, TARGET, build, deep_qos, domain, hearing_peer, read_mcap, SpinningPeer, stamp_s, start, stop
+from ros_nodes import (ROOT, TARGET, build, deep_qos, domain, hearing_peer, read_mcap, sim_stall_reports, SpinningPeer,
+                       stamp_s, start, stop)
 
 DOMAIN = domain(1)
 NS = "/cnc"
 SIM_LOG = None  # the simulator's stderr (the nodes fixture)
 
-
-def sim_log_since(offset):
-    """The simulator's stderr lines from byte `offset` on."""
-    with open(SIM_LOG, "rb") as f:
-        f.seek(offset)
-        return f.read().decode(errors="replace").splitlines()
 
 
 @pytest.fixture(scope="module")
@@ -581,8 +576,7 @@ def test_the_simulated_axes_over_dds_move_as_the_offline_simulation(peer, tmp_pa
     # seen so, up to 1 % allowed
     missing = round((job[-1][0] - job[0][0]) * 1000 + 1 - len(job))
     if missing:
-        time.sleep(1.2)
-        held = [ln for ln in sim_log_since(since) if "sim_axes: stalled:" in ln or "arrived after their instant" in ln]
+        held = sim_stall_reports(SIM_LOG, since, wait=1.5)
         print("%d joint states of %d lost on the way; the simulator's log: %s" % (missing, len(job) + missing, held))
         assert held and 0 < missing <= 0.01 * (len(job) + missing), (missing, held)
     # the offline run of the same program
@@ -623,8 +617,7 @@ def test_the_simulated_axes_over_dds_move_as_the_offline_simulation(peer, tmp_pa
     # µm of a wrong model, so up to 1 µm passes where the simulator's log
     # shows it was held up)
     if p90 >= 0.00005:
-        time.sleep(1.2)
-        held = [ln for ln in sim_log_since(since) if "sim_axes: stalled:" in ln or "arrived after their instant" in ln]
+        held = sim_stall_reports(SIM_LOG, since, wait=1.5)
         print("p90 %.4f µm; the simulator's log: %s" % (p90 * 1000, held))
         assert held and p90 < 0.001, (p90, held)
     assert diffs[-1] < 0.100, diffs[-1]

@@ -30,7 +30,8 @@ from std_srvs.srv import SetBool
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram, SetDelay
-from ros_nodes import ROOT, TARGET, build, domain, hearing_peer, host_watch, read_mcap, SpinningPeer, stamp_s, start, stop
+from ros_nodes import (ROOT, TARGET, build, domain, hearing_peer, host_watch, read_mcap, sim_stall_reports,
+                       SpinningPeer, stamp_s, start, stop)
 
 DOMAIN = domain(3)
 NS, SIM = "/cnc", "/sim"
@@ -224,12 +225,6 @@ class Peer(SpinningPeer):
     def log_size(self):
         return os.path.getsize(self.sim_log)
 
-    def sim_stalls(self, since):
-        """The simulator's stall reports since `since` (a log size)."""
-        with open(self.sim_log, "rb") as f:
-            f.seek(since)
-            return [l for l in f.read().decode(errors="replace").splitlines()
-                    if "stalled" in l or "arrived after their instant" in l]
 
     def mark(self):
         """Where the evidence of stalls starts: (the simulator's log size,
@@ -240,7 +235,7 @@ class Peer(SpinningPeer):
         """Stalls since `mark`: the simulator's reports, then the host's
         hold-ups this process saw itself (`HostWatch`)."""
         size, t = mark
-        return self.sim_stalls(size) + ["the host held this test up for %.0f ms" % (g * 1000.0)
+        return sim_stall_reports(self.sim_log, size) + ["the host held this test up for %.0f ms" % (g * 1000.0)
                                         for g in self.watch.since(t)]
 
     def to_thread_start(self, block=START):
