@@ -6,8 +6,9 @@
 //! Transport latency below the delay then no longer moves the axes. While
 //! a setpoint is late (not there at its instant) the axes go on at the
 //! speed of the last two, as drives do over a missed frame, for at most
-//! [`MAX_EXTRAPOLATION_NS`] (then they hold the newest); the late setpoint
-//! is applied as soon as it arrives and counted.
+//! [`MAX_EXTRAPOLATION_NS`], then stop where that took them (never back
+//! to the newest setpoint: a jump back of the speed times the time gone
+//! on); the late setpoint is applied as soon as it arrives and counted.
 //!
 //! With a delay of 0 every setpoint is applied on arrival (the newest
 //! one), as before clocked application existed.
@@ -17,8 +18,13 @@ use std::collections::VecDeque;
 /// Setpoints kept waiting at most: at 20 kHz, 3.3 s (a controller whose
 /// clock runs ahead fills it; the oldest are dropped).
 pub const MAX_QUEUED: usize = 65_536;
-/// How long the axes go on at their last speed while setpoints are late, ns.
-pub const MAX_EXTRAPOLATION_NS: i64 = 10_000_000;
+/// How long the axes go on at their last speed while setpoints are late,
+/// ns: as long as the controller goes on without encoder readings by
+/// default (25 cycles of 1 ms). On a VM, setpoints have come 16 ms late
+/// in a thread at constant speed; with 10 ms, and a jump back to the
+/// newest setpoint after it, the axis then fell 12° of the spindle behind
+/// and the controller rightly stopped the thread.
+pub const MAX_EXTRAPOLATION_NS: i64 = 25_000_000;
 
 /// Setpoints waiting for their instant.
 #[derive(Debug, Clone)]
@@ -120,10 +126,10 @@ impl SetpointQueue {
             }
             (Some((s0, p0)), None) if *s0 <= due => {
                 // the next one is late: on at the last speed for a while,
-                // then the newest is held
+                // then stopped there
                 match &self.prev {
-                    Some((sp, pp)) if due - s0 <= MAX_EXTRAPOLATION_NS && sp < s0 => {
-                        let f = (due - s0) as f64 / (s0 - sp) as f64;
+                    Some((sp, pp)) if sp < s0 => {
+                        let f = (due - s0).min(MAX_EXTRAPOLATION_NS) as f64 / (s0 - sp) as f64;
                         for ((a, x0), xp) in self.applied.iter_mut().zip(p0).zip(pp) {
                             *a = x0 + f * (x0 - xp);
                         }
@@ -154,19 +160,22 @@ mod tests {
         assert_eq!(q.at(3 * MS + MS / 2), [0.5, 5.0]);
         assert_eq!(q.at(7 * MS + MS / 4), [4.25, 5.0]);
         assert_eq!(q.late(), 0);
-        // past the newest: on at the last speed for 10 ms, then held
+        // past the newest: on at the last speed for 25 ms, then stopped
+        // there (not back at the newest, 9)
         assert_eq!(q.at(14 * MS), [11.0, 5.0]);
-        assert_eq!(q.at(25 * MS), [9.0, 5.0]);
-        // what comes after its instant is late
+        assert_eq!(q.at(37 * MS), [34.0, 5.0]);
+        assert_eq!(q.at(40 * MS), [34.0, 5.0]);
+        // what comes after its instant is late: applied at once, and on
+        // from it at the last speed again for up to 25 ms
         q.push(10 * MS, [(0, 10.0), (1, f64::NAN)]);
         assert_eq!(q.late(), 1);
-        assert_eq!(q.at(26 * MS), [10.0, 5.0]);
+        assert_eq!(q.at(41 * MS), [35.0, 5.0]);
         // a longer delay from now on
         q.set_delay_ns(5 * MS);
-        for k in 22..30 {
+        for k in 36..44 {
             q.push(k * MS, [(0, k as f64)]);
         }
-        assert_eq!(q.at(31 * MS), [26.0, 5.0]);
+        assert_eq!(q.at(45 * MS), [40.0, 5.0]);
         assert_eq!(q.late(), 1);
     }
 
