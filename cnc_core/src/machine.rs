@@ -81,10 +81,15 @@ pub struct SpindleConfig {
     #[serde(default)]
     pub sim_noise_rpm: f64,
     /// encoder readings missing this long during G33/G95 motion are a
-    /// lost signal (controlled stop, error), ms; default 10 interpolation
+    /// lost signal (controlled stop, error), ms; default 25 interpolation
     /// cycles
     #[serde(default)]
     pub encoder_timeout_ms: Option<f64>,
+    /// a thread stops when the lead axis, as the drives report it, is off
+    /// the thread line by more than this, degrees of the spindle (the
+    /// median of the last 50 joint states; the node checks it); default 2
+    #[serde(default)]
+    pub thread_phase_limit_deg: Option<f64>,
 }
 
 fn default_ripple_hz() -> f64 {
@@ -584,6 +589,14 @@ impl Machine {
                 return bad(
                     "spindle.encoder_timeout_ms".into(),
                     "must be between 1 and 1000".into(),
+                );
+            }
+        }
+        if let Some(d) = self.spindle.as_ref().and_then(|s| s.thread_phase_limit_deg) {
+            if !(d.is_finite() && (0.1..=180.0).contains(&d)) {
+                return bad(
+                    "spindle.thread_phase_limit_deg".into(),
+                    "must be between 0.1 and 180".into(),
                 );
             }
         }

@@ -97,7 +97,8 @@ pub struct ActualSample {
 /// A thread stops when its lead axis, as the machine reports it, trails
 /// or leads the thread line by more than this, degrees of the spindle:
 /// the drives apply the setpoints later (or earlier) than the setpoint
-/// delay the thread leads by, and the groove moves.
+/// delay the thread leads by, and the groove moves. The machine file's
+/// `spindle.thread_phase_limit_deg` changes it.
 pub const THREAD_PHASE_LIMIT_DEG: f64 = 2.0;
 /// ... in the median of the last this many joint states (so a few late
 /// setpoints, which the axis makes up within milliseconds, do not stop it).
@@ -296,8 +297,9 @@ impl Controller {
     /// The machine's actual positions at an instant (the joint states).
     /// During a thread the lead axis is compared with the setpoint of
     /// `ahead` earlier (the setpoint delay and the servo lag it leads by,
-    /// interpolated between the cycles around it): a mean over
-    /// [`PHASE_MEDIAN`] joint states beyond [`THREAD_PHASE_LIMIT_DEG`]
+    /// interpolated between the cycles around it): the median of the last
+    /// [`PHASE_MEDIAN`] joint states beyond [`THREAD_PHASE_LIMIT_DEG`] (or
+    /// the machine file's `spindle.thread_phase_limit_deg`)
     /// stops the thread under control and ends the job in error.
     pub fn actual(&mut self, a: ActualSample) {
         let dt = self.machine.dt();
@@ -358,7 +360,13 @@ impl Controller {
         let mut sorted = r.phase;
         sorted.sort_unstable_by(f64::total_cmp);
         let median = sorted[PHASE_MEDIAN / 2];
-        if median.abs() > THREAD_PHASE_LIMIT_DEG {
+        let limit = self
+            .machine
+            .spindle
+            .as_ref()
+            .and_then(|s| s.thread_phase_limit_deg)
+            .unwrap_or(THREAD_PHASE_LIMIT_DEG);
+        if median.abs() > limit {
             // how late the axis follows its setpoints
             let v = sync.lead_sign * (p1[sync.lead] - p0[sync.lead]) / dt;
             let late = sync.ahead - median / 360.0 * sync.pitch / v;

@@ -13,7 +13,7 @@
 
 use cnc_core::source::StrSource;
 use cnc_core::{check, Dialect, Machine};
-use cnc_node::controller::{Controller, EncoderSample, Job, State};
+use cnc_node::controller::{ActualSample, Controller, EncoderSample, Job, State};
 use sim_axes::machine::model_for;
 use sim_axes::SetpointQueue;
 use std::collections::VecDeque;
@@ -36,6 +36,12 @@ struct Bench {
     /// readings latched within these cycles arrive together after them
     /// (a stalled simulator or transport): (first cycle, cycles)
     stalls: Vec<(i64, i64)>,
+    /// from this cycle on, the drives apply each setpoint this much later
+    /// than the machine's setpoint delay: (first cycle, ns)
+    drives_late: Option<(i64, i64)>,
+    /// the simulated axes' positions go back to the controller (the
+    /// joint states), a cycle after their instant
+    joint_states: bool,
     hook: Hook,
 }
 
@@ -64,6 +70,8 @@ impl Bench {
             phase_ns: MS / 2,
             latency_ns: MS,
             stalls: Vec::new(),
+            drives_late: None,
+            joint_states: false,
             hook: Box::new(|_, _| true),
         }
     }
@@ -117,6 +125,16 @@ impl Bench {
                     ctl.encoder(e);
                 }
             }
+            // the joint states of the simulator's last step
+            if let (true, Some((t, p))) = (self.joint_states, run.actual.last()) {
+                let mut positions = [0.0; 3];
+                positions[..n].copy_from_slice(p);
+                ctl.actual(ActualSample {
+                    stamp_ns: *t,
+                    positions,
+                    n,
+                });
+            }
             let tick = ctl.tick(now);
             set.copy_from_slice(&tick.positions[..n]);
             spindle = tick.spindle_rpm;
@@ -131,7 +149,11 @@ impl Bench {
             // meant for its instant less the delay
             queue.push(now, set.iter().copied().enumerate());
             let t_sim = now + self.phase_ns;
-            model.step(queue.at(t_sim), spindle, dt);
+            let late = self
+                .drives_late
+                .filter(|(a, _)| k >= *a)
+                .map_or(0, |(_, l)| l);
+            model.step(queue.at(t_sim - late), spindle, dt);
             run.actual
                 .push((t_sim, model.axes.iter().map(|a| a.position()).collect()));
             let sp = model.spindle.as_ref().unwrap();
@@ -382,4 +404,66 @@ fn readings_held_up_20_ms_now_and_then_do_not_lose_the_encoder() {
         assert!(spread <= 4.5, "S{rpm}: {spread} counts");
         assert!(phase.abs() <= 0.05, "S{rpm}: {phase} deg");
     }
+}
+
+/// Example 1 at S800 with the drives applying the setpoints 1 ms later than
+/// the 3 ms the thread leads by, from Z3 on (at 13.3 mm/s, 4.8° of the
+/// spindle): the final state and error.
+fn drives_one_ms_late(limit_deg: Option<f64>) -> (State, String) {
+    let mut b = Bench::lathe();
+    if let Some(sp) = b.machine.spindle.as_mut() {
+        sp.thread_phase_limit_deg = limit_deg;
+    }
+    b.joint_states = true;
+    // the thread starts after the rapid and the spindle's ramp; cycle 3000
+    // is well inside its 3.4 s pass
+    b.drives_late = Some((3000, MS));
+    let r = b.run(&example1(800.0, -40.0));
+    (r.state, r.last_error)
+}
+
+/// The degrees behind in a "behind the thread line" error.
+fn degrees_behind(err: &str) -> f64 {
+    let rest = err
+        .strip_prefix("line 3: the Z axis is ")
+        .unwrap_or_else(|| panic!("{err}"));
+    let (deg, rest) = rest
+        .split_once("° behind the thread line: the machine follows its setpoints ")
+        .unwrap_or_else(|| panic!("{err}"));
+    assert!(
+        rest.contains(" ms after their instant, not the 3.0 ms the thread leads by"),
+        "{err}"
+    );
+    deg.parse().unwrap_or_else(|_| panic!("{err}"))
+}
+
+#[test]
+fn drives_a_millisecond_late_stop_the_thread_beyond_two_degrees() {
+    let (state, err) = drives_one_ms_late(None);
+    assert_eq!(state, State::Error, "{err}");
+    // stopped as the median of 50 joint states passes 2° on its way to 4.8°
+    let deg = degrees_behind(&err);
+    assert!(deg > 2.0 && deg < 3.0, "{err}");
+}
+
+#[test]
+fn the_thread_phase_limit_is_a_machine_setting() {
+    // the same drives under a limit of 6°: the thread is cut to its end
+    let (state, err) = drives_one_ms_late(Some(6.0));
+    assert_eq!((state, err.as_str()), (State::Idle, ""));
+    // and under 4° it stops as the median passes 4°
+    let (state, err) = drives_one_ms_late(Some(4.0));
+    assert_eq!(state, State::Error, "{err}");
+    let deg = degrees_behind(&err);
+    assert!((4.0..=4.8).contains(&deg), "{err}");
+    // out of range in the machine file: refused with the key
+    let text = include_str!("../../config/lathe.toml").replace(
+        "encoder_counts_per_rev = 4096",
+        "encoder_counts_per_rev = 4096\nthread_phase_limit_deg = 0",
+    );
+    let e = Machine::from_toml(&text).unwrap_err();
+    assert_eq!(
+        e.0,
+        "machine file: key `spindle.thread_phase_limit_deg`: must be between 0.1 and 180"
+    );
 }
