@@ -15,7 +15,7 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
 from cnc_msgs.msg import ControllerStatus
-from cnc_msgs.srv import RunProgram
+from cnc_msgs.srv import RunProgram, SetDelay
 from ros_nodes import (ROOT, TARGET, build, deep_qos, domain, hearing_peer, read_mcap, sim_stall_reports, SpinningPeer,
                        stamp_s, start, stop)
 
@@ -537,12 +537,43 @@ def test_the_simulated_axes_over_dds_move_as_the_offline_simulation(peer, tmp_pa
     axes' /sim/joint_states over DDS, at the bundled mill's 200 m/s³,
     against `cnc simulate` of the same program (the same axis model in
     process). The simulator steps on its own clock, a fraction of a cycle
-    after the controller's, and applies each setpoint 3 ms after its stamp,
-    interpolated; so the state stamped t is the offline run's axes
-    interpolated at (t - first setpoint) / 1 ms - 3. Transport that takes
-    nothing away leaves them within 0.07 µm (bench/motion/actual.py, release
-    builds); a setpoint that arrives late on a busy host moves them by a
-    micrometre or two around it."""
+    after the controller's, and applies each setpoint `delay_ms` after its
+    stamp, interpolated; so the state stamped t is the offline run's axes
+    interpolated at (t - first setpoint) / 1 ms - delay_ms. Transport that
+    takes nothing away leaves them within 0.07 µm (bench/motion/actual.py,
+    release builds); a setpoint that arrives late on a busy host moves them
+    by up to a·t²/2 around it (135 µm once, on a CI host that held the
+    nodes up through a tenth of the job).
+
+    The simulator's delay is 10 ms in this test (/sim/setpoint_delay; 3
+    in the machine file): the setpoints lead nothing here (no thread),
+    and 10 ms covers this VM's transport but for stalls of the host. A run
+    that is off while the simulator reported such a stall (late
+    setpoints, its loop held up) is run again, three runs at most; a run
+    that is off with no such report fails at once."""
+    delay_ms = 10.0
+    setpoint_delay = peer.node.create_client(SetDelay, "/sim/setpoint_delay")
+    assert setpoint_delay.wait_for_service(timeout_sec=30.0)
+    r = peer.call(setpoint_delay, SetDelay.Request(delay_ms=delay_ms))
+    assert r.success, r.message
+    try:
+        off = ""
+        for attempt in range(3):
+            since = os.path.getsize(SIM_LOG)
+            off = dds_against_offline(peer, tmp_path, delay_ms)
+            if not off:
+                return
+            held = sim_stall_reports(SIM_LOG, since, wait=1.5)
+            print("run %d: %s; the simulator's log: %s" % (attempt + 1, off, held))
+            assert held, off
+        raise AssertionError("three runs, each off while the host held the nodes up: %s" % off)
+    finally:
+        r = peer.call(setpoint_delay, SetDelay.Request(delay_ms=3.0))
+        assert r.success, r.message
+
+
+def dds_against_offline(peer, tmp_path, delay_ms):
+    """One run of the comparison (the test above): what was off, or ""."""
     import math
     prog = ("G17 G90 G00 X10 Y10 Z5\nG01 Z-1 F600\nG01 X40 F3000\nG02 X50 Y20 I0 J10\n"
             "G01 Y40\nG03 X40 Y50 I-10 J0\nG00 Z5\nM30\n")
@@ -557,7 +588,6 @@ def test_the_simulated_axes_over_dds_move_as_the_offline_simulation(peer, tmp_pa
     req = RunProgram.Request()
     req.program = prog
     req.record = True
-    since = os.path.getsize(SIM_LOG)
     r = peer.call(peer.run, req)
     assert r.accepted and r.recording, r
     peer.wait_state(r.job_id, ControllerStatus.STATE_RUNNING)
@@ -569,16 +599,6 @@ def test_the_simulated_axes_over_dds_move_as_the_offline_simulation(peer, tmp_pa
     # every cycle of the job: the setpoints (the node's own) none missing
     assert abs((t1 - t0) * 1000 + 1 - len(sps)) < 0.5 and len(sps) > 2000, (len(sps), t1 - t0)
     job = [s for s in sts if t0 <= s[0] <= t1]
-    # the node takes the joint states best effort (docs/ros_interface.md
-    # §2): some may be lost on the way, and only where the host held the
-    # nodes up (the simulator reports a stall of its loop, or setpoints
-    # that reached it late, a line a second at most): 1 and 12 of 3362
-    # seen so, up to 1 % allowed
-    missing = round((job[-1][0] - job[0][0]) * 1000 + 1 - len(job))
-    if missing:
-        held = sim_stall_reports(SIM_LOG, since, wait=1.5)
-        print("%d joint states of %d lost on the way; the simulator's log: %s" % (missing, len(job) + missing, held))
-        assert held and 0 < missing <= 0.01 * (len(job) + missing), (missing, held)
     # the offline run of the same program
     prog_file = tmp_path / "p.nc"
     prog_file.write_text(prog)
@@ -589,40 +609,38 @@ def test_the_simulated_axes_over_dds_move_as_the_offline_simulation(peer, tmp_pa
     assert len(rows) == len(sps), (len(rows), len(sps))
     # the same setpoints, to the bit the topic carries (m as f64)
     assert max(abs(a - b) for (_, s), row in zip(sps, rows) for a, b in zip(s, row[1:4])) < 1e-9
+    # and the axes do move: the offline actual lags its setpoint by up to
+    # tens of µm at 50 mm/s, so a comparison of the setpoints with
+    # themselves would not pass the bounds below
+    lag = max(math.dist(row[1:4], row[4:7]) for row in rows)
+    assert lag > 0.010, lag
+    # the node takes the joint states best effort (docs/ros_interface.md
+    # §2): some may be lost on the way where the host held the nodes up
+    # (1 and 12 of 3362 seen so)
+    missing = round((job[-1][0] - job[0][0]) * 1000 + 1 - len(job))
+    if missing:
+        return "%d joint states of %d lost on the way" % (missing, len(job) + missing)
     act = [row[4:7] for row in rows]
     diffs = []
     for t, p in job:
-        x = (t - t0) * 1000 - 3.0
+        x = (t - t0) * 1000 - delay_ms
         k = math.floor(x)
         if 0 <= k < len(act) - 1:
             f = x - k
             diffs.append(math.dist(p, [u + (w - u) * f for u, w in zip(act[k], act[k + 1])]))
     diffs.sort()
-    assert len(diffs) > len(job) - 10, (len(diffs), len(job))
-    p90, p99, p999 = (diffs[int(q * (len(diffs) - 1))] for q in (0.9, 0.99, 0.999))
+    # (the joint states of the job's last DELAY_MS are for after its end)
+    assert len(diffs) > len(job) - delay_ms - 5, (len(diffs), len(job))
+    p90 = diffs[int(0.9 * (len(diffs) - 1))]
     print("DDS actual against offline: %d samples, p50 %.4f p90 %.4f p99 %.4f p99.9 %.4f µm, max %.4f µm" % (
-        len(diffs), diffs[len(diffs) // 2] * 1000, p90 * 1000, p99 * 1000, p999 * 1000, diffs[-1] * 1000))
-    # (debug builds in this suite: p90 0.007-0.01 µm, p99 0.02-0.09 µm, max
-    # 0.7-3.5 µm where setpoints came late, more of them on a busy host; a
-    # simulator that applied them on arrival, or a model that differed,
-    # would be tens of µm off at most samples: the p90 bound. The largest
-    # difference is the host's: while a setpoint is late the simulator goes
-    # on at the last speed, so one 5 ms late while the axis accelerates at
-    # 2000 mm/s² moves it by a·t²/2 = 25 µm for a moment; a stalled CI host
-    # has made such delays. The max bound only catches what no lateness
-    # explains.)
-    # (on a host that held the nodes up through much of the job, more than
-    # a tenth of the samples can be a little off: p90 0.063 µm once, with
-    # the simulator reporting late setpoints; still far below the tens of
-    # µm of a wrong model, so up to 1 µm passes where the simulator's log
-    # shows it was held up)
-    if p90 >= 0.00005:
-        held = sim_stall_reports(SIM_LOG, since, wait=1.5)
-        print("p90 %.4f µm; the simulator's log: %s" % (p90 * 1000, held))
-        assert held and p90 < 0.001, (p90, held)
-    assert diffs[-1] < 0.100, diffs[-1]
-    # and the axes do move: the offline actual lags its setpoint by up to
-    # tens of µm at 50 mm/s, so a comparison of the setpoints with
-    # themselves would not pass the bounds above
-    lag = max(math.dist(row[1:4], row[4:7]) for row in rows)
-    assert lag > 0.010, lag
+        (len(diffs),) + tuple(diffs[int(q * (len(diffs) - 1))] * 1000 for q in (0.5, 0.9, 0.99, 0.999, 1.0))))
+    # (debug builds in this suite: p90 0.007-0.01 µm, p99 0.02-0.09 µm,
+    # max 0.7-3.5 µm where setpoints came late; a simulator that applied
+    # them on arrival, or a model that differed, would be tens of µm off
+    # at most samples: the p90 bound. The max bound only catches what no
+    # lateness explains: while a setpoint is late the simulator goes on at
+    # the last speed, so one 5 ms late while the axis accelerates at 2000
+    # mm/s² moves it by a·t²/2 = 25 µm for a moment.)
+    if p90 >= 0.00005 or diffs[-1] >= 0.100:
+        return "p90 %.4f µm, max %.4f µm" % (p90 * 1000, diffs[-1] * 1000)
+    return ""

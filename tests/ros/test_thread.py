@@ -39,6 +39,18 @@ ERROR = ControllerStatus.STATE_ERROR
 IDLE = ControllerStatus.STATE_IDLE
 # readings missing this long are a lost encoder in these tests, ms
 ENCODER_TIMEOUT_MS = 50.0
+# the lead axis's joint states this far off the thread line stop a thread
+# in these tests (spindle.thread_phase_limit_deg; the default is 2), deg,
+# except on the rippling spindle, whose test measures the simulated axis:
+# setpoints that reach the simulator later than its 25 ms of going on at
+# the last speed leave the simulated axis behind for tens of ms (a VM
+# that holds the nodes up that long; with the 10 ms and the jump back to
+# the newest setpoint the simulator had before, 2.0-8.8 deg at S600 in
+# one CI run), and the examples measure the setpoints against the encoder, which
+# such a hold-up does not move. The default's own tests:
+# cnc_node/tests/controller_thread.rs; the check over DDS: the setpoint
+# delay raised by 5 ms (24 deg) below.
+THREAD_PHASE_LIMIT_DEG = 15.0
 # the bundled machines' setpoint delay (interpolation.setpoint_delay_ms):
 # the simulator applies each setpoint this long after its stamp, and G33
 # leads by it (the servo lag (1 - ff)/kp is 0: full feed-forward), so a
@@ -71,12 +83,15 @@ def machine(request, tmp_path_factory):
     # tests: cnc_node/tests/thread.rs offline, test_faults.py over DDS)
     with open(os.path.join(ROOT, "config", name + ".toml")) as f:
         toml = f.read()
-    assert "\n[spindle]\n" in toml and "encoder_timeout_ms" not in toml
+    assert "\n[spindle]\n" in toml and "encoder_timeout_ms" not in toml and "thread_phase" not in toml
     assert "\nsetpoint_delay_ms = %.1f\n" % (AHEAD_S * 1000.0) in toml
     assert "\nthread_accel_lead = 1.0\n" in toml and "servo_" not in toml
     machine_file = os.path.join(tmp, name + ".toml")
     with open(machine_file, "w") as f:
-        f.write(toml.replace("\n[spindle]\n", "\n[spindle]\nencoder_timeout_ms = %.1f\n" % ENCODER_TIMEOUT_MS))
+        spindle = "\n[spindle]\nencoder_timeout_ms = %.1f\n" % ENCODER_TIMEOUT_MS
+        if variant != "ripple":
+            spindle += "thread_phase_limit_deg = %.1f\n" % THREAD_PHASE_LIMIT_DEG
+        f.write(toml.replace("\n[spindle]\n", spindle))
     with open(sim_log, "wb") as f, open(node_log, "wb") as g:
         procs = start(env, ["--machine", machine_file] + sim_extra,
                       ["--machine", machine_file, "--record-dir", os.path.join(tmp, "recordings")] + stats,
@@ -813,7 +828,7 @@ def test_thread_setpoint_delay_raised_mid_job_stops_the_thread_with_a_clear_erro
     m = re.match(r"^line 3: the Z axis is (\d+\.\d)° behind the thread line: the machine follows its setpoints "
                  r"(\d+\.\d) ms after their instant, not the 3\.0 ms the thread leads by", st.last_error)
     assert m, st.last_error
-    assert float(m.group(1)) > 2.0 and float(m.group(2)) > 3.0, st.last_error
+    assert float(m.group(1)) > THREAD_PHASE_LIMIT_DEG and float(m.group(2)) > 3.0, st.last_error
     assert st.spindle_speed_command == 0.0 and rec_spin[-1][1] == 0.0
     # the job's setpoints: every cycle, never faster than the lead speed,
     # decelerating within the axis's limit, at rest short of the end
