@@ -19,7 +19,7 @@ import time
 
 import pytest
 
-from ros_nodes import ROOT, TARGET, build, domain, read_mcap, SpinningPeer, stamp_s
+from ros_nodes import ROOT, TARGET, build, deep_qos, domain, read_mcap, SpinningPeer, stamp_s
 
 DOMAIN = domain(6)
 DISCOVERY_S = 30.0
@@ -118,11 +118,14 @@ class Peer(SpinningPeer):
         from cnc_msgs.srv import RunProgram
         from sensor_msgs.msg import JointState
         self.setpoints, self.joints, self.status = [], [], []
+        # (a reader 1000 deep: with 100, a host that held this process up
+        # for 200 ms at 500 Hz lost setpoints in it, and `on_grid` saw
+        # gaps)
         self.node.create_subscription(JointState, ns + "/joint_setpoints",
-                                      lambda m: self._add(self.setpoints, m), 100)
+                                      lambda m: self._add(self.setpoints, m), deep_qos())
         self.node.create_subscription(JointState, sim_ns + "/" + joint_states,
-                                      lambda m: self._add(self.joints, m), 100)
-        self.node.create_subscription(ControllerStatus, ns + "/status", self._st, 10)
+                                      lambda m: self._add(self.joints, m), deep_qos())
+        self.node.create_subscription(ControllerStatus, ns + "/status", self._st, 100)
         self.run = self.node.create_client(RunProgram, ns + "/run_program")
         self.spin()
 
@@ -170,7 +173,12 @@ class Peer(SpinningPeer):
                 stamps = [s for s, _ in self.setpoints if start <= s <= end][-100:]
         steps = [(b - a) / dt for a, b in zip(stamps, stamps[1:])]
         whole = all(k > 0.5 and abs(k - round(k)) < 1e-3 for k in steps)
-        return whole and sum(round(k) == 1 for k in steps) > 0.9 * len(steps), steps
+        ok = whole and sum(round(k) == 1 for k in steps) > 0.9 * len(steps)
+        # (what was off, for the assertion: the steps that are not one
+        # whole period, with their place)
+        off = [(i, round(k, 4)) for i, k in enumerate(steps) if not (abs(k - 1) < 1e-3)]
+        return ok, "%d steps (job %s: statuses from %s to %s), not one period: %s" % (
+            len(steps), job_id, start, end, off)
 
 
 def um(pos_m):
