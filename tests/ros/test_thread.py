@@ -701,8 +701,11 @@ def test_thread_the_cut_groove_stays_put_at_s200_s800_s2000_with_ripple(machine,
         # a job measured while the simulator reported a stall or late
         # setpoints (a busy VM holding up its real-time loop: the axes
         # then really ran behind) and out of the bounds below is measured
-        # again, up to three times; out of them without a stall fails
-        for measure in range(3):
+        # again, up to five times in all (three were once just enough at
+        # S800: a setpoints' worst of 0.339 deg, then an actual spread of
+        # 0.749, each after the host held the test up 60-75 ms); out of
+        # them without a stall fails
+        for measure in range(5):
             since = peer.mark()
             # (six runs: the S200 pass is 13.5 s long, and on a VM whose
             # stalls come every few seconds four in a row were stopped,
@@ -753,7 +756,7 @@ def test_thread_the_cut_groove_stays_put_at_s200_s800_s2000_with_ripple(machine,
             within = (abs(s_mean) <= b["s_mean"] and s_worst <= b["s_worst"]
                       and abs(a_mean) <= b["a_mean"] and a_spread <= b["a_spread"])
             stalls = peer.stalls(since)
-            if within or not stalls or measure == 2:
+            if within or not stalls or measure == 4:
                 break
             print("groove S%d: measurement %d out of bounds after the simulator %s; again"
                   % (rpm, measure + 1, stalls[-1]))
