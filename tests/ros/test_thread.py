@@ -240,7 +240,6 @@ class Peer(SpinningPeer):
     def log_size(self):
         return os.path.getsize(self.sim_log)
 
-
     def mark(self):
         """Where the evidence of stalls starts: (the simulator's log size,
         monotonic time)."""
