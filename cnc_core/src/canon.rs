@@ -84,8 +84,12 @@ pub struct RunoutPath {
     pub from: f64,
     /// tan of the runout angle, signed (the direction the axis moves)
     pub tan: f64,
-    /// width of the parabola that rounds the kink at `from`, mm
+    /// width of the curve that rounds the kink at `from`, mm: the runout
+    /// axis's slope du/dθ grows from 0 to `tan` over it
     pub blend: f64,
+    /// length of the jerk phase at either end of that curve, mm (0: a
+    /// parabola, the acceleration steps; see [`crate::thread::s_ramp`])
+    pub jerk_phase: f64,
 }
 
 /// The path of one G33 block, parametrized by the lead axis travel.
@@ -120,6 +124,9 @@ pub struct ThreadMove {
     /// lead acceleration of the run-in and the deceleration, mm/s² (a
     /// controlled stop in the thread uses it too)
     pub accel: f64,
+    /// lead jerk of the run-in and the deceleration, mm/s³ (infinite: the
+    /// machine has no jerk limit, and both are parabolas in θ)
+    pub jerk: f64,
 }
 
 /// Which side the tool is on.

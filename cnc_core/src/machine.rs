@@ -818,6 +818,15 @@ impl Machine {
         })
     }
 
+    /// Per-coordinate jerk limits, mm/s³ (infinite: none).
+    pub fn jmax(&self) -> V3 {
+        V3::from_fn(|i, _| {
+            self.axis(i)
+                .and_then(|a| a.max_jerk_mm_s3)
+                .unwrap_or(f64::INFINITY)
+        })
+    }
+
     /// Start position of the machine coordinates.
     pub fn home(&self) -> V3 {
         V3::from_fn(|i, _| self.axis(i).map_or(0.0, |a| a.home_mm))

@@ -11,10 +11,14 @@
 //!
 //! The axis cannot jump to the line's speed. The first block of a chain
 //! starts with a *run-in*: `Δ` revolutions of the spindle over which the
-//! lead axis accelerates, as a parabola in θ, from rest at the start point
-//! into the line it meets tangentially: `u = pitch (θ − θs)² / (2Δ)` for
-//! θs = θ₀ − Δ/2 ≤ θ ≤ θ₀ + Δ/2. Its acceleration is `pitch ω² / Δ`, so Δ
-//! is chosen from the axis limits at the programmed speed (plus
+//! lead axis accelerates from rest at the start point into the line it
+//! meets tangentially, for θs = θ₀ − Δ/2 ≤ θ ≤ θ₀ + Δ/2. Without a jerk
+//! limit it is a parabola in θ, `u = pitch (θ − θs)² / (2Δ)`, whose
+//! acceleration is `pitch ω² / Δ`; with one, an S-curve in θ ([`s_ramp`]):
+//! the acceleration grows at the jerk limit, holds, and falls back to zero
+//! where the run-in meets the line. Either is symmetric, so it meets the
+//! line Δ/2 after θ₀ whatever its shape. Δ is chosen from the axis limits
+//! at the programmed speed (plus
 //! [`SPEED_MARGIN`](crate::shares::SPEED_MARGIN)), and the run-in begins Δ/2 before θ₀ as predicted from
 //! the measured spindle. The last block of a chain ends with the mirror
 //! image, a deceleration into the end point. Blocks in between follow the
@@ -24,9 +28,16 @@
 //!
 //! With a runout `J` (machine constant 8) the runout axis moves in
 //! addition by `(u − (len − J)) tan α` over the last `J` millimetres; the
-//! kink where it begins is rounded by a parabola of width `blend` centred on
-//! it, so the runout axis's acceleration stays within its limit. The end
-//! point is exactly `J tan α` from the programmed one.
+//! kink where it begins is rounded by a curve of width `blend` centred on
+//! it (a parabola, or with a jerk limit an S-curve), so the runout axis's
+//! acceleration and jerk stay within its limits. The end point is exactly
+//! `J tan α` from the programmed one.
+//!
+//! The jerk of a thread block is that of its run-in, deceleration and
+//! runout at the planned spindle speed, plus whatever the spindle's own
+//! speed changes add; a chained block's start (a kink within one cycle's
+//! share of the acceleration) and a controlled stop inside the thread (a
+//! fault, a feed hold) are not jerk-limited.
 
 use crate::canon::{RunoutPath, ThreadMove, ThreadSeg};
 use crate::geom::V3;
@@ -48,6 +59,61 @@ pub const AT_SPEED_TOLERANCE: f64 = 0.05;
 /// tolerance band, s (so the thread does not start at the end of the ramp).
 pub const AT_SPEED_SETTLE_S: f64 = 0.05;
 
+/// A ramp of a slope from 0 to `r` over a width `w`, with a jerk phase
+/// of length `c` at either end (0 ≤ c ≤ w/2): the second derivative grows
+/// linearly from 0 to `r / (w − c)` over the first `c`, holds, and falls
+/// back to 0 over the last `c`. Its value and slope at `y`, clamped to
+/// 0..=w: both 0 at 0, `r·w/2` and `r` at `w`. The ramp is symmetric, so
+/// whatever `c`, it meets tangentially at `w` the line of slope `r` that
+/// leaves 0 at `w/2`. `c = 0`: the parabola `r·y²/(2w)`.
+pub fn s_ramp(y: f64, r: f64, w: f64, c: f64) -> (f64, f64) {
+    let y = y.clamp(0.0, w);
+    if c <= 0.0 {
+        return (r * y * y / (2.0 * w), r * y / w);
+    }
+    let a = r / (w - c);
+    let j = a / c;
+    if y < c {
+        (j * y * y * y / 6.0, 0.5 * j * y * y)
+    } else if y <= w - c {
+        let s = y - c;
+        (
+            a * c * c / 6.0 + 0.5 * a * c * s + 0.5 * a * s * s,
+            0.5 * a * c + a * s,
+        )
+    } else {
+        let z = w - y;
+        (
+            0.5 * r * w - (r * z - j * z * z * z / 6.0),
+            r - 0.5 * j * z * z,
+        )
+    }
+}
+
+/// A symmetric change of speed by `dv` (> 0) from and to zero
+/// acceleration, within acceleration `a` and jerk `j` (finite): its
+/// duration and the length of either jerk phase, s.
+fn s_curve_time(dv: f64, a: f64, j: f64) -> (f64, f64) {
+    if dv * j >= a * a {
+        (dv / a + a / j, a / j)
+    } else {
+        // a triangle of acceleration, below `a`
+        let tj = (dv / j).sqrt();
+        (2.0 * tj, tj)
+    }
+}
+
+/// The Δ of a run-in or deceleration of lead acceleration `accel` and jerk
+/// `jerk` (infinite: none) into the line of `pitch` at spindle speed `w_p`
+/// rev/s, and its jerk phase ([`s_ramp`]'s `c`), both in revolutions.
+pub fn ramp_revs(pitch: f64, w_p: f64, accel: f64, jerk: f64) -> (f64, f64) {
+    if !jerk.is_finite() {
+        return (pitch * w_p * w_p / accel, 0.0);
+    }
+    let (t, tj) = s_curve_time(pitch * w_p, accel, jerk);
+    (t * w_p, tj * w_p)
+}
+
 impl RunoutPath {
     /// The runout axis's offset after lead travel `u`.
     pub fn offset(&self, u: f64) -> f64 {
@@ -56,7 +122,7 @@ impl RunoutPath {
             0.0
         } else if u < self.from + h {
             let x = u - (self.from - h);
-            self.tan * x * x / (2.0 * self.blend)
+            s_ramp(x, self.tan, self.blend, self.jerk_phase).0
         } else {
             self.tan * (u - self.from)
         }
@@ -123,17 +189,28 @@ impl ThreadMove {
         if let Some((_, d)) = self.runin {
             if x < 0.5 * d {
                 let y = (x + 0.5 * d).max(0.0);
-                return (p * y * y / (2.0 * d), p * y / d);
+                return s_ramp(y, p, d, self.jerk_phase());
             }
         }
         if let Some(d) = self.decel {
             let xl = l / p;
             if x > xl - 0.5 * d {
                 let y = (xl + 0.5 * d - x).max(0.0);
-                return (l - p * y * y / (2.0 * d), p * y / d);
+                let (u, du) = s_ramp(y, p, d, self.jerk_phase());
+                return (l - u, du);
             }
         }
         ((p * x).clamp(0.0, l), p)
+    }
+
+    /// The jerk phase of the run-in and the deceleration, revolutions (0:
+    /// no jerk limit, parabolas).
+    pub fn jerk_phase(&self) -> f64 {
+        if !self.jerk.is_finite() {
+            return 0.0;
+        }
+        let (w_p, _) = lead_speed(self.seg.pitch, self.rpm);
+        ramp_revs(self.seg.pitch, w_p, self.accel, self.jerk).1
     }
 
     /// Lead travel at `x` (see [`ThreadMove::at`]).
@@ -319,6 +396,8 @@ impl SpindleTracker {
 pub struct ThreadLimits {
     pub vmax: V3,
     pub amax: V3,
+    /// jerk, mm/s³ (infinite: none)
+    pub jmax: V3,
     pub dt: f64,
     pub present: [bool; 3],
 }
@@ -348,6 +427,8 @@ pub enum FitError {
 pub struct ThreadFit {
     /// lead acceleration of the run-in and the deceleration, mm/s²
     pub accel: f64,
+    /// their lead jerk, mm/s³ (infinite: no axis has a jerk limit)
+    pub jerk: f64,
     /// the run-in's Δ, revolutions, and its lead travel, mm
     pub delta: f64,
     pub ramp: f64,
@@ -362,16 +443,29 @@ pub fn lead_speed(pitch: f64, rpm: f64) -> (f64, f64) {
     (w_p, pitch * w_p)
 }
 
-/// The width of the parabola that rounds a runout's kink, mm of lead
-/// travel, so that the runout axis accelerates within half its share (the
-/// other half: the deceleration).
-pub fn runout_blend(tan: f64, v_lead: f64, amax: f64) -> f64 {
-    tan.abs() * v_lead * v_lead / (0.5 * THREAD_SHARE * amax)
+/// The width of the curve that rounds a runout's kink and its jerk phase
+/// ([`s_ramp`]), mm of lead travel, so that the runout axis accelerates
+/// within half its share of `amax` and, with a jerk limit `jmax` (finite),
+/// of `jmax` (the other half: the deceleration). Without one the curve is
+/// a parabola (jerk phase 0).
+pub fn runout_blend(tan: f64, v_lead: f64, amax: f64, jmax: f64) -> (f64, f64) {
+    if !jmax.is_finite() {
+        return (
+            tan.abs() * v_lead * v_lead / (0.5 * THREAD_SHARE * amax),
+            0.0,
+        );
+    }
+    let (t, tj) = s_curve_time(
+        tan.abs() * v_lead,
+        0.5 * THREAD_SHARE * amax,
+        0.5 * THREAD_SHARE * jmax,
+    );
+    (t * v_lead, tj * v_lead)
 }
 
 /// Fits a thread block to the axes at `rpm`: every axis within its speed
-/// in the thread, the lead acceleration within [`THREAD_SHARE`] of every
-/// axis's (half of it for the runout axis), the run-in within the block
+/// in the thread, the lead acceleration and jerk within [`THREAD_SHARE`]
+/// of every axis's (half of it for the runout axis), the run-in within the block
 /// before its runout (`chained`: none), and a chained block's start
 /// continuing the previous block's end velocity `prev` within the kink
 /// share of one cycle.
@@ -385,6 +479,7 @@ pub fn fit(
     let (w_p, v_lead) = lead_speed(seg.pitch, rpm);
     let (r0, r1) = seg.ratios();
     let mut accel = f64::INFINITY;
+    let mut jerk = f64::INFINITY;
     for i in 0..3 {
         let r = r0[i].abs().max(r1[i].abs());
         if !lim.present[i] || r < 1e-12 {
@@ -404,8 +499,9 @@ pub fn fit(
             1.0
         };
         accel = accel.min(THREAD_SHARE * share * lim.amax[i] / r);
+        jerk = jerk.min(THREAD_SHARE * share * lim.jmax[i] / r);
     }
-    let delta = seg.pitch * w_p * w_p / accel; // revolutions
+    let (delta, _) = ramp_revs(seg.pitch, w_p, accel, jerk); // revolutions
     let ramp = 0.5 * seg.pitch * delta; // lead travel, mm
     let room = seg.runout.map_or(seg.len, |ro| ro.from - 0.5 * ro.blend);
     if !chained && ramp > room {
@@ -422,6 +518,7 @@ pub fn fit(
     }
     Ok(ThreadFit {
         accel,
+        jerk,
         delta,
         ramp,
         v_end: r1 * v_lead,
@@ -432,7 +529,7 @@ pub fn fit(
 /// acceleration `accel`: Δ, revolutions, and its lead travel, mm.
 pub fn deceleration(m: &ThreadMove, accel: f64) -> (f64, f64) {
     let (w_p, _) = lead_speed(m.seg.pitch, m.rpm);
-    let delta = m.seg.pitch * w_p * w_p / accel;
+    let (delta, _) = ramp_revs(m.seg.pitch, w_p, accel, m.jerk);
     (delta, 0.5 * m.seg.pitch * delta)
 }
 
@@ -464,6 +561,7 @@ mod tests {
             runin: Some((0.5, 0.8)),
             decel: Some(0.6),
             accel: 1000.0,
+            jerk: f64::INFINITY,
         };
         // before the run-in: at rest at the start
         assert_eq!(m.u_at(-0.41), 0.0);
@@ -488,6 +586,92 @@ mod tests {
     }
 
     #[test]
+    fn the_s_ramp_is_continuous_symmetric_and_keeps_its_jerk() {
+        // c = 0: the parabola, bit for bit
+        for y in [0.0, 0.1, 0.37, 0.8] {
+            let (r, w) = (1.5, 0.8);
+            assert_eq!(s_ramp(y, r, w, 0.0), (r * y * y / (2.0 * w), r * y / w));
+        }
+        // a trapezoid (c < w/2) and a triangle (c = w/2) of acceleration
+        for (r, w, c) in [(1.5, 0.9, 0.2), (-0.577, 0.035, 0.0175), (2.0, 1.0, 0.5)] {
+            let a = r / (w - c);
+            let j = a / c;
+            // the ends: at rest, and on the line of slope r through w/2
+            assert_eq!(s_ramp(0.0, r, w, c), (0.0, 0.0));
+            let (u, du) = s_ramp(w, r, w, c);
+            assert!((u - 0.5 * r * w).abs() < 1e-15 && du == r, "{u} {du}");
+            assert_eq!(s_ramp(-1.0, r, w, c), (0.0, 0.0));
+            assert_eq!(s_ramp(w + 1.0, r, w, c), (0.5 * r * w, r));
+            // numerically: slope = d(value), curvature within |a|, its
+            // change within |j|, continuous through the phase boundaries
+            let n = 20_000;
+            let h = w / n as f64;
+            let at = |k: usize| s_ramp(k as f64 * h, r, w, c);
+            let mut d2 = Vec::new();
+            for k in 0..n {
+                let ((u0, s0), (u1, s1)) = (at(k), at(k + 1));
+                assert!(
+                    ((u1 - u0) / h - 0.5 * (s0 + s1)).abs() < 1e-6,
+                    "{r} {w} {c} {k}"
+                );
+                d2.push((s1 - s0) / h);
+            }
+            assert!(
+                d2.iter().all(|x| x.abs() <= a.abs() * (1.0 + 1e-9)),
+                "{r} {w} {c}"
+            );
+            let peak = d2.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            assert!((peak - a.abs()).abs() < 1e-3 * a.abs(), "{peak} {a}");
+            for p in d2.windows(2) {
+                assert!(
+                    ((p[1] - p[0]) / h).abs() <= j.abs() * (1.0 + 1e-6),
+                    "{r} {w} {c}"
+                );
+            }
+            // symmetric: the slope at w - y is r minus the slope at y
+            for y in [0.1 * c, c, 0.5 * w, w - c] {
+                assert!((s_ramp(w - y, r, w, c).1 - (r - s_ramp(y, r, w, c).1)).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn a_run_in_under_a_jerk_limit_is_an_s_curve_of_its_time() {
+        // no jerk limit: the parabola's Δ = pitch ω² / a
+        let (w_p, pitch, a) = (800.0 * 1.05 / 60.0, 1.5, 2000.0);
+        assert_eq!(
+            ramp_revs(pitch, w_p, a, f64::INFINITY),
+            (pitch * w_p * w_p / a, 0.0)
+        );
+        // 21 mm/s at 2000 mm/s² and 160 m/s³: a triangle of 2·√(21/160000) s
+        let (d, c) = ramp_revs(pitch, w_p, a, 1.6e5);
+        let tj = (21.0f64 / 1.6e5).sqrt();
+        assert!((c - tj * w_p).abs() < 1e-12 && (d - 2.0 * c).abs() < 1e-12);
+        // 35 mm/s (F1 at 2000 rpm + 5 %): 35/2000 + 2000/160000 = 30 ms
+        let w_p = 2000.0 * 1.05 / 60.0;
+        let (d, c) = ramp_revs(1.0, w_p, a, 1.6e5);
+        assert!((d / w_p - 0.03).abs() < 1e-12 && (c / w_p - 0.0125).abs() < 1e-12);
+        // the run-in's lead travel in time: from rest, jerk 160 m/s³ at
+        // first, on the line after d/2 past θ₀
+        let m = ThreadMove {
+            seg: seg(20.0, 1.0),
+            src: Src::default(),
+            rpm: 2000.0,
+            runin: Some((0.0, d)),
+            decel: Some(d),
+            accel: a,
+            jerk: 1.6e5,
+        };
+        assert_eq!(m.jerk_phase(), c);
+        let t = 0.001; // 1 ms into the run-in
+        let u = m.u_at(-0.5 * d + t * w_p);
+        assert!((u - 1.6e5 * t * t * t / 6.0).abs() < 1e-12, "{u}");
+        assert_eq!(m.at(0.5 * d), (0.5 * d, 1.0));
+        assert_eq!(m.du_dx(0.5 * d + 1e-9), 1.0);
+        assert_eq!(m.u_at(m.end_x()), 20.0);
+    }
+
+    #[test]
     fn runout_ends_j_tan_alpha_away_with_a_smooth_kink() {
         let mut s = seg(43.0, 1.0);
         let tan = 30f64.to_radians().tan();
@@ -496,6 +680,7 @@ mod tests {
             from: 40.0,
             tan,
             blend: 0.4,
+            jerk_phase: 0.0,
         });
         s.end[0] += 3.0 * tan;
         assert_eq!(s.pos(43.0), s.end);

@@ -181,9 +181,21 @@ fn speed_run_in_and_deceleration_that_do_not_fit_say_what_they_need() {
         "G33 at S4000 with pitch F5: axis Z would move at 350 mm/s in the thread, over its 300 mm/s; lower S to at most 3428",
     );
     // 4 mm/rev at 4000 rpm = 280 mm/s: the run-in at 80 % of 2500 mm/s²
-    // takes 280²/(2·2000) = 19.6 mm
+    // and of 200 m/s³ is an S-curve of 280/2000 + 2000/160000 = 0.1525 s,
+    // 280 · 0.1525 / 2 = 21.35 mm of Z travel
     refused(
         "N5 G00 X20 Z5\nN10 M03 S4000\nN20 G33 Z-5 F4\n",
+        3,
+        "G33: the run-in needs 21.35 mm of Z travel at S4000 (pitch F4) to reach the thread's speed; the block has 10 mm: start the thread 11.35 mm earlier or lower S",
+    );
+    // without a jerk limit a parabola: 280²/(2·2000) = 19.6 mm
+    let mut no_jerk = lathe();
+    for a in &mut no_jerk.axes {
+        a.max_jerk_mm_s3 = None;
+    }
+    refused_on(
+        "N5 G00 X20 Z5\nN10 M03 S4000\nN20 G33 Z-5 F4\n",
+        &no_jerk,
         3,
         "G33: the run-in needs 19.6 mm of Z travel at S4000 (pitch F4) to reach the thread's speed; the block has 10 mm: start the thread 9.6 mm earlier or lower S",
     );
@@ -192,13 +204,13 @@ fn speed_run_in_and_deceleration_that_do_not_fit_say_what_they_need() {
     refused(
         "N5 G00 X20 Z5\nN10 M03 S4000\nN20 G33 Z-30 F4\nN30 G33 Z-35\nN40 G00 X30\n",
         4,
-        "G33: the thread's end needs 19.6 mm of Z travel at S4000 (pitch F4) to decelerate from the thread's speed; the block has 5 mm: make it 14.6 mm longer or lower S",
+        "G33: the thread's end needs 21.35 mm of Z travel at S4000 (pitch F4) to decelerate from the thread's speed; the block has 5 mm: make it 16.35 mm longer or lower S",
     );
     // a single block needs both
     refused(
         "N5 G00 X20 Z5\nN10 M03 S4000\nN20 G33 Z-30 F4\n",
         3,
-        "to decelerate from the thread's speed, after 19.6 mm of run-in; the block has 35 mm: make it 4.2 mm longer",
+        "to decelerate from the thread's speed, after 21.35 mm of run-in; the block has 35 mm: make it 7.7 mm longer",
     );
     // the runout's rounded kink needs room too
     refused(

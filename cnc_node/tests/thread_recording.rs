@@ -55,16 +55,17 @@ fn an_offline_recording_measures_as_its_program_does() {
     // delay) and the bundled lathe's servo has full feed-forward: lead 0
     assert_eq!((r.setpoint_delay_s, w.lead_s), (0.0, 0.0));
     // the synchronized part: after the run-in Δ/2 × F, before the
-    // deceleration as long
-    assert!((w.sync_mm.0 - 4.88975).abs() < 1e-5, "{:?}", w.sync_mm);
-    assert!((w.sync_mm.1 + 39.88975).abs() < 1e-5, "{:?}", w.sync_mm);
+    // deceleration as long (Z at 21 mm/s with the speed margin: an S-curve
+    // of 2·√(21/160000) = 22.9 ms at 80 % of 200 m/s³, 0.240585 mm)
+    assert!((w.sync_mm.0 - 4.759415).abs() < 1e-5, "{:?}", w.sync_mm);
+    assert!((w.sync_mm.1 + 39.759415).abs() < 1e-5, "{:?}", w.sync_mm);
     // every setpoint of the pass and every joint state is paired (an
-    // encoder reading at every sample's stamp): 2263 samples from the
-    // last at the start to the first at the end, 2239 of them on the line
-    // (44.78 mm at 1.5 mm/rev and 800 rpm: 29.85 revolutions of 75 ms)
-    assert_eq!((w.set_pairs, w.act_pairs), (2263, 2263));
-    assert_eq!((p.samples, p.on_line_samples), (2263, 2239));
-    assert_eq!((p.groove_set.n, p.groove_act.n), (2239, 2238));
+    // encoder reading at every sample's stamp): 2275 samples from the
+    // last at the start to the first at the end, 2226 of them on the line
+    // (44.52 mm at 1.5 mm/rev and 800 rpm: 29.68 revolutions of 75 ms)
+    assert_eq!((w.set_pairs, w.act_pairs), (2275, 2275));
+    assert_eq!((p.samples, p.on_line_samples), (2275, 2226));
+    assert_eq!((p.groove_set.n, p.groove_act.n), (2226, 2225));
 
     // the groove: the setpoints on the programmed start angle (measured
     // +0.00003°, worst 0.059°: the count's centre is up to half a count,
@@ -75,23 +76,24 @@ fn an_offline_recording_measures_as_its_program_does() {
     eprintln!("recording: setpoints {gs:?}\n           actual {ga:?}");
     assert!(gs.mean_deg.abs() <= 0.1, "{gs:?}");
     assert!(gs.worst_deg <= 0.1 && gs.spread_deg <= 0.15, "{gs:?}");
-    // the simulated axis: mean −0.041°; its spread (5.35°) is the servo's
-    // lag of 60 counts (22 µm, 5.3°) as the run-in's acceleration ends,
+    // the simulated axis: mean −0.029°; its spread (4.15°) is the servo's
+    // lag of 47 counts (17 µm, 4.1°) as the run-in's acceleration ends,
     // settled within one count in the first revolution (the program's
-    // offline run has the same 5.35°)
+    // offline run has the same 4.15°; with the run-in a parabola, its
+    // acceleration stepping to 0 where it met the line: 5.35°)
     assert!(ga.mean_deg.abs() <= 0.1, "{ga:?}");
-    assert!(ga.spread_deg > 4.0 && ga.spread_deg <= 6.0, "{ga:?}");
+    assert!(ga.spread_deg > 3.5 && ga.spread_deg <= 4.8, "{ga:?}");
     let settled = p.act_within_count_from_deg.unwrap();
     assert!(settled > 30.0 && settled < 30.0 + 360.0, "{settled}");
 
     // the program's offline run (`cnc plot PROGRAM --thread`): the same
-    // samples (the recording's pass goes on 5 samples past the last G33
-    // sample, while the jerk filter settles on the end point), and the
+    // samples (the recording's pass has one more, the first setpoint at
+    // the end point, after the last G33 sample), and the
     // lead error within half a count: the recording has the encoder's
     // count (its centre), the offline run the model's true angle
     let prog = thread_error_series(&m, Dialect::Cnc836, GROOVE).unwrap();
     let q = &prog.passes[0];
-    assert_eq!((q.samples, q.on_line_samples), (2262, 2239));
+    assert_eq!((q.samples, q.on_line_samples), (2274, 2226));
     let half_count = 0.5 * p.count_um + 1e-9;
     for (a, b) in p.points.iter().zip(&q.points) {
         assert_eq!(a.on_line, b.on_line, "{a:?} {b:?}");
@@ -101,7 +103,20 @@ fn an_offline_recording_measures_as_its_program_does() {
         assert!((a.deg - b.deg).abs() <= 0.06, "{a:?} {b:?}");
     }
     assert!((p.max_set_um - q.max_set_um).abs() <= half_count);
-    assert!((p.max_act_um - q.max_act_um).abs() <= half_count);
+    // (the recording's actual positions on the line leave out the first,
+    // where the servo's lag after the run-in is largest: 2225 of 2226)
+    let after_first = q
+        .points
+        .iter()
+        .filter(|x| x.on_line)
+        .skip(1)
+        .fold(0.0f64, |m, x| m.max(x.act_um.abs()));
+    assert!(
+        p.max_act_um <= q.max_act_um + half_count && p.max_act_um >= after_first - half_count,
+        "{} against {}..{after_first}",
+        p.max_act_um,
+        q.max_act_um
+    );
     assert_eq!(p.sync_deg.len(), 1);
     assert!((p.sync_deg[0].0 - q.sync_deg[0].0).abs() <= 0.06);
     assert!((p.sync_deg[0].1 - q.sync_deg[0].1).abs() <= 0.06);
@@ -218,7 +233,7 @@ fn a_shifted_index_moves_the_groove_by_90_degrees() {
     let text = r.to_string();
     eprintln!("{text}");
     assert!(
-        text.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean +0.0000° worst 0.0590° (2239 samples), B mean +90.0000°"),
+        text.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean +0.0000° worst 0.0590° (2226 samples), B mean +90.0000°"),
         "{text}"
     );
     assert!(
@@ -226,7 +241,7 @@ fn a_shifted_index_moves_the_groove_by_90_degrees() {
         "{text}"
     );
     assert!(
-        text.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0408°"),
+        text.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0286°"),
         "{text}"
     );
     // the encoder payloads differ: not within, as before

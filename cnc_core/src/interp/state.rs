@@ -198,6 +198,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
             th: ThreadLimits {
                 vmax: machine.vmax(),
                 amax: machine.amax(),
+                jmax: machine.jmax(),
                 dt: machine.dt(),
                 present,
             },

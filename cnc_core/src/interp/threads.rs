@@ -169,7 +169,8 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                 self.error(Some(&j), why);
                 return;
             }
-            let blend = thread::runout_blend(tan, v_lead, self.th.amax[ax]);
+            let (blend, jerk_phase) =
+                thread::runout_blend(tan, v_lead, self.th.amax[ax], self.th.jmax[ax]);
             if 0.5 * blend > j.value {
                 self.error(
                     Some(&j),
@@ -189,6 +190,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                 from: len - j.value,
                 tan,
                 blend,
+                jerk_phase,
             });
         }
         let seg = ThreadSeg {
@@ -255,6 +257,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
             runin: (!chained).then_some((start_rev, fit.delta)),
             decel: None,
             accel: fit.accel,
+            jerk: fit.jerk,
         };
         self.held = Some(Box::new(Held {
             m,

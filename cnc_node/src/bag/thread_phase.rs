@@ -43,8 +43,9 @@ use std::path::Path;
 /// Readings more than this before or after a sample's instant leave the
 /// sample out, ns (4 ms).
 pub const MAX_GAP_NS: i64 = 4_000_000;
-/// A position within this of a pass's start or end point stands there, mm.
-const AT_MM: f64 = 1e-6;
+/// A position within this of a pass's start or end point stands there, mm
+/// (as in an offline run's passes).
+const AT_MM: f64 = crate::plot::AT_START_MM;
 /// Lead travel this close to the synchronized part's ends is in it, mm.
 const ON_LINE_MM: f64 = 1e-9;
 

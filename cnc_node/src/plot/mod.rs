@@ -50,11 +50,11 @@ pub use path_figure::{labels, plot_program, plot_recording, program_figure, run_
 pub use program_paths::{comp_paths, CompPaths, ToolOutline, MAX_OUTLINES};
 pub use render::{render, render_png, render_svg};
 pub use run::ProgramRun;
-pub(crate) use thread_errors::PassBuilder;
 pub use thread_errors::{
     phase_deg, signed_deg4, wrap_deg, PhaseStats, ThreadErrorPoint, ThreadErrorSeries,
     ThreadErrors, ThreadPass,
 };
+pub(crate) use thread_errors::{PassBuilder, AT_START_MM};
 pub use thread_figure::{
     plot_recording_thread, plot_run_thread, plot_thread_error, thread_error_series, thread_labels,
     thread_summary,

@@ -272,6 +272,10 @@ impl PassBuilder {
     }
 }
 
+/// A lead axis within this of a pass's start stands there, mm (a run-in
+/// that is an S-curve moves less than that in its first cycle).
+pub(crate) const AT_START_MM: f64 = 1e-6;
+
 /// The pass being collected from an offline run.
 struct PassAcc {
     pass: PassBuilder,
@@ -354,7 +358,7 @@ impl ThreadErrors {
             on_line: sync.on_line,
         };
         if !acc.moved {
-            if sync.u == 0.0 && !sync.on_line {
+            if sync.u.abs() <= AT_START_MM && !sync.on_line {
                 acc.waiting = Some(pt);
                 return;
             }
