@@ -103,3 +103,60 @@ fn replay_fuzz_corpus() {
     }
     eprintln!("{n} inputs replayed, {ok} accepted by the check");
 }
+
+/// The structure-aware target's machines (`common::split_jerk`): the
+/// selector byte's bits 2-4 set a jerk limit on every axis, bit 5 a
+/// look-ahead of 4 blocks; runs on them end where the check said and keep
+/// every axis's velocity, acceleration and jerk at every sample.
+#[test]
+fn jerk_selected_machines_keep_every_limit() {
+    let mill = "G17 G90 G64 P0.001\nG00 X0 Y0 Z0\nF3000\nG01 X10\nY5\nG02 X20 Y5 I5 J0\nG01 X30 Y0\nG61 X40\nG00 Z20\n";
+    let thread = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/lathe_thread.nc"),
+    )
+    .unwrap();
+    // (selector, program, the jerk limit it must select, look-ahead)
+    let cases: [(u8, &str, Option<f64>, usize); 5] = [
+        (2 << 2, mill, Some(2.0e4), 200),
+        (3 << 2 | 0x20, mill, Some(5.0e4), 4),
+        (5 << 2, mill, Some(1.0e6), 200),
+        (6 << 2 | 2, &thread, None, 200),
+        (3 << 2 | 2, &thread, Some(5.0e4), 200),
+    ];
+    for (sel, text, jerk, look) in cases {
+        let mut data = vec![sel];
+        data.extend_from_slice(text.as_bytes());
+        let (d, m, text) = common::split_jerk(&data).unwrap();
+        assert_eq!(m.jerk_limit(), jerk, "selector {sel:#x}");
+        assert_eq!(m.planner.lookahead_blocks, look, "selector {sel:#x}");
+        let r = common::check_props(d, &m, text);
+        assert!(r.ok(), "selector {sel:#x}: {}", r.message());
+        let pos = common::exec_props(d, &m, text, &r, 100_000);
+        assert_eq!(pos.len() as u64, r.ticks + 1, "selector {sel:#x}");
+        assert_eq!(common::over_a_limit(&m, &pos), None, "selector {sel:#x}");
+    }
+    // the bundled machines as they are (bits 2-4 = 0 or 1)
+    let (_, m, _) = common::split_jerk(&[1 << 2 | 2]).unwrap();
+    assert_eq!(m, Machine::builtin_lathe());
+}
+
+/// The limit check sees a sampled jerk over the limit (a step of
+/// acceleration) and says which axis and sample.
+#[test]
+fn the_limit_check_finds_a_step_of_acceleration() {
+    let m = Machine::builtin_mill();
+    let j = m.axis(0).and_then(|a| a.max_jerk_mm_s3).unwrap();
+    let dt = m.dt();
+    // x = a/2·t² from sample 1 on: the sampled acceleration steps from 0
+    // to a/2 to a, a jerk of a/(2·dt) = 2·j at sample 3
+    let a = 4.0 * j * dt;
+    let pos: Vec<[f64; 3]> = (0..6)
+        .map(|k| {
+            let t = (k as f64 - 1.0).max(0.0) * dt;
+            [0.5 * a * t * t, 0.0, 0.0]
+        })
+        .collect();
+    let what = common::over_a_limit(&m, &pos).unwrap();
+    assert!(what.starts_with("j[0] = "), "{what}");
+    assert!(what.ends_with(&format!("> {j} at sample 3")), "{what}");
+}

@@ -14,6 +14,21 @@ use std::sync::OnceLock;
 
 static MILL: OnceLock<Machine> = OnceLock::new();
 static LATHE: OnceLock<Machine> = OnceLock::new();
+/// The bundled machines at other jerk limits: `JERKS`, mill then lathe.
+static AT_JERK: OnceLock<Vec<Machine>> = OnceLock::new();
+
+/// Jerk limits (mm/s³) that [`split_jerk`] sets on every axis of a
+/// bundled machine: the realistic range and the bundled machines' 200
+/// m/s³ below the single-average design's threshold, and 1000 m/s³ above
+/// it; `None` leaves the axes acceleration-limited only.
+const JERKS: [Option<f64>; 6] = [
+    Some(2.0e4),
+    Some(5.0e4),
+    Some(1.0e5),
+    Some(1.0e6),
+    None,
+    Some(3.3e4),
+];
 
 pub fn split(data: &[u8]) -> Option<(Dialect, &'static Machine, &[u8])> {
     let (&sel, text) = data.split_first()?;
@@ -28,6 +43,76 @@ pub fn split(data: &[u8]) -> Option<(Dialect, &'static Machine, &[u8])> {
         LATHE.get_or_init(Machine::builtin_lathe)
     };
     Some((dialect, machine, text))
+}
+
+/// As [`split`], and byte 0 also picks the machine's jerk and look-ahead:
+///
+/// byte 0, bits 2-4: 0-1 the bundled machine as it is (200 m/s³), 2-7 one
+/// of `JERKS` set on every axis
+/// byte 0, bit 5: 1 = a look-ahead of 4 blocks (the queue commits moves
+/// before it knows what comes within the filters' reach)
+pub fn split_jerk(data: &[u8]) -> Option<(Dialect, Machine, &[u8])> {
+    let (dialect, machine, text) = split(data)?;
+    let sel = data[0];
+    let pick = usize::from((sel >> 2) & 7);
+    let mut m = if pick < 2 {
+        machine.clone()
+    } else {
+        let all = AT_JERK.get_or_init(|| {
+            let mut v = Vec::new();
+            for base in [Machine::builtin_mill(), Machine::builtin_lathe()] {
+                for j in JERKS {
+                    let mut m = base.clone();
+                    for a in &mut m.axes {
+                        a.max_jerk_mm_s3 = j;
+                    }
+                    v.push(m);
+                }
+            }
+            v
+        });
+        let lathe = usize::from(sel & 2 != 0);
+        all[lathe * JERKS.len() + pick - 2].clone()
+    };
+    if sel & 0x20 != 0 {
+        m.planner.lookahead_blocks = 4;
+    }
+    Some((dialect, m, text))
+}
+
+/// The first sample at which an axis's velocity, acceleration or jerk
+/// (first, second and third differences of the positions at the sample
+/// rate) exceeds the machine's limit, as text.
+pub fn over_a_limit(m: &Machine, pos: &[[f64; 3]]) -> Option<String> {
+    let dt = m.dt();
+    let (vmax, amax) = (m.vmax(), m.amax());
+    let diff = |x: &[[f64; 3]]| -> Vec<[f64; 3]> {
+        x.windows(2)
+            .map(|w| std::array::from_fn(|i| (w[1][i] - w[0][i]) / dt))
+            .collect()
+    };
+    let vel = diff(pos);
+    let acc = diff(&vel);
+    let jerk = diff(&acc);
+    for i in 0..3 {
+        if let Some(k) = vel.iter().position(|v| v[i].abs() > vmax[i] * (1.0 + 1e-9)) {
+            return Some(format!("v[{i}] = {} at sample {}", vel[k][i], k + 1));
+        }
+        let over = |a: &[f64; 3]| a[i].abs() > amax[i] * (1.0 + 1e-6) + 1e-6;
+        if let Some(k) = acc.iter().position(over) {
+            return Some(format!("a[{i}] = {} at sample {}", acc[k][i], k + 2));
+        }
+        let Some(j) = m.axis(i).and_then(|a| a.max_jerk_mm_s3) else {
+            continue;
+        };
+        if let Some(k) = jerk
+            .iter()
+            .position(|x| x[i].abs() > j * (1.0 + 1e-6) + 1e-3)
+        {
+            return Some(format!("j[{i}] = {} > {j} at sample {}", jerk[k][i], k + 3));
+        }
+    }
+    None
 }
 
 /// The whole numbers written after `letter` (either case, optional sign,
@@ -104,11 +189,12 @@ pub fn exec_props(
     text: &[u8],
     report: &cnc_core::CheckReport,
     max_ticks: u64,
-) {
+) -> Vec<[f64; 3]> {
     use cnc_core::exec::Executor;
     use cnc_core::source::StrSource;
+    let mut pos = Vec::new();
     if !report.ok() || report.ticks > max_ticks {
-        return;
+        return pos;
     }
     let mut last = None;
     for (i, s) in Executor::new(StrSource::from_bytes(text), dialect, machine).enumerate() {
@@ -120,6 +206,7 @@ pub fn exec_props(
             s.k
         );
         assert!(s.t.is_finite());
+        pos.push([s.pos.x, s.pos.y, s.pos.z]);
         // far beyond the estimate: the executor disagrees with the check
         assert!(
             s.k <= report.ticks + 1,
@@ -136,4 +223,5 @@ pub fn exec_props(
         "check estimated {} ticks, executor ended at {}",
         report.ticks, last.k
     );
+    pos
 }
