@@ -608,9 +608,11 @@ def test_thread_examples_3_taper_and_4_runout(machine):
     print("Example 4: X at Z-43: %.7f mm (10 + 3 tan 30 = %.7f)" % (at_end[0], 10.0 + 3.0 * tan30))
     assert abs(at_end[0] - (10.0 + 3.0 * tan30)) < 1e-9
     # before the runout X stays on the thread's radius (the pass: up to
-    # Z-43, not the return)
+    # Z-43, not the return; the kink at Z-40 is rounded over +-0.141 mm of
+    # Z: at S800 X picks up 14 mm/s x tan 30 in an S-curve of 20 ms within
+    # half of 80 % of its 2000 mm/s2 and 200 m/s3)
     k = next(i for i, (_, (x, z)) in enumerate(sps) if abs(z * 1000.0 + 43.0) < 1e-9)
-    assert all(abs(x * 1000.0 - 10.0) < 1e-9 for _, (x, z) in sps[:k] if -39.9 < z * 1000.0 < 4.9)
+    assert all(abs(x * 1000.0 - 10.0) < 1e-9 for _, (x, z) in sps[:k] if -39.85 < z * 1000.0 < 4.9)
     end = sps[-1][1]
     assert abs(end[0] - 0.015) < 1e-9 and abs(end[1] - 0.005) < 1e-9, end
 
