@@ -463,3 +463,49 @@ proptest! {
         prop_assert!(over.is_none(), "{}\n{}", over.unwrap_or_default(), text);
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: cases(64), ..ProptestConfig::default() })]
+
+    /// G33 on the bundled lathe with the ideal spindle, for any jerk limit
+    /// from 20 to 1000 m/s³, spindle speed, pitch, length, taper and
+    /// runout the check accepts: no axis exceeds its velocity,
+    /// acceleration or jerk at any sample (the run-in, the deceleration
+    /// and the runout's kink are S-curves in the spindle angle), the run
+    /// ends on its end point exactly when the check said.
+    #[test]
+    fn threads_keep_every_limit_at_any_jerk(
+        jerk in 2.0e4..1.0e6f64,
+        rpm in 100.0..2000.0f64,
+        pitch in 0.25..4.0f64,
+        len in 5.0..60.0f64,
+        taper in prop_oneof![Just(0.0), -2.0..2.0f64],
+        runout in prop::option::of(0.5..5.0f64),
+    ) {
+        let mut m = Machine::builtin_lathe();
+        for a in &mut m.axes {
+            a.max_jerk_mm_s3 = Some(jerk);
+        }
+        let (rpm, pitch, len, taper) = (rpm.round(), r4(pitch), r4(len), r4(taper));
+        let x_end = r4(20.0 + taper);
+        let text = match runout {
+            Some(j) => format!(
+                "N5 G00 X20 Z5\nN10 M03 S{rpm}\nN20 G33 X{x_end} Z{} F{pitch} J{}\nN30\nN40 X30 Z5\nN50 M30\n",
+                r4(5.0 - len),
+                r4(j)
+            ),
+            None => format!(
+                "N5 G00 X20 Z5\nN10 M03 S{rpm}\nN20 G33 X{x_end} Z{} F{pitch}\nN30 G00 X30\nN40 Z5\nN50 M30\n",
+                r4(5.0 - len)
+            ),
+        };
+        let r = check(StrSource::new(&text), Dialect::Cnc836, &m);
+        prop_assume!(r.ok());
+        let s: Vec<Sample> = Executor::new(StrSource::new(&text), Dialect::Cnc836, &m).collect();
+        let last = s.last().unwrap();
+        prop_assert_eq!(last.k, r.ticks);
+        prop_assert!(s.iter().any(|x| x.sync.is_some_and(|y| y.on_line)), "no sample on the thread line\n{}", text);
+        let over = over_a_limit(&s, &m, Some(jerk));
+        prop_assert!(over.is_none(), "{}\n{}", over.unwrap_or_default(), text);
+    }
+}
