@@ -123,17 +123,47 @@ struct ThreadRun {
     /// cycles waited for the spindle, and of those at speed
     waited: u64,
     settled: u64,
-    /// lead travel and speed (mm/s) at the last sample
+    /// lead travel, speed (mm/s) and acceleration (mm/s²) at the last
+    /// sample
     u: f64,
     v: f64,
+    acc: f64,
 }
 
+/// A controlled stop along a thread: lead travel, speed and acceleration
+/// (along the travel), the lead deceleration `a` and jerk `j` (infinite:
+/// none, the speed falls by `a` at once).
 #[derive(Clone, Copy)]
 struct StopRun {
     seg: ThreadSeg,
     u: f64,
     v: f64,
+    acc: f64,
     a: f64,
+    j: f64,
+}
+
+impl StopRun {
+    /// The next cycle's lead speed, `dt` later: at most `a` of deceleration
+    /// and `j` of jerk, braking as hard as still lets the braking ease back
+    /// to zero as the speed reaches zero (v ≥ d²/(2j) after the cycle).
+    fn next_speed(&mut self, dt: f64) -> f64 {
+        if !self.j.is_finite() {
+            return (self.v - self.a * dt).max(0.0);
+        }
+        let (j, d) = (self.j, -self.acc);
+        let want = j * ((dt * dt + 2.0 * self.v / j).sqrt() - dt);
+        let d1 = want.min(self.a).min(d + j * dt).max(d - j * dt);
+        self.acc = -d1;
+        let v1 = self.v - d1 * dt;
+        // (the last cycles remove what is left quadratically: below a
+        // nanometre a second the axis stands)
+        if v1 < 1e-6 {
+            0.0
+        } else {
+            v1
+        }
+    }
 }
 
 /// Runs a program (which must have passed [`crate::check`]) sample by sample.
@@ -165,6 +195,9 @@ pub struct Executor<S> {
     fault: Option<String>,
     /// stop now (abort): threads stop under control too
     halt: bool,
+    /// the lead speed of the last thread sample, mm/s (a chained block
+    /// starts at it)
+    thread_v: f64,
     /// the jerk filters ([`crate::jerk`]): the path filter over the path
     /// length, then the XYZ filter (None: no jerk limit)
     path: Option<PathFilter>,
@@ -241,6 +274,7 @@ impl<S: ProgramSource> Executor<S> {
                 .map_or(ENCODER_TIMEOUT_CYCLES * lim.dt, |ms| ms * 1e-3),
             fault: None,
             halt: false,
+            thread_v: 0.0,
             // (a path filter of one sample is none: the raw point's bits)
             path: (lim.jerk.m_s > 1).then(|| PathFilter::new(lim.jerk.m_s, 0.0, machine.home())),
             smooth: (lim.jerk.m_f > 1).then(|| Smoother::new(lim.jerk.m_f, machine.home())),
@@ -505,15 +539,17 @@ impl<S: ProgramSource> Executor<S> {
 
     /// Ends the run after a controlled stop of a thread at lead travel `u`
     /// and lead speed `v`.
-    fn stop_thread(&mut self, m: &ThreadMove, u: f64, v: f64, why: Option<String>) {
+    fn stop_thread(&mut self, m: &ThreadMove, run: &ThreadRun, why: Option<String>) {
         if self.fault.is_none() {
             self.fault = why;
         }
         self.cur = Some(Cur::Stop(StopRun {
             seg: m.seg,
-            u,
-            v: v.max(0.0),
+            u: run.u,
+            v: run.v.max(0.0),
+            acc: run.acc,
             a: m.accel,
+            j: m.jerk,
         }));
     }
 
@@ -541,12 +577,19 @@ impl<S: ProgramSource> Executor<S> {
                     self.src = m.src;
                     return self.end_at(m.seg.pos(run.u));
                 }
-                self.stop_thread(&m, run.u, run.v, Some(why));
+                self.stop_thread(&m, &run, Some(why));
                 return self.raw_sample();
             }
         };
-        if self.halt {
-            self.stop_thread(&m, run.u, run.v, None);
+        // (aborted in the chain's deceleration, the thread goes on to its
+        // end point: that deceleration is the stop, planned within the
+        // limits, and ends the run there)
+        let decelerating = |t0: f64| {
+            m.decel
+                .is_some_and(|d| theta - t0 > m.seg.len / m.seg.pitch - 0.5 * d)
+        };
+        if self.halt && !run.theta0.is_some_and(decelerating) {
+            self.stop_thread(&m, &run, None);
             return self.raw_sample();
         }
         let theta0 = match run.theta0 {
@@ -606,6 +649,10 @@ impl<S: ProgramSource> Executor<S> {
         };
         if done {
             self.pos = m.seg.end;
+            if self.halt {
+                self.src = m.src;
+                return self.end_at(m.seg.end);
+            }
             if m.decel.is_some() {
                 let k = run.end_tick.unwrap_or(self.vk.ceil() as u64);
                 self.vk = self.vk.max(k as f64);
@@ -618,7 +665,9 @@ impl<S: ProgramSource> Executor<S> {
         let (u, du) = m.at(x);
         let v = du * rev_s.max(0.0);
         run.u = u;
+        run.acc = m.d2u_dx2(x) * rev_s * rev_s + du * rev_s2;
         run.v = v;
+        self.thread_v = v;
         self.src = m.src;
         let on_line = du == m.seg.pitch;
         // on the line the lead axis accelerates with the spindle: lead it
@@ -782,7 +831,14 @@ impl<S: ProgramSource> Executor<S> {
                             waited: 0,
                             settled: 0,
                             u: 0.0,
-                            v: 0.0,
+                            // a chained block goes on at the speed the
+                            // last one left off at
+                            v: if m.runin.is_none() {
+                                self.thread_v
+                            } else {
+                                0.0
+                            },
+                            acc: 0.0,
                         }));
                     }
                 }
@@ -840,7 +896,7 @@ impl<S: ProgramSource> Executor<S> {
                 }
                 Some(Cur::Stop(mut st)) => {
                     self.bypass = true;
-                    let v1 = (st.v - st.a * self.dt).max(0.0);
+                    let v1 = st.next_speed(self.dt);
                     st.u = (st.u + 0.5 * (st.v + v1) * self.dt).min(st.seg.len);
                     st.v = v1;
                     let pos = st.seg.pos(st.u);

@@ -90,6 +90,24 @@ pub fn s_ramp(y: f64, r: f64, w: f64, c: f64) -> (f64, f64) {
     }
 }
 
+/// The second derivative of [`s_ramp`] at `y` (0 outside 0..=w).
+pub fn s_ramp_curvature(y: f64, r: f64, w: f64, c: f64) -> f64 {
+    if !(0.0..=w).contains(&y) {
+        return 0.0;
+    }
+    if c <= 0.0 {
+        return r / w;
+    }
+    let a = r / (w - c);
+    if y < c {
+        a * y / c
+    } else if y <= w - c {
+        a
+    } else {
+        a * (w - y) / c
+    }
+}
+
 /// A symmetric change of speed by `dv` (> 0) from and to zero
 /// acceleration, within acceleration `a` and jerk `j` (finite): its
 /// duration and the length of either jerk phase, s.
@@ -201,6 +219,23 @@ impl ThreadMove {
             }
         }
         ((p * x).clamp(0.0, l), p)
+    }
+
+    /// d²u/dθ² at `x` (see [`ThreadMove::at`]), mm/rev².
+    pub fn d2u_dx2(&self, x: f64) -> f64 {
+        let p = self.seg.pitch;
+        if let Some((_, d)) = self.runin {
+            if x < 0.5 * d {
+                return s_ramp_curvature(x + 0.5 * d, p, d, self.jerk_phase());
+            }
+        }
+        if let Some(d) = self.decel {
+            let xl = self.seg.len / p;
+            if x > xl - 0.5 * d {
+                return -s_ramp_curvature(xl + 0.5 * d - x, p, d, self.jerk_phase());
+            }
+        }
+        0.0
     }
 
     /// The jerk phase of the run-in and the deceleration, revolutions (0:
@@ -620,6 +655,15 @@ mod tests {
                 d2.iter().all(|x| x.abs() <= a.abs() * (1.0 + 1e-9)),
                 "{r} {w} {c}"
             );
+            // s_ramp_curvature is that second derivative
+            for (k, x) in d2.iter().enumerate() {
+                let y = (k as f64 + 0.5) * h;
+                assert!(
+                    (s_ramp_curvature(y, r, w, c) - x).abs() <= j.abs() * h,
+                    "{r} {w} {c} {y}"
+                );
+            }
+            assert_eq!(s_ramp_curvature(-h, r, w, c), 0.0);
             let peak = d2.iter().fold(0.0f64, |m, x| m.max(x.abs()));
             assert!((peak - a.abs()).abs() < 1e-3 * a.abs(), "{peak} {a}");
             for p in d2.windows(2) {

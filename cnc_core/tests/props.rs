@@ -472,7 +472,9 @@ proptest! {
     /// runout the check accepts: no axis exceeds its velocity,
     /// acceleration or jerk at any sample (the run-in, the deceleration
     /// and the runout's kink are S-curves in the spindle angle), the run
-    /// ends on its end point exactly when the check said.
+    /// ends on its end point exactly when the check said. Aborted at any
+    /// sample of the thread (a controlled stop along it, as on a lost
+    /// encoder), it keeps every limit too and ends there.
     #[test]
     fn threads_keep_every_limit_at_any_jerk(
         jerk in 2.0e4..1.0e6f64,
@@ -481,6 +483,7 @@ proptest! {
         len in 5.0..60.0f64,
         taper in prop_oneof![Just(0.0), -2.0..2.0f64],
         runout in prop::option::of(0.5..5.0f64),
+        abort in prop::option::of(0.0..1.0f64),
     ) {
         let mut m = Machine::builtin_lathe();
         for a in &mut m.axes {
@@ -501,10 +504,24 @@ proptest! {
         };
         let r = check(StrSource::new(&text), Dialect::Cnc836, &m);
         prop_assume!(r.ok());
-        let s: Vec<Sample> = Executor::new(StrSource::new(&text), Dialect::Cnc836, &m).collect();
-        let last = s.last().unwrap();
-        prop_assert_eq!(last.k, r.ticks);
-        prop_assert!(s.iter().any(|x| x.sync.is_some_and(|y| y.on_line)), "no sample on the thread line\n{}", text);
+        let mut ex = Executor::new(StrSource::new(&text), Dialect::Cnc836, &m);
+        // (the first sample of the thread from this share of the run on)
+        let at = abort.map(|f| (f * r.ticks as f64) as usize);
+        let mut aborted = false;
+        let mut s: Vec<Sample> = Vec::new();
+        while let Some(x) = ex.next_sample() {
+            if !aborted && at.is_some_and(|k| s.len() >= k) && x.sync.is_some() {
+                ex.abort();
+                aborted = true;
+            }
+            s.push(x);
+            prop_assert!(s.len() as u64 <= r.ticks + 10_000, "no end\n{}", text);
+        }
+        if !aborted {
+            let last = s.last().unwrap();
+            prop_assert_eq!(last.k, r.ticks);
+            prop_assert!(s.iter().any(|x| x.sync.is_some_and(|y| y.on_line)), "no sample on the thread line\n{}", text);
+        }
         let over = over_a_limit(&s, &m, Some(jerk));
         prop_assert!(over.is_none(), "{}\n{}", over.unwrap_or_default(), text);
     }
