@@ -133,7 +133,11 @@ fn jerk_selected_machines_keep_every_limit() {
         assert!(r.ok(), "selector {sel:#x}: {}", r.message());
         let pos = common::exec_props(d, &m, text, &r, 100_000);
         assert_eq!(pos.len() as u64, r.ticks + 1, "selector {sel:#x}");
-        assert_eq!(common::over_a_limit(&m, &pos), None, "selector {sel:#x}");
+        assert_eq!(
+            common::over_a_limit(&m, &pos, true),
+            None,
+            "selector {sel:#x}"
+        );
     }
     // the bundled machines as they are (bits 2-4 = 0 or 1)
     let (_, m, _) = common::split_jerk(&[1 << 2 | 2]).unwrap();
@@ -156,7 +160,7 @@ fn the_limit_check_finds_a_step_of_acceleration() {
             [0.5 * a * t * t, 0.0, 0.0]
         })
         .collect();
-    let what = common::over_a_limit(&m, &pos).unwrap();
+    let what = common::over_a_limit(&m, &pos, true).unwrap();
     assert!(what.starts_with("j[0] = "), "{what}");
     assert!(what.ends_with(&format!("> {j} at sample 3")), "{what}");
 }

@@ -100,33 +100,21 @@ proptest! {
         let last = s.last().unwrap();
         prop_assert_eq!(last.pos, end);
         prop_assert_eq!(last.k, r.ticks);
-        let over = over_a_limit(&s, &m, None);
+        let over = over_a_limit(&s, &m, false);
         prop_assert!(over.is_none(), "{}\n{}", over.unwrap_or_default(), text);
     }
 }
 
+/// The fuzz targets' check of the samples' finite differences
+/// (`over_a_limit`), shared as it is.
+#[path = "../../fuzz/fuzz_targets/common.rs"]
+mod common;
+
 /// The first sample at which an axis exceeds its velocity, acceleration
-/// or (if given) jerk limit, as sampled second and third differences.
-fn over_a_limit(s: &[Sample], m: &Machine, jerk: Option<f64>) -> Option<String> {
-    let dt = m.dt();
-    let (vmax, amax) = (m.vmax(), m.amax());
-    let vel: Vec<V3> = s.windows(2).map(|w| (w[1].pos - w[0].pos) / dt).collect();
-    let acc: Vec<V3> = vel.windows(2).map(|w| (w[1] - w[0]) / dt).collect();
-    for i in 0..3 {
-        if let Some(k) = vel.iter().position(|v| v[i].abs() > vmax[i] * (1.0 + 1e-9)) {
-            return Some(format!("v[{i}] = {} at sample {}", vel[k][i], k + 1));
-        }
-        let over = |a: &V3| a[i].abs() > amax[i] * (1.0 + 1e-6) + 1e-6;
-        if let Some(k) = acc.iter().position(over) {
-            return Some(format!("a[{i}] = {} at sample {}", acc[k][i], k + 1));
-        }
-        let Some(j) = jerk else { continue };
-        let jk: Vec<f64> = acc.windows(2).map(|w| (w[1][i] - w[0][i]) / dt).collect();
-        if let Some(k) = jk.iter().position(|x| x.abs() > j * (1.0 + 1e-6) + 1e-3) {
-            return Some(format!("j[{i}] = {} > {j} at sample {}", jk[k], k + 2));
-        }
-    }
-    None
+/// or (with `jerk`, the machine's) jerk limit, as sampled differences.
+fn over_a_limit(s: &[Sample], m: &Machine, jerk: bool) -> Option<String> {
+    let pos: Vec<[f64; 3]> = s.iter().map(|x| [x.pos.x, x.pos.y, x.pos.z]).collect();
+    common::over_a_limit(m, &pos, jerk)
 }
 
 /// Distance from `p` to the segment `a`-`b`.
@@ -192,7 +180,7 @@ proptest! {
             let d = pts.windows(2).map(|w| seg_dist(x.pos, w[0], w[1])).fold(f64::MAX, f64::min);
             prop_assert!(d <= r4(tol) + 1e-9, "{} mm off the path at k={} (P{})\n{}", d, x.k, r4(tol), text);
         }
-        let over = over_a_limit(&s, &m, None);
+        let over = over_a_limit(&s, &m, false);
         prop_assert!(over.is_none(), "{}\n{}", over.unwrap_or_default(), text);
     }
 }
@@ -259,7 +247,7 @@ proptest! {
             let d = els.iter().map(|e| el_dist(x.pos, e)).fold(f64::MAX, f64::min);
             prop_assert!(d <= bound, "{} mm off the path at k={} (bound {})\n{}", d, x.k, bound, text);
         }
-        let over = over_a_limit(&s, &m, Some(jerk));
+        let over = over_a_limit(&s, &m, true);
         prop_assert!(over.is_none(), "{}\n{}", over.unwrap_or_default(), text);
     }
 }
@@ -459,7 +447,7 @@ proptest! {
             let d = els.iter().map(|e| el_dist(x.pos, e)).fold(f64::MAX, f64::min);
             prop_assert!(d <= bound, "{} mm off the path at k={} (bound {})\n{}", d, x.k, bound, text);
         }
-        let over = over_a_limit(&s, &m, Some(jerk));
+        let over = over_a_limit(&s, &m, true);
         prop_assert!(over.is_none(), "{}\n{}", over.unwrap_or_default(), text);
     }
 }
@@ -522,7 +510,7 @@ proptest! {
             prop_assert_eq!(last.k, r.ticks);
             prop_assert!(s.iter().any(|x| x.sync.is_some_and(|y| y.on_line)), "no sample on the thread line\n{}", text);
         }
-        let over = over_a_limit(&s, &m, Some(jerk));
+        let over = over_a_limit(&s, &m, true);
         prop_assert!(over.is_none(), "{}\n{}", over.unwrap_or_default(), text);
     }
 }

@@ -80,10 +80,10 @@ pub fn split_jerk(data: &[u8]) -> Option<(Dialect, Machine, &[u8])> {
     Some((dialect, m, text))
 }
 
-/// The first sample at which an axis's velocity, acceleration or jerk
-/// (first, second and third differences of the positions at the sample
-/// rate) exceeds the machine's limit, as text.
-pub fn over_a_limit(m: &Machine, pos: &[[f64; 3]]) -> Option<String> {
+/// The first sample at which an axis's velocity, acceleration or (with
+/// `jerk`) jerk (first, second and third differences of the positions at
+/// the sample rate) exceeds the machine's limit, as text.
+pub fn over_a_limit(m: &Machine, pos: &[[f64; 3]], jerk: bool) -> Option<String> {
     let dt = m.dt();
     let (vmax, amax) = (m.vmax(), m.amax());
     let diff = |x: &[[f64; 3]]| -> Vec<[f64; 3]> {
@@ -93,7 +93,7 @@ pub fn over_a_limit(m: &Machine, pos: &[[f64; 3]]) -> Option<String> {
     };
     let vel = diff(pos);
     let acc = diff(&vel);
-    let jerk = diff(&acc);
+    let jk = diff(&acc);
     for i in 0..3 {
         if let Some(k) = vel.iter().position(|v| v[i].abs() > vmax[i] * (1.0 + 1e-9)) {
             return Some(format!("v[{i}] = {} at sample {}", vel[k][i], k + 1));
@@ -102,14 +102,11 @@ pub fn over_a_limit(m: &Machine, pos: &[[f64; 3]]) -> Option<String> {
         if let Some(k) = acc.iter().position(over) {
             return Some(format!("a[{i}] = {} at sample {}", acc[k][i], k + 2));
         }
-        let Some(j) = m.axis(i).and_then(|a| a.max_jerk_mm_s3) else {
+        let Some(j) = m.axis(i).and_then(|a| a.max_jerk_mm_s3).filter(|_| jerk) else {
             continue;
         };
-        if let Some(k) = jerk
-            .iter()
-            .position(|x| x[i].abs() > j * (1.0 + 1e-6) + 1e-3)
-        {
-            return Some(format!("j[{i}] = {} > {j} at sample {}", jerk[k][i], k + 3));
+        if let Some(k) = jk.iter().position(|x| x[i].abs() > j * (1.0 + 1e-6) + 1e-3) {
+            return Some(format!("j[{i}] = {} > {j} at sample {}", jk[k][i], k + 3));
         }
     }
     None

@@ -93,7 +93,7 @@ fuzz_target!(|data: &[u8]| {
     }
     let report = common::check_props(dialect, &machine, text);
     let pos = common::exec_props(dialect, &machine, text, &report, MAX_TICKS);
-    if let Some(what) = common::over_a_limit(&machine, &pos) {
+    if let Some(what) = common::over_a_limit(&machine, &pos, true) {
         panic!("{what}");
     }
 });
