@@ -537,8 +537,8 @@ impl<S: ProgramSource> Executor<S> {
         })
     }
 
-    /// Ends the run after a controlled stop of a thread at lead travel `u`
-    /// and lead speed `v`.
+    /// Ends the run after a controlled stop of a thread from where `run`
+    /// stands (its lead travel, speed and acceleration).
     fn stop_thread(&mut self, m: &ThreadMove, run: &ThreadRun, why: Option<String>) {
         if self.fault.is_none() {
             self.fault = why;

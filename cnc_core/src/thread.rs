@@ -36,8 +36,8 @@
 //! The jerk of a thread block is that of its run-in, deceleration and
 //! runout at the planned spindle speed, plus whatever the spindle's own
 //! speed changes add; a chained block's start (a kink within one cycle's
-//! share of the acceleration) and a controlled stop inside the thread (a
-//! fault, a feed hold) are not jerk-limited.
+//! share of the acceleration) is not jerk-limited. (A controlled stop
+//! inside the thread, on an abort or a fault, is: `exec.rs`, `StopRun`.)
 
 use crate::canon::{RunoutPath, ThreadMove, ThreadSeg};
 use crate::geom::V3;
@@ -178,6 +178,13 @@ impl ThreadSeg {
     }
 }
 
+/// Where a sample falls in a thread block's run-in or deceleration
+/// ([`ThreadMove::at`]).
+enum Ramp {
+    In { y: f64, d: f64 },
+    Out { y: f64, d: f64 },
+}
+
 impl ThreadMove {
     /// Spindle turning direction the angles count in: +1 M03, −1 M04.
     pub fn dir(&self) -> f64 {
@@ -202,40 +209,42 @@ impl ThreadMove {
     /// Lead travel at `x` = θ − θ₀ revolutions (clamped to the block) and
     /// its rate du/dθ (mm/rev) there.
     pub fn at(&self, x: f64) -> (f64, f64) {
-        let p = self.seg.pitch;
-        let l = self.seg.len;
-        if let Some((_, d)) = self.runin {
-            if x < 0.5 * d {
-                let y = (x + 0.5 * d).max(0.0);
-                return s_ramp(y, p, d, self.jerk_phase());
-            }
-        }
-        if let Some(d) = self.decel {
-            let xl = l / p;
-            if x > xl - 0.5 * d {
-                let y = (xl + 0.5 * d - x).max(0.0);
+        let (p, l) = (self.seg.pitch, self.seg.len);
+        match self.ramp(x) {
+            Some(Ramp::In { y, d }) => s_ramp(y, p, d, self.jerk_phase()),
+            Some(Ramp::Out { y, d }) => {
                 let (u, du) = s_ramp(y, p, d, self.jerk_phase());
-                return (l - u, du);
+                (l - u, du)
             }
+            None => ((p * x).clamp(0.0, l), p),
         }
-        ((p * x).clamp(0.0, l), p)
     }
 
     /// d²u/dθ² at `x` (see [`ThreadMove::at`]), mm/rev².
     pub fn d2u_dx2(&self, x: f64) -> f64 {
         let p = self.seg.pitch;
+        match self.ramp(x) {
+            Some(Ramp::In { y, d }) => s_ramp_curvature(y, p, d, self.jerk_phase()),
+            Some(Ramp::Out { y, d }) => -s_ramp_curvature(y, p, d, self.jerk_phase()),
+            None => 0.0,
+        }
+    }
+
+    /// Which ramp `x` is in, with its coordinate `y` from the ramp's end at
+    /// rest (negative before the run-in begins) and its Δ; `None` on the
+    /// line.
+    fn ramp(&self, x: f64) -> Option<Ramp> {
         if let Some((_, d)) = self.runin {
             if x < 0.5 * d {
-                return s_ramp_curvature(x + 0.5 * d, p, d, self.jerk_phase());
+                return Some(Ramp::In { y: x + 0.5 * d, d });
             }
         }
-        if let Some(d) = self.decel {
-            let xl = self.seg.len / p;
-            if x > xl - 0.5 * d {
-                return -s_ramp_curvature(xl + 0.5 * d - x, p, d, self.jerk_phase());
-            }
-        }
-        0.0
+        let d = self.decel?;
+        let xl = self.seg.len / self.seg.pitch;
+        (x > xl - 0.5 * d).then_some(Ramp::Out {
+            y: xl + 0.5 * d - x,
+            d,
+        })
     }
 
     /// The jerk phase of the run-in and the deceleration, revolutions (0:
