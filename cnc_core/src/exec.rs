@@ -46,9 +46,8 @@ use crate::machine::Machine;
 use crate::pipeline::Pipeline;
 use crate::plan::{Item, PlanLimits, PlannedMove};
 use crate::source::ProgramSource;
-use crate::thread::{
-    EncoderReading, SpindleTracker, AT_SPEED_SETTLE_S, AT_SPEED_TOLERANCE, ENCODER_TIMEOUT_CYCLES,
-};
+use crate::thread::{AT_SPEED_SETTLE_S, AT_SPEED_TOLERANCE, ENCODER_TIMEOUT_CYCLES};
+use crate::tracker::{EncoderReading, SpindleTracker};
 
 pub use crate::shares::MAX_OVERRIDE;
 

@@ -33,6 +33,7 @@ pub mod shares;
 pub mod source;
 pub mod thread;
 pub mod timeline;
+pub mod tracker;
 pub mod travel;
 
 pub use check::{check, CheckReport};

@@ -16,7 +16,7 @@
 
 use crate::program::OwnedSource;
 use cnc_core::exec::{Executor, Sync as ThreadSync};
-use cnc_core::thread::EncoderReading;
+use cnc_core::tracker::EncoderReading;
 use cnc_core::{Dialect, Machine};
 
 /// Controller states, as in `cnc_msgs/ControllerStatus`.

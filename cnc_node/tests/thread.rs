@@ -55,6 +55,19 @@ impl Run {
         out
     }
 
+    /// Each joint's largest |jerk| of the setpoints (third differences).
+    fn max_jerk(&self, dt: f64) -> Vec<f64> {
+        let n = self.setpoints[0].len();
+        let mut out = vec![0.0f64; n];
+        for w in self.setpoints.windows(4) {
+            for j in 0..n {
+                let d = w[3][j] - 3.0 * w[2][j] + 3.0 * w[1][j] - w[0][j];
+                out[j] = out[j].max((d / (dt * dt * dt)).abs());
+            }
+        }
+        out
+    }
+
     fn on_line(&self, line: u32) -> Vec<ThreadSample> {
         self.samples
             .iter()
@@ -174,7 +187,7 @@ fn example1_after(rpm: f64, wait_ms: u32) -> String {
 const SPEEDS: [f64; 3] = [200.0, 800.0, 2000.0];
 
 #[test]
-fn lead_error_in_the_synchronized_part_is_within_one_count_or_1_05_under_ripple() {
+fn lead_error_in_the_synchronized_part_is_within_one_count_or_1_3_under_ripple() {
     // (at 8 start phases against the ripple: the error depends on it)
     for (ripple, rpm, wait_ms) in [0.0, 0.02]
         .into_iter()
@@ -206,17 +219,17 @@ fn lead_error_in_the_synchronized_part_is_within_one_count_or_1_05_under_ripple(
                 to_count = to_count.max(e_count.abs());
             }
             // against the spindle's true angle: within one count, and
-            // 1.05 at 2000 rpm at some phases of a ±2 % ripple (see
-            // `SpindleTracker`'s window)
-            let bound = if ripple == 0.0 { 1.0 } else { 1.06 };
+            // 1.3 at 2000 rpm at some phases of a ±2 % ripple (measured
+            // 1.28; see `SpindleTracker`'s window and its weights)
+            let bound = if ripple == 0.0 { 1.0 } else { 1.3 };
             assert!(
                 to_true <= bound,
                 "{rpm} rpm, ripple {ripple}, after {wait_ms} ms: lead error {to_true:.3} counts"
             );
             // against the count itself, which is up to half a count off the
-            // true angle: within one and a half
+            // true angle: within half a count more
             assert!(
-                to_count <= 1.5,
+                to_count <= bound + 0.5,
                 "{rpm} rpm, ripple {ripple}, after {wait_ms} ms: {to_count:.3} counts from the counted angle"
             );
         }
@@ -238,10 +251,10 @@ fn passes_at_any_speed_cut_the_same_groove() {
                 g.abs() < 0.05,
                 "{rpm} rpm ripple {ripple}: groove at {g} deg"
             );
-            // (one count, 1.06 under ripple: see the lead error test)
+            // (one count, 1.3 under ripple: see the lead error test)
             // (the setpoint less its lead for the servo's lag under the
             // ripple's acceleration, up to 0.1° at S2000 here)
-            let counts = if ripple == 0.0 { 1.0 } else { 1.06 };
+            let counts = if ripple == 0.0 { 1.0 } else { 1.3 };
             let lead_um = on.iter().fold(0.0f64, |m, s| m.max(s.accel_lead.abs())) * 1000.0;
             eprintln!("S{rpm} ripple {ripple}: largest acceleration lead {lead_um:.4} µm");
             // the tracker's acceleration from quantized counts: 0.03-0.04
@@ -404,6 +417,33 @@ fn setpoints_never_exceed_an_axis_acceleration() {
                     "{rpm} rpm ripple {ripple}: joint {j} at {a:.9} mm/s² (limit {lim})"
                 );
             }
+        }
+    }
+}
+
+/// The bundled lathe with its 4096-count encoder: every setpoint of a
+/// thread, the thread line included, within the axes' jerk limit (200
+/// m/s³). The lead follows the tracker's predicted angle, whose
+/// quantization noise was 368 m/s³ of sampled jerk on a 1.5 mm lead with
+/// equal weights in the fit (`cnc_core::tracker`'s `weight`); now at most
+/// about 80.
+#[test]
+fn thread_setpoints_keep_the_jerk_limit_with_the_bundled_encoder() {
+    for rpm in SPEEDS {
+        let m = lathe(0.0);
+        let p = format!("N5 G00 X20 Z5\nN10 M03 S{rpm}\nN20 G33 Z-40 F1.5\nN30 G00 X30\nN40 Z5\n");
+        let r = run(&p, &m);
+        assert_eq!(r.fault, None);
+        assert!(r.on_line(3).len() > 500, "{rpm} rpm");
+        let jerk = r.max_jerk(m.dt());
+        for (j, got) in jerk.iter().enumerate() {
+            let lim = m.axes[j].max_jerk_mm_s3.unwrap();
+            assert!(
+                *got <= lim * (1.0 + 1e-6),
+                "{rpm} rpm: joint {j} at {:.1} m/s³ (limit {})",
+                got / 1000.0,
+                lim / 1000.0
+            );
         }
     }
 }

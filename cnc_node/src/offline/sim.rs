@@ -103,8 +103,8 @@ pub fn simulate_with<S: ProgramSource>(
 }
 
 /// The simulator's encoder reading at time `t` as the executor takes it.
-pub fn encoder_reading(e: &sim_axes::EncoderReading, t: f64) -> cnc_core::thread::EncoderReading {
-    cnc_core::thread::EncoderReading {
+pub fn encoder_reading(e: &sim_axes::EncoderReading, t: f64) -> cnc_core::tracker::EncoderReading {
+    cnc_core::tracker::EncoderReading {
         t,
         count: e.count,
         counts_per_rev: e.counts_per_rev,
