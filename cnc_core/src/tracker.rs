@@ -228,4 +228,43 @@ mod tests {
         let rpm = tr.predict(0.2).unwrap().1 / cpr * 60.0;
         assert!((rpm - 2000.0).abs() < 1.0, "{rpm}");
     }
+
+    /// The predicted angle's third difference from one 1 ms cycle to the
+    /// next on a steady spindle, at speeds from 100 to 4000 rpm, each at
+    /// three start angles, predicted 3 ms ahead: within 0.35 counts (on a
+    /// 1.5 mm pitch at 4096 counts, 128 m/s³ of lead jerk; measured 0.30
+    /// at 2050 rpm). With equal weights it reaches 1.02 counts (3415
+    /// rpm).
+    #[test]
+    fn a_steady_spindle_s_prediction_changes_smoothly() {
+        let mut worst: (f64, f64) = (0.0, 0.0);
+        for i in 0..60 {
+            let rpm = 100.0 + 65.0 * f64::from(i);
+            for phase in [0.0, 0.37, 0.71] {
+                let mut tr = SpindleTracker::default();
+                let counts = |t: f64| (rpm / 60.0 * t) * 4096.0 + phase * 4096.0;
+                let mut p = Vec::new();
+                for k in 0..150 {
+                    let t = k as f64 * 0.001;
+                    tr.push(EncoderReading {
+                        t,
+                        count: counts(t).floor() as i64,
+                        counts_per_rev: 4096,
+                        index_count: 1,
+                        count_at_index: 0,
+                    });
+                    if k >= 30 {
+                        p.push(tr.predict(t + 0.003).unwrap().0);
+                    }
+                }
+                for w in p.windows(4) {
+                    let d3 = (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs();
+                    if d3 > worst.0 {
+                        worst = (d3, rpm);
+                    }
+                }
+            }
+        }
+        assert!(worst.0 < 0.35, "{:.3} counts at {} rpm", worst.0, worst.1);
+    }
 }
