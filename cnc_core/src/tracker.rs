@@ -141,7 +141,7 @@ impl SpindleTracker {
                 break;
             }
             let x = tau * 1000.0;
-            let y = (c - c1) as f64;
+            let y = (i128::from(c) - i128::from(c1)) as f64;
             let w = weight(x);
             let mut p = [1.0; TERMS];
             for i in 1..TERMS {
@@ -266,5 +266,44 @@ mod tests {
             }
         }
         assert!(worst.0 < 0.35, "{:.3} counts at {} rpm", worst.0, worst.1);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(256))]
+        /// Any readings a publisher may send (times out of order or far
+        /// apart, counts anywhere in i64, any counts per revolution):
+        /// never a panic, and every prediction finite.
+        #[test]
+        fn any_readings_give_a_finite_prediction_or_none(
+            readings in proptest::collection::vec(
+                (-2_000i64..50_000, proptest::prelude::any::<i64>(), 0u32..8, proptest::prelude::any::<u32>()),
+                0..80,
+            ),
+            ahead in -0.1f64..1.0,
+        ) {
+            let mut tr = SpindleTracker::default();
+            let mut t = 0.0;
+            for (dt_us, count, kind, cpr) in readings {
+                t += dt_us as f64 * 1e-6;
+                // mostly counts near the last, sometimes anywhere
+                let count = match (kind, tr.last) {
+                    (0, _) | (_, None) => count,
+                    (_, Some(l)) => l.count.saturating_add(count % 100_000),
+                };
+                tr.push(EncoderReading {
+                    t,
+                    count,
+                    counts_per_rev: cpr,
+                    index_count: 1,
+                    count_at_index: 0,
+                });
+                if let Some(p) = tr.predict_motion(t + ahead) {
+                    proptest::prop_assert!(
+                        p.counts.is_finite() && p.per_s.is_finite() && p.per_s2.is_finite(),
+                        "{p:?}"
+                    );
+                }
+            }
+        }
     }
 }
