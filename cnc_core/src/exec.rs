@@ -51,6 +51,11 @@ use crate::tracker::{EncoderReading, SpindleTracker};
 
 pub use crate::shares::MAX_OVERRIDE;
 
+/// A spindle encoder's count may move at most this many times the
+/// spindle's top speed (`spindle.max_rpm`) between two readings, plus two
+/// counts; more is an encoder fault ([`Executor::encoder`]).
+pub const IMPLAUSIBLE_SPEED: f64 = 1.5;
+
 /// One interpolation cycle's output.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sample {
@@ -190,6 +195,12 @@ pub struct Executor<S> {
     sp_scale: f64,
     /// readings older than this are a lost signal, s
     encoder_timeout: f64,
+    /// the spindle's top speed, rev/s (readings implying more than
+    /// [`IMPLAUSIBLE_SPEED`] times it are an encoder fault)
+    spindle_max_rps: f64,
+    /// why the encoder's readings cannot be followed (a fault at the next
+    /// sample that needs the spindle)
+    encoder_bad: Option<String>,
     /// why the run stopped early
     fault: Option<String>,
     /// stop now (abort): threads stop under control too
@@ -271,6 +282,11 @@ impl<S: ProgramSource> Executor<S> {
                 .as_ref()
                 .and_then(|s| s.encoder_timeout_ms)
                 .map_or(ENCODER_TIMEOUT_CYCLES * lim.dt, |ms| ms * 1e-3),
+            spindle_max_rps: machine
+                .spindle
+                .as_ref()
+                .map_or(f64::INFINITY, |s| s.max_rpm / 60.0),
+            encoder_bad: None,
             fault: None,
             halt: false,
             thread_v: 0.0,
@@ -323,8 +339,37 @@ impl<S: ProgramSource> Executor<S> {
 
     /// A reading of the spindle encoder (its `t` in this executor's time:
     /// sample k is at k·dt). Ignored without [`Executor::attach_encoder`].
+    ///
+    /// A reading no encoder on this spindle can give (its counts per
+    /// revolution changed, or its count moved faster than
+    /// [`IMPLAUSIBLE_SPEED`] times the spindle's top speed since the last
+    /// one) is not followed: G33 and G95 then stop under control, as for a
+    /// lost signal.
     pub fn encoder(&mut self, r: EncoderReading) {
-        if let Some(t) = self.tracker.as_mut() {
+        let Some(t) = self.tracker.as_mut() else {
+            return;
+        };
+        if let Some(l) = t.last.filter(|l| r.t > l.t && self.encoder_bad.is_none()) {
+            let jump = (i128::from(r.count) - i128::from(l.count)) as f64;
+            let ms = (r.t - l.t) * 1000.0;
+            let most = IMPLAUSIBLE_SPEED
+                * self.spindle_max_rps
+                * f64::from(l.counts_per_rev)
+                * (r.t - l.t)
+                + 2.0;
+            if r.counts_per_rev != l.counts_per_rev {
+                self.encoder_bad = Some(format!(
+                    "spindle encoder fault: its counts per revolution changed from {} to {}",
+                    l.counts_per_rev, r.counts_per_rev
+                ));
+            } else if jump.abs() > most {
+                self.encoder_bad = Some(format!(
+                    "spindle encoder fault: its count jumped by {jump:.0} in {ms:.1} ms, \
+                     faster than the spindle can turn"
+                ));
+            }
+        }
+        if self.encoder_bad.is_none() {
             t.push(r);
         }
     }
@@ -516,6 +561,9 @@ impl<S: ProgramSource> Executor<S> {
                 rev_s2: 0.0,
             });
         };
+        if let Some(why) = &self.encoder_bad {
+            return Err(why.clone());
+        }
         let t = self.k as f64 * self.dt;
         let (Some(last), Some(p)) = (tr.last, tr.predict_motion(t + ahead)) else {
             return Err("no spindle encoder reading".into());
@@ -607,6 +655,19 @@ impl<S: ProgramSource> Executor<S> {
                 match index {
                     Some(ix) if at_speed && !held => {
                         let t0 = self.pipe.timeline.thread_begin(&m, theta, ix);
+                        // the run-in starts within a revolution of now,
+                        // unless the encoder's index is ahead of its count
+                        // (no real encoder's is: a fault, nothing moved)
+                        let wait = t0 + m.start_x() - theta;
+                        if m.runin.is_some() && (wait > 2.0 || wait.is_nan()) {
+                            self.fault = Some(format!(
+                                "line {}: G33 cannot start: the spindle encoder's last index \
+                                 pulse is {wait:.0} revolutions ahead of its count",
+                                m.src.line
+                            ));
+                            self.src = m.src;
+                            return self.end_at(m.seg.start);
+                        }
                         run.theta0 = Some(t0);
                         t0
                     }

@@ -276,8 +276,12 @@ impl ThreadMove {
         let first = index + i;
         let n = (now - self.start_x() - first).max(0.0).ceil();
         let mut theta0 = first + n;
-        // (the ceil may land a hair short by rounding)
-        while theta0 + self.start_x() < now {
+        // (the ceil may land a hair short by rounding; a few steps at most,
+        // and none where a revolution is below the angles' resolution)
+        for _ in 0..4 {
+            if theta0 + self.start_x() >= now {
+                break;
+            }
             theta0 += 1.0;
         }
         theta0
