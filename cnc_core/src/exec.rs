@@ -51,11 +51,6 @@ use crate::tracker::{EncoderReading, SpindleTracker};
 
 pub use crate::shares::MAX_OVERRIDE;
 
-/// A spindle encoder's count may move at most this many times the
-/// spindle's top speed (`spindle.max_rpm`) between two readings, plus two
-/// counts; more is an encoder fault ([`Executor::encoder`]).
-pub const IMPLAUSIBLE_SPEED: f64 = 1.5;
-
 /// One interpolation cycle's output.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sample {
@@ -196,7 +191,7 @@ pub struct Executor<S> {
     /// readings older than this are a lost signal, s
     encoder_timeout: f64,
     /// the spindle's top speed, rev/s (readings implying more than
-    /// [`IMPLAUSIBLE_SPEED`] times it are an encoder fault)
+    /// [`IMPLAUSIBLE_SPEED`](crate::tracker::IMPLAUSIBLE_SPEED) times it are an encoder fault)
     spindle_max_rps: f64,
     /// why the encoder's readings cannot be followed (a fault at the next
     /// sample that needs the spindle)
@@ -342,32 +337,15 @@ impl<S: ProgramSource> Executor<S> {
     ///
     /// A reading no encoder on this spindle can give (its counts per
     /// revolution changed, or its count moved faster than
-    /// [`IMPLAUSIBLE_SPEED`] times the spindle's top speed since the last
+    /// [`IMPLAUSIBLE_SPEED`](crate::tracker::IMPLAUSIBLE_SPEED) times the spindle's top speed since the last
     /// one) is not followed: G33 and G95 then stop under control, as for a
     /// lost signal.
     pub fn encoder(&mut self, r: EncoderReading) {
         let Some(t) = self.tracker.as_mut() else {
             return;
         };
-        if let Some(l) = t.last.filter(|l| r.t > l.t && self.encoder_bad.is_none()) {
-            let jump = (i128::from(r.count) - i128::from(l.count)) as f64;
-            let ms = (r.t - l.t) * 1000.0;
-            let most = IMPLAUSIBLE_SPEED
-                * self.spindle_max_rps
-                * f64::from(l.counts_per_rev)
-                * (r.t - l.t)
-                + 2.0;
-            if r.counts_per_rev != l.counts_per_rev {
-                self.encoder_bad = Some(format!(
-                    "spindle encoder fault: its counts per revolution changed from {} to {}",
-                    l.counts_per_rev, r.counts_per_rev
-                ));
-            } else if jump.abs() > most {
-                self.encoder_bad = Some(format!(
-                    "spindle encoder fault: its count jumped by {jump:.0} in {ms:.1} ms, \
-                     faster than the spindle can turn"
-                ));
-            }
+        if self.encoder_bad.is_none() {
+            self.encoder_bad = t.implausible(&r, self.spindle_max_rps);
         }
         if self.encoder_bad.is_none() {
             t.push(r);

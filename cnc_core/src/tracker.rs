@@ -56,6 +56,16 @@ fn weight(x: f64) -> f64 {
     ramp((x + window + 1.0) / (TAPER_OLD_MS + 1.0)) * ramp((1.0 - x) / (TAPER_NEW_MS + 1.0))
 }
 
+/// A spindle encoder's count may move at most this many times the
+/// spindle's top speed (`spindle.max_rpm`) between two readings, plus two
+/// counts; more is an encoder fault ([`SpindleTracker::implausible`]).
+pub const IMPLAUSIBLE_SPEED: f64 = 1.5;
+
+/// `b − a` counts, exact for any two i64 counts (no overflow).
+fn counts_between(a: i64, b: i64) -> f64 {
+    (i128::from(b) - i128::from(a)) as f64
+}
+
 /// One reading of the spindle encoder, in the executor's time base.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EncoderReading {
@@ -81,10 +91,10 @@ pub struct Predicted {
     pub per_s2: f64,
 }
 
-/// Follows the measured spindle: a least-squares parabola through the
-/// readings of the last [`WINDOW_S`] predicts the angle at the instant a
-/// setpoint is meant for. A count stands for the interval
-/// `[count, count + 1)` of the angle, so its centre is used.
+/// Follows the measured spindle: a weighted least-squares parabola
+/// ([`weight`]) through the readings of the last [`WINDOW_S`] predicts
+/// the angle at the instant a setpoint is meant for. A count stands for
+/// the interval `[count, count + 1)` of the angle, so its centre is used.
 #[derive(Clone, Debug)]
 pub struct SpindleTracker {
     ring: [(f64, i64); HISTORY],
@@ -121,6 +131,30 @@ impl SpindleTracker {
         self.last = Some(r);
     }
 
+    /// Why `r`, after the last reading, is one no encoder on a spindle of
+    /// at most `max_rps` rev/s can give (None: it can, or it is not newer
+    /// and [`push`](Self::push) ignores it): its counts per revolution
+    /// changed, or its count moved more than [`IMPLAUSIBLE_SPEED`] times
+    /// that speed allows, plus two counts.
+    pub fn implausible(&self, r: &EncoderReading, max_rps: f64) -> Option<String> {
+        let l = self.last.filter(|l| r.t > l.t)?;
+        if r.counts_per_rev != l.counts_per_rev {
+            return Some(format!(
+                "spindle encoder fault: its counts per revolution changed from {} to {}",
+                l.counts_per_rev, r.counts_per_rev
+            ));
+        }
+        let jump = counts_between(l.count, r.count);
+        let most = IMPLAUSIBLE_SPEED * max_rps * f64::from(l.counts_per_rev) * (r.t - l.t) + 2.0;
+        (jump.abs() > most).then(|| {
+            format!(
+                "spindle encoder fault: its count jumped by {jump:.0} in {:.1} ms, \
+                 faster than the spindle can turn",
+                (r.t - l.t) * 1000.0
+            )
+        })
+    }
+
     /// Counts per revolution of the encoder (0 before the first reading).
     pub fn cpr(&self) -> f64 {
         self.last.map_or(0.0, |l| f64::from(l.counts_per_rev))
@@ -141,7 +175,7 @@ impl SpindleTracker {
                 break;
             }
             let x = tau * 1000.0;
-            let y = (i128::from(c) - i128::from(c1)) as f64;
+            let y = counts_between(c1, c);
             let w = weight(x);
             let mut p = [1.0; TERMS];
             for i in 1..TERMS {
