@@ -54,19 +54,25 @@ def run(cnc, mfile, csv_path):
     return r.stdout.strip(), head, data
 
 
+def series_stats(x, limit_mm_s3, dt=0.001, keep=None):
+    """Of positions `x` (mm) at period `dt`: the largest |a| (mm/s²), the
+    largest |j| and its 99.9th percentile (m/s³) and the samples whose |j|
+    is over `limit_mm_s3`, from finite differences; `keep(k)` picks the
+    differences ending at sample k that count (all by default)."""
+    ks = [k for k in range(len(x)) if keep is None or keep(k)]
+    a = [abs(x[k] - 2 * x[k - 1] + x[k - 2]) / dt**2 for k in ks if k >= 2]
+    j = sorted(abs(x[k] - 3 * x[k - 1] + 3 * x[k - 2] - x[k - 3]) / dt**3 for k in ks if k >= 3)
+    if not j:
+        return None
+    over = sum(1 for q in j if q > limit_mm_s3 * (1 + 1e-6) + 1e-3)
+    return max(a), j[-1] / 1000.0, j[int(0.999 * len(j))] / 1000.0, over
+
+
 def stats(head, data, limit_mm_s3, dt=0.001):
     out = {}
     for c, name in enumerate(head):
-        if not name.endswith("_set"):
-            continue
-        x = [r[c] for r in data]
-        v = [(b - a) / dt for a, b in zip(x, x[1:])]
-        a = [(q - p) / dt for p, q in zip(v, v[1:])]
-        j = sorted(abs((q - p) / dt) for p, q in zip(a, a[1:]))
-        over = sum(1 for q in j if q > limit_mm_s3 * (1 + 1e-6) + 1e-3)
-        out[name[0].upper()] = (
-            max(map(abs, a)), j[-1] / 1000.0, j[int(0.999 * len(j))] / 1000.0, over
-        )
+        if name.endswith("_set"):
+            out[name[0].upper()] = series_stats([r[c] for r in data], limit_mm_s3, dt)
     return out
 
 

@@ -27,6 +27,7 @@ import time
 
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
+from thread_jerk import series_stats
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 DT = 0.001
@@ -68,25 +69,6 @@ def series(path):
     return set_pos, act_pos, lines
 
 
-def stats(pos, limit, keep=None):
-    """Largest |a| mm/s², largest |j| and its 99.9th percentile m/s³, and
-    the samples over `limit`, of the third differences ending at samples
-    `keep` selects (all by default)."""
-    amax, js = 0.0, []
-    for k in range(3, len(pos)):
-        if keep is not None and not keep(k):
-            continue
-        a = (pos[k] - 2 * pos[k - 1] + pos[k - 2]) / DT**2
-        j = (pos[k] - 3 * pos[k - 1] + 3 * pos[k - 2] - pos[k - 3]) / DT**3 / 1000.0
-        amax = max(amax, abs(a))
-        js.append(abs(j))
-    if not js:
-        return None
-    js.sort()
-    p999 = js[min(len(js) - 1, int(0.999 * len(js)))]
-    return amax, js[-1], p999, sum(j > limit * (1 + 1e-9) for j in js)
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--bin", default=str(ROOT / "target" / "release"))
@@ -124,7 +106,7 @@ def main():
             for j in sorted(pos):
                 if j not in lim:
                     continue
-                s = stats(pos[j], lim[j], keep if name == "setpoints" else None)
+                s = series_stats(pos[j], lim[j] * 1000.0, DT, keep if name == "setpoints" else None)
                 if s is None or (name != "setpoints" and part != "whole job"):
                     continue
                 print(f"| {name} | {part} | {j} | {s[0]:.0f} | {s[1]:.1f} ({s[2]:.1f}) | {s[3]} |")
