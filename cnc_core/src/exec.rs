@@ -530,8 +530,8 @@ impl<S: ProgramSource> Executor<S> {
 
     /// The spindle for this tick's setpoint (measured: predicted `ahead`
     /// s after its instant), counted in direction `dir`.
-    fn spindle_angle(&self, dir: f64, ahead: f64) -> Result<SpindleNow, String> {
-        let Some(tr) = &self.tracker else {
+    fn spindle_angle(&mut self, dir: f64, ahead: f64) -> Result<SpindleNow, String> {
+        let Some(tr) = self.tracker.as_mut() else {
             return Ok(SpindleNow {
                 theta: dir * self.pipe.timeline.ideal_rev(self.vk),
                 index: Some(0.0),
@@ -543,7 +543,7 @@ impl<S: ProgramSource> Executor<S> {
             return Err(why.clone());
         }
         let t = self.k as f64 * self.dt;
-        let (Some(last), Some(p)) = (tr.last, tr.predict_motion(t + ahead)) else {
+        let (Some(last), Some(p)) = (tr.last, tr.predict_motion(t + ahead, t)) else {
             return Err("no spindle encoder reading".into());
         };
         let late = t - last.t;
