@@ -259,6 +259,12 @@ impl SpindleTracker {
         })
     }
 
+    /// The cycle (executor time, s) the last prediction was for: −∞ before
+    /// the first.
+    pub fn followed_at(&self) -> f64 {
+        self.cycle
+    }
+
     /// Counts per revolution of the encoder (0 before the first reading).
     pub fn cpr(&self) -> f64 {
         self.last.map_or(0.0, |l| f64::from(l.counts_per_rev))
