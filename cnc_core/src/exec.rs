@@ -338,14 +338,23 @@ impl<S: ProgramSource> Executor<S> {
     /// A reading no encoder on this spindle can give (its counts per
     /// revolution changed, or its count moved faster than
     /// [`IMPLAUSIBLE_SPEED`](crate::tracker::IMPLAUSIBLE_SPEED) times the spindle's top speed since the last
-    /// one) is not followed: G33 and G95 then stop under control, as for a
-    /// lost signal.
+    /// one) is not followed while a G33 or G95 block follows the spindle:
+    /// it then stops under control, as for a lost signal. At any other
+    /// time (a counter reset or a restarted simulator between a job's
+    /// threads) the tracker starts over from that reading.
     pub fn encoder(&mut self, r: EncoderReading) {
         let Some(t) = self.tracker.as_mut() else {
             return;
         };
         if self.encoder_bad.is_none() {
-            self.encoder_bad = t.implausible(&r, self.spindle_max_rps);
+            if let Some(why) = t.implausible(&r, self.spindle_max_rps) {
+                // (the sample before this reading's first used the tracker)
+                if t.followed_at() >= (self.k as f64 - 1.5) * self.dt {
+                    self.encoder_bad = Some(why);
+                } else {
+                    *t = SpindleTracker::default();
+                }
+            }
         }
         if self.encoder_bad.is_none() {
             t.push(r);
@@ -530,8 +539,8 @@ impl<S: ProgramSource> Executor<S> {
 
     /// The spindle for this tick's setpoint (measured: predicted `ahead`
     /// s after its instant), counted in direction `dir`.
-    fn spindle_angle(&self, dir: f64, ahead: f64) -> Result<SpindleNow, String> {
-        let Some(tr) = &self.tracker else {
+    fn spindle_angle(&mut self, dir: f64, ahead: f64) -> Result<SpindleNow, String> {
+        let Some(tr) = self.tracker.as_mut() else {
             return Ok(SpindleNow {
                 theta: dir * self.pipe.timeline.ideal_rev(self.vk),
                 index: Some(0.0),
@@ -543,7 +552,7 @@ impl<S: ProgramSource> Executor<S> {
             return Err(why.clone());
         }
         let t = self.k as f64 * self.dt;
-        let (Some(last), Some(p)) = (tr.last, tr.predict_motion(t + ahead)) else {
+        let (Some(last), Some(p)) = (tr.last, tr.predict_motion(t + ahead, t)) else {
             return Err("no spindle encoder reading".into());
         };
         let late = t - last.t;

@@ -47,19 +47,28 @@ const TAPER_NEW_MS: f64 = 3.0;
 /// spindle's worst above (1.28 counts where it was 1.05, 0.11° at 4096
 /// counts): a longer ramp at the new end smooths more and predicts a
 /// rippling spindle worse still (4 ms: 70 m/s³ and 1.37 counts).
-fn weight(x: f64) -> f64 {
+fn weight(x: f64, x_new: f64) -> f64 {
     let ramp = |r: f64| {
         let s = (core::f64::consts::FRAC_PI_2 * r.clamp(0.0, 1.0)).sin();
         s * s
     };
     let window = WINDOW_S * 1000.0;
-    ramp((x + window + 1.0) / (TAPER_OLD_MS + 1.0)) * ramp((1.0 - x) / (TAPER_NEW_MS + 1.0))
+    ramp((x + window + 1.0) / (TAPER_OLD_MS + 1.0)) * ramp((1.0 - x_new) / (TAPER_NEW_MS + 1.0))
 }
 
 /// A spindle encoder's count may move at most this many times the
 /// spindle's top speed (`spindle.max_rpm`) between two readings, plus two
 /// counts; more is an encoder fault ([`SpindleTracker::implausible`]).
 pub const IMPLAUSIBLE_SPEED: f64 = 1.5;
+
+/// At most this long after the newest reading (s) do the fit's weights
+/// count back from ([`SpindleTracker::origin`]): the newest end's ramp
+/// and a millisecond, beyond which every reading present weighs fully.
+const MISSING_MOST: f64 = (TAPER_NEW_MS + 1.0) * 1.0e-3;
+/// A reading up to this share of a reading period older than a cycle
+/// counts as that cycle's newest ([`SpindleTracker::origin`]): stamps
+/// may jitter by that much.
+const STAMP_TOLERANCE: f64 = 0.05;
 
 /// `b − a` counts, exact for any two i64 counts (no overflow).
 fn counts_between(a: i64, b: i64) -> f64 {
@@ -91,6 +100,73 @@ pub struct Predicted {
     pub per_s2: f64,
 }
 
+/// A fitted parabola: counts ≈ count₀ + 0.5 + Σ cᵢ xⁱ, x = (t − t₀) in ms.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Fit {
+    t0: f64,
+    count0: i64,
+    c: [f64; TERMS],
+}
+
+impl Fit {
+    /// The angle (counts), its slope (counts/ms) and curvature
+    /// (counts/ms²) at `t`.
+    fn at(&self, t: f64) -> [f64; 3] {
+        let x = (t - self.t0) * 1000.0;
+        // the polynomial and its first two derivatives at x (Horner)
+        let (mut f, mut f1, mut f2) = (0.0, 0.0, 0.0);
+        for &ci in self.c.iter().rev() {
+            f2 = f2 * x + 2.0 * f1;
+            f1 = f1 * x + f;
+            f = f * x + ci;
+        }
+        [self.count0 as f64 + 0.5 + f, f1, f2]
+    }
+}
+
+/// How long a step between two fits is eased over, ms ([`Blend`]): a step
+/// of a count costs a lead of 1.5 mm at 4096 counts about 43 m/s³.
+const BLEND_MS: f64 = 8.0;
+/// The cycles over which the transport's usual lateness is learned.
+const LATENESS_CYCLES: usize = 64;
+/// At most this many steps are being eased at once.
+const BLENDS: usize = 16;
+
+/// A step between the fit a cycle used and the next one's, eased out: the
+/// prediction goes on from the old fit's (its angle, slope and curvature
+/// at the step, as a parabola `e` in ms after `start`) and moves to the
+/// new fit's over [`BLEND_MS`] (a quintic smoothstep, zero slope and
+/// curvature at both ends).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Blend {
+    /// the cycle it starts at, s
+    start: f64,
+    e: [f64; 3],
+}
+
+impl Blend {
+    /// The offset (counts, counts/ms, counts/ms²) at the cycle `now`;
+    /// None once it has run out. Each of the three is eased out on its
+    /// own: the ease's own slope and curvature are left out of the speed
+    /// and acceleration, which the lead for the servo's lag under
+    /// acceleration multiplies (a fraction of a count eased over 8 ms has
+    /// a curvature of thousands of counts/s², which no spindle has).
+    fn at(&self, now: f64) -> Option<[f64; 3]> {
+        let tau = (now - self.start) * 1000.0;
+        if !(0.0..BLEND_MS).contains(&tau) {
+            return None;
+        }
+        let u = tau / BLEND_MS;
+        let g = 1.0 - u * u * u * (10.0 - 15.0 * u + 6.0 * u * u);
+        let [e0, e1, e2] = self.e;
+        Some([
+            g * (e0 + e1 * tau + 0.5 * e2 * tau * tau),
+            g * (e1 + e2 * tau),
+            g * e2,
+        ])
+    }
+}
+
 /// Follows the measured spindle: a weighted least-squares parabola
 /// ([`weight`]) through the readings of the last [`WINDOW_S`] predicts
 /// the angle at the instant a setpoint is meant for. A count stands for
@@ -101,6 +177,24 @@ pub struct SpindleTracker {
     head: usize,
     len: usize,
     pub last: Option<EncoderReading>,
+    /// The cycle the last prediction was for, and its fit: a second
+    /// prediction for the same cycle uses them again.
+    cycle: f64,
+    current: Option<Fit>,
+    /// The cycle of the last fit made (not held), and the time of the
+    /// newest reading then.
+    fitted_at: f64,
+    newest_then: f64,
+    /// Whether the last cycle held its fit, and how many readings its fit
+    /// missed beyond the usual lateness.
+    held: bool,
+    excess: i32,
+    /// How many readings each of the last cycles missed (a ring).
+    lateness: [u8; LATENESS_CYCLES],
+    lateness_at: usize,
+    lateness_n: usize,
+    /// Steps between fits being eased out ([`Blend`]).
+    blends: [Option<Blend>; BLENDS],
 }
 
 impl Default for SpindleTracker {
@@ -110,6 +204,16 @@ impl Default for SpindleTracker {
             head: 0,
             len: 0,
             last: None,
+            cycle: f64::NEG_INFINITY,
+            current: None,
+            fitted_at: f64::NEG_INFINITY,
+            newest_then: f64::NEG_INFINITY,
+            held: false,
+            excess: 0,
+            lateness: [0; LATENESS_CYCLES],
+            lateness_at: 0,
+            lateness_n: 0,
+            blends: [None; BLENDS],
         }
     }
 }
@@ -155,28 +259,86 @@ impl SpindleTracker {
         })
     }
 
+    /// The cycle (executor time, s) the last prediction was for: −∞ before
+    /// the first.
+    pub fn followed_at(&self) -> f64 {
+        self.cycle
+    }
+
     /// Counts per revolution of the encoder (0 before the first reading).
     pub fn cpr(&self) -> f64 {
         self.last.map_or(0.0, |l| f64::from(l.counts_per_rev))
     }
 
-    /// Coefficients (c0 … c_DEGREE) of count − last count ≈ Σ cᵢ τⁱ,
-    /// τ = t − t_last in ms (well scaled for the normal equations).
-    fn fit(&self) -> Option<[f64; TERMS]> {
-        let last = self.last?;
-        let (t1, c1) = (last.t, last.count);
+    /// The reading `k` readings before the newest: (t, count).
+    fn at(&self, k: usize) -> (f64, i64) {
+        self.ring[(self.head + HISTORY - k) % HISTORY]
+    }
+
+    /// The reading period: the shortest spacing of the newest readings, s.
+    fn period(&self) -> Option<f64> {
+        (1..self.len.min(9))
+            .map(|k| self.at(k - 1).0 - self.at(k).0)
+            .filter(|d| *d > 0.0)
+            .min_by(f64::total_cmp)
+    }
+
+    /// What the fit for the cycle at `now` counts from: the newest reading
+    /// measured before that cycle (`k` readings before the newest there,
+    /// so readings measured after it, which a control loop that runs late
+    /// and catches up finds already there, are left out), how many
+    /// readings measured before the cycle have not come (late ones), and
+    /// the reading period (s; 0 while there are too few readings to tell).
+    ///
+    /// A reading up to [`STAMP_TOLERANCE`] of a period older than a cycle
+    /// counts as that cycle's newest; one measured in the last
+    /// [`STAMP_TOLERANCE`] before it as not yet there.
+    fn origin(&self, now: f64) -> (usize, u8, f64) {
+        let Some(p) = self.period() else {
+            return (0, 0, 0.0);
+        };
+        let before = now - STAMP_TOLERANCE * p;
+        let Some(k) = (0..self.len).find(|&k| self.at(k).0 < before) else {
+            return (0, 0, p);
+        };
+        // whole periods from that reading to the newest before `now`
+        let n = ((now - self.at(k).0) / p - STAMP_TOLERANCE).ceil() - 1.0;
+        if !n.is_finite() || n <= 0.0 {
+            return (k, 0, p);
+        }
+        (k, n.min(f64::from(u8::MAX)) as u8, p)
+    }
+
+    /// How many readings the last [`LATENESS_CYCLES`] cycles missed at the
+    /// least: the transport's steady lateness, which the weights count
+    /// back from as if it were none.
+    fn usual_lateness(&self) -> u8 {
+        self.lateness[..self.lateness_n]
+            .iter()
+            .copied()
+            .min()
+            .unwrap_or(0)
+    }
+
+    /// Coefficients (c0 … c_DEGREE) of count − count₀ ≈ Σ cᵢ τⁱ, τ = t −
+    /// t₀ in ms (well scaled for the normal equations), where (t₀, count₀)
+    /// is the reading `k0` readings before the newest; each reading from
+    /// there back weighted by its age ([`weight`]), the newest end's ramp
+    /// counted from `missing` ms after t₀.
+    fn fit(&self, k0: usize, missing: f64) -> [f64; TERMS] {
+        let (t1, c1) = self.at(k0);
         let mut a = nalgebra::SMatrix::<f64, TERMS, TERMS>::zeros();
         let mut b = nalgebra::SVector::<f64, TERMS>::zeros();
         let mut n: usize = 0;
-        for k in 0..self.len {
-            let (t, c) = self.ring[(self.head + HISTORY - k) % HISTORY];
+        for k in k0..self.len {
+            let (t, c) = self.at(k);
             let tau = t - t1;
             if tau < -WINDOW_S {
                 break;
             }
             let x = tau * 1000.0;
             let y = counts_between(c1, c);
-            let w = weight(x);
+            let w = weight(x, x - missing);
             let mut p = [1.0; TERMS];
             for i in 1..TERMS {
                 p[i] = p[i - 1] * x;
@@ -199,37 +361,108 @@ impl SpindleTracker {
                 if x.iter().all(|v| v.is_finite()) {
                     let mut out = [0.0; TERMS];
                     out[..m].copy_from_slice(x.as_slice());
-                    return Some(out);
+                    return out;
                 }
             }
         }
-        Some([0.0; TERMS])
+        [0.0; TERMS]
     }
 
     /// The predicted angle at time `t`, in counts (the centre of the
-    /// count), and the speed then, counts per second: one fit for both.
-    pub fn predict(&self, t: f64) -> Option<(f64, f64)> {
-        self.predict_motion(t).map(|p| (p.counts, p.per_s))
+    /// count), and the speed then, counts per second: one fit for both,
+    /// by the cycle at `now` (the executor's time).
+    pub fn predict(&mut self, t: f64, now: f64) -> Option<(f64, f64)> {
+        self.predict_motion(t, now).map(|p| (p.counts, p.per_s))
     }
 
     /// [`predict`](Self::predict) with the acceleration too (the fitted
     /// parabola's, constant over the window).
-    pub fn predict_motion(&self, t: f64) -> Option<Predicted> {
-        let last = self.last?;
-        let c = self.fit()?;
-        let x = (t - last.t) * 1000.0;
-        // the polynomial and its first two derivatives at x (Horner)
-        let (mut f, mut f1, mut f2) = (0.0, 0.0, 0.0);
-        for &ci in c.iter().rev() {
-            f2 = f2 * x + 2.0 * f1;
-            f1 = f1 * x + f;
-            f = f * x + ci;
+    ///
+    /// When the readings come decides nothing but which readings there
+    /// are, so that a late one does not step the lead (over DDS, readings
+    /// a few ms late had put single-cycle steps of about a count on it, up
+    /// to 1 km/s³ of sampled jerk on a 1.5 mm lead):
+    ///
+    /// - the fit leaves out readings measured after the cycle
+    ///   ([`origin`](Self::origin)): a loop that runs late predicts what an
+    ///   on-time one does, bit for bit;
+    /// - the transport's usual lateness (the fewest readings missing in the
+    ///   last [`LATENESS_CYCLES`] cycles) counts as none: with readings a
+    ///   cycle late all the time, each cycle fits them as on time;
+    /// - beyond it, a cycle that finds no new reading keeps the last fit
+    ///   (for at most [`MISSING_MOST`]), and a fit with readings missing
+    ///   weighs them as missing ([`weight`] counts from where the newest
+    ///   should be, so the readings there keep their weights; at most
+    ///   [`MISSING_MOST`] is counted missing, beyond it every reading
+    ///   there weighs fully);
+    /// - and a new fit while readings are missing, or right after, does not
+    ///   step the prediction: the old fit's goes on and eases into it
+    ///   ([`Blend`]).
+    ///
+    /// A second prediction for the same cycle uses the same fit.
+    pub fn predict_motion(&mut self, t: f64, now: f64) -> Option<Predicted> {
+        self.last?;
+        if now != self.cycle || self.current.is_none() {
+            self.next_cycle(t, now);
+        }
+        let base = self.current?;
+        let mut p = base.at(t);
+        for b in self.blends.iter().flatten() {
+            if let Some(o) = b.at(now) {
+                for (v, o) in p.iter_mut().zip(o) {
+                    *v += o;
+                }
+            }
         }
         Some(Predicted {
-            counts: last.count as f64 + 0.5 + f,
-            per_s: f1 * 1000.0,
-            per_s2: f2 * 1.0e6,
+            counts: p[0],
+            per_s: p[1] * 1000.0,
+            per_s2: p[2] * 1.0e6,
         })
+    }
+
+    /// The fit for a new cycle at `now` (see [`predict_motion`](Self::predict_motion)).
+    fn next_cycle(&mut self, t: f64, now: f64) {
+        let (k0, missed, p) = self.origin(now);
+        self.lateness[self.lateness_at] = missed;
+        self.lateness_at = (self.lateness_at + 1) % LATENESS_CYCLES;
+        self.lateness_n = (self.lateness_n + 1).min(LATENESS_CYCLES);
+        // readings missing beyond the usual (fewer: newer ones, left out)
+        let excess = i32::from(missed) - i32::from(self.usual_lateness());
+        let missing = (f64::from(excess) * p).min(MISSING_MOST) * 1000.0;
+        // (the fit of the cycle before: a prediction resumed after a pause,
+        // say the next pass of a thread, starts afresh)
+        let prev = self.current.filter(|_| now - self.cycle < 1.5 * p);
+        let newest = self.at(k0).0;
+        let hold =
+            prev.is_some() && newest == self.newest_then && now - self.fitted_at <= MISSING_MOST;
+        if !hold {
+            let (t0, count0) = self.at(k0);
+            let fit = Fit {
+                t0,
+                count0,
+                c: self.fit(k0, missing),
+            };
+            if let (Some(old), true) = (prev, self.held || excess > 0 || excess != self.excess) {
+                // the old fit's prediction goes on and eases into the new
+                let (a, b) = (old.at(t), fit.at(t));
+                let e = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+                for slot in self.blends.iter_mut() {
+                    if slot.is_some_and(|b| b.at(now).is_none()) {
+                        *slot = None;
+                    }
+                }
+                if let Some(slot) = self.blends.iter_mut().find(|b| b.is_none()) {
+                    *slot = Some(Blend { start: now, e });
+                }
+            }
+            self.current = Some(fit);
+            self.fitted_at = now;
+            self.newest_then = newest;
+        }
+        self.held = hold;
+        self.excess = excess;
+        self.cycle = now;
     }
 }
 
@@ -254,12 +487,12 @@ mod tests {
                 count_at_index: 0,
             });
             if k > 20 {
-                let p = tr.predict(t + 0.001).unwrap().0;
+                let p = tr.predict(t + 0.001, t + 0.001).unwrap().0;
                 worst = worst.max((p - true_counts(t + 0.001)).abs());
             }
         }
         assert!(worst < 0.5, "worst {worst}");
-        let rpm = tr.predict(0.2).unwrap().1 / cpr * 60.0;
+        let rpm = tr.predict(0.2, 0.2).unwrap().1 / cpr * 60.0;
         assert!((rpm - 2000.0).abs() < 1.0, "{rpm}");
     }
 
@@ -288,7 +521,7 @@ mod tests {
                         count_at_index: 0,
                     });
                     if k >= 30 {
-                        p.push(tr.predict(t + 0.003).unwrap().0);
+                        p.push(tr.predict(t + 0.003, t + 0.001).unwrap().0);
                     }
                 }
                 for w in p.windows(4) {
@@ -331,12 +564,40 @@ mod tests {
                     index_count: 1,
                     count_at_index: 0,
                 });
-                if let Some(p) = tr.predict_motion(t + ahead) {
+                if let Some(p) = tr.predict_motion(t + ahead, t) {
                     proptest::prop_assert!(
                         p.counts.is_finite() && p.per_s.is_finite() && p.per_s2.is_finite(),
                         "{p:?}"
                     );
                 }
+            }
+        }
+    }
+
+    /// Predictions that resume after a pause (the next pass of a thread)
+    /// with a reading late start from a fit of the readings there, not by
+    /// easing out of the fit made before the pause.
+    #[test]
+    fn a_prediction_after_a_pause_starts_afresh() {
+        let mut tr = SpindleTracker::default();
+        let counts = |t: f64| (800.0 / 60.0 * t + 0.3) * 4096.0;
+        let reading = |k: i32| EncoderReading {
+            t: f64::from(k) * 0.001,
+            count: counts(f64::from(k) * 0.001).floor() as i64,
+            counts_per_rev: 4096,
+            index_count: 1,
+            count_at_index: 0,
+        };
+        for k in 0..600 {
+            // reading 599 comes late
+            if k != 599 {
+                tr.push(reading(k));
+            }
+            let now = f64::from(k + 1) * 0.001;
+            if (30..100).contains(&k) || k == 599 {
+                let p = tr.predict(now + 0.003, now).unwrap().0;
+                let err = p - counts(now + 0.003);
+                assert!(err.abs() < 1.0, "cycle {k}: {err} counts");
             }
         }
     }

@@ -14,6 +14,16 @@ use proptest::prelude::*;
 const PROGRAM: &str =
     "N5 G00 X20 Z5\nN10 M03 S800\nN20 G33 Z-10 F1.5\nN30 G95 G01 Z-20 F0.2\nN40 G00 X30\nN50 M30\n";
 
+/// [`PROGRAM`] on the bundled lathe, following an encoder, its drives 3
+/// ms behind the setpoints.
+fn lathe_job() -> (Machine, Executor<StrSource<'static>>) {
+    let m = Machine::builtin_lathe();
+    let mut ex = Executor::new(StrSource::new(PROGRAM), Dialect::Cnc836, &m);
+    ex.attach_encoder();
+    ex.set_setpoint_delay(0.003);
+    (m, ex)
+}
+
 #[derive(Clone, Copy, Debug)]
 enum Jump {
     /// the steady spindle's count (800 rpm at 4096 counts/rev)
@@ -40,10 +50,7 @@ proptest! {
         cpr in prop_oneof![Just(4096u32), any::<u32>()],
         index in prop_oneof![Just((1i64, 0i64)), any::<(i64, i64)>()],
     ) {
-        let m = Machine::builtin_lathe();
-        let mut ex = Executor::new(StrSource::new(PROGRAM), Dialect::Cnc836, &m);
-        ex.attach_encoder();
-        ex.set_setpoint_delay(0.003);
+        let (m, mut ex) = lathe_job();
         let dt = m.dt();
         let mut offset: i64 = 0;
         let mut k = 0usize;
@@ -86,10 +93,7 @@ proptest! {
 /// acceleration, and ends the run with a fault that says why.
 #[test]
 fn a_count_that_jumps_stops_the_thread_under_control() {
-    let m = Machine::builtin_lathe();
-    let mut ex = Executor::new(StrSource::new(PROGRAM), Dialect::Cnc836, &m);
-    ex.attach_encoder();
-    ex.set_setpoint_delay(0.003);
+    let (m, mut ex) = lathe_job();
     let dt = m.dt();
     let mut pos = Vec::new();
     let mut synced_at_jump = false;
@@ -170,4 +174,39 @@ fn an_index_ahead_of_the_count_ends_the_job_before_the_thread_moves() {
             && fault.ends_with(" revolutions ahead of its count"),
         "{fault}"
     );
+}
+
+/// The same jump (with the index pulse's count moving with it, as a
+/// counter reset does) while the axes rapid to the thread's start, before
+/// any block follows the spindle: the tracker starts over from the new
+/// count, and the thread and the G95 move run to the end without a fault.
+#[test]
+fn a_count_that_jumps_before_the_thread_starts_the_tracker_over() {
+    let (m, mut ex) = lathe_job();
+    let dt = m.dt();
+    let mut synced = 0;
+    let mut last = None;
+    for k in 0..20_000usize {
+        let t = k as f64 * dt;
+        let steady = (800.0 / 60.0 * t * 4096.0) as i64;
+        let shift = if k >= 20 { -6_257_868 } else { 0 };
+        ex.encoder(EncoderReading {
+            t,
+            count: steady + shift,
+            counts_per_rev: 4096,
+            index_count: 1,
+            count_at_index: shift,
+        });
+        let Some(s) = ex.next_sample() else { break };
+        if k == 20 {
+            assert!(s.sync.is_none(), "the jump comes before the thread");
+        }
+        synced += usize::from(s.sync.is_some_and(|y| y.on_line));
+        last = Some(s.pos);
+    }
+    assert_eq!(ex.fault(), None);
+    // the thread's line at 800 rpm and 1.5 mm: 15 mm at 20 mm/s
+    assert!(synced > 600, "{synced} samples on the thread line");
+    // X30 is a diameter: the X axis ends at 15 mm
+    assert_eq!(last.map(|p| (p[0], p[2])), Some((15.0, -20.0)));
 }
