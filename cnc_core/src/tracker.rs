@@ -125,8 +125,26 @@ impl Fit {
 }
 
 /// How long a step between two fits is eased over, ms ([`Blend`]): a step
-/// of a count costs a lead of 1.5 mm at 4096 counts about 43 m/s³.
-const BLEND_MS: f64 = 8.0;
+/// of a count (0.37 µm of a 1.5 mm lead at 4096 counts) eased over 5 ms
+/// has a jerk of at most 60·0.37 µm / (5 ms)³ = 176 m/s³, and the steps
+/// late readings make are fractions of a count (the whole thread with
+/// readings 1–8 cycles late keeps 200 m/s³:
+/// `cnc_node/tests/encoder_timing.rs`). Every ms of ease keeps the old
+/// fit's prediction longer: eased over 8 ms, readings a cycle late now
+/// and then widened the lead error's spread by 0.4 counts at S200, over 5
+/// ms by 0.3.
+const BLEND_MS: f64 = 5.0;
+/// How long the difference of two fits' slopes and curvatures is eased
+/// over, ms: the old fit's slope carried on for [`BLEND_MS`] moves the
+/// lead away from the new fit's as it goes (the difference times the
+/// time), so it goes sooner.
+const BLEND_RATE_MS: f64 = 2.0;
+/// A new fit after no reading came for longer than this (s) replaces the
+/// prediction at once and ends every ease: that is a stall, not a
+/// transport's jitter, and the setpoints of a stalled machine are late
+/// anyway; easing would keep the stale fit's prediction longer (the
+/// thread with 20 ms stalls: 3.52 counts of spread at S200, 4.03 eased).
+const STALL_S: f64 = 0.012;
 /// The cycles over which the transport's usual lateness is learned.
 const LATENESS_CYCLES: usize = 64;
 /// At most this many steps are being eased at once.
@@ -136,7 +154,8 @@ const BLENDS: usize = 16;
 /// prediction goes on from the old fit's (its angle, slope and curvature
 /// at the step, as a parabola `e` in ms after `start`) and moves to the
 /// new fit's over [`BLEND_MS`] (a quintic smoothstep, zero slope and
-/// curvature at both ends).
+/// curvature at both ends); the part that the two fits' slopes and
+/// curvatures differ by, over [`BLEND_RATE_MS`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Blend {
     /// the cycle it starts at, s
@@ -153,16 +172,20 @@ impl Blend {
     /// a curvature of thousands of counts/s², which no spindle has).
     fn at(&self, now: f64) -> Option<[f64; 3]> {
         let tau = (now - self.start) * 1000.0;
-        if !(0.0..BLEND_MS).contains(&tau) {
+        if !(0.0..BLEND_MS.max(BLEND_RATE_MS)).contains(&tau) {
             return None;
         }
-        let u = tau / BLEND_MS;
-        let g = 1.0 - u * u * u * (10.0 - 15.0 * u + 6.0 * u * u);
+        // the quintic smoothstep down from 1 to 0 over `over` ms
+        let ease = |over: f64| {
+            let u = (tau / over).min(1.0);
+            1.0 - u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
+        };
+        let (g, h) = (ease(BLEND_MS), ease(BLEND_RATE_MS));
         let [e0, e1, e2] = self.e;
         Some([
-            g * (e0 + e1 * tau + 0.5 * e2 * tau * tau),
-            g * (e1 + e2 * tau),
-            g * e2,
+            g * e0 + h * (e1 * tau + 0.5 * e2 * tau * tau),
+            h * (e1 + e2 * tau),
+            h * e2,
         ])
     }
 }
@@ -397,7 +420,8 @@ impl SpindleTracker {
     ///   there weighs fully);
     /// - and a new fit while readings are missing, or right after, does not
     ///   step the prediction: the old fit's goes on and eases into it
-    ///   ([`Blend`]).
+    ///   ([`Blend`]), unless no reading came for over [`STALL_S`] (a
+    ///   stall, where the new fit takes over at once).
     ///
     /// A second prediction for the same cycle uses the same fit.
     pub fn predict_motion(&mut self, t: f64, now: f64) -> Option<Predicted> {
@@ -443,7 +467,11 @@ impl SpindleTracker {
                 count0,
                 c: self.fit(k0, missing),
             };
-            if let (Some(old), true) = (prev, self.held || excess > 0 || excess != self.excess) {
+            if prev.is_some() && now - self.newest_then > STALL_S {
+                self.blends = [None; BLENDS];
+            } else if let (Some(old), true) =
+                (prev, self.held || excess > 0 || excess != self.excess)
+            {
                 // the old fit's prediction goes on and eases into the new
                 let (a, b) = (old.at(t), fit.at(t));
                 let e = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];

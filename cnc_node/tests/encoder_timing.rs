@@ -75,7 +75,7 @@ fn max_jerk(set: &[Vec<f64>], dt: f64) -> Vec<f64> {
 /// Now and then (one cycle in forty) the readings stop coming for 1, 2,
 /// 3, 5 or 8 cycles and then come all at once, as over a loaded network:
 /// every setpoint stays within the lathe's 200 m/s³ (the X run-ins use
-/// all of it; Z 160–195 m/s³, on time 160, 172 and 183). When each cycle
+/// all of it; Z 160–197 m/s³, on time 160, 172 and 183). When each cycle
 /// fitted the readings there, weighted from the newest, Z reached 226–301
 /// m/s³ with readings a cycle late, 424–703 three cycles late and
 /// 707–1250 eight cycles late.
@@ -148,6 +148,59 @@ fn a_control_loop_that_runs_late_makes_the_on_time_setpoints() {
         assert_eq!(set.len(), on_time.len(), "S{rpm}");
         for (k, (a, b)) in set.iter().zip(&on_time).enumerate() {
             assert_eq!(a, b, "S{rpm}: sample {k}");
+        }
+    }
+}
+
+/// The lead error's spread (counts) of the pass at `rpm`, with readings
+/// held up 1 to `by` cycles (at random) one cycle in fourteen, then
+/// coming all at once: each setpoint's Z in counts of the spindle
+/// (1.5 mm a revolution) against the count read at the instant it is
+/// meant for (the 3 ms setpoint delay ahead), between Z-5 and Z-35.
+fn lead_spread_with_late_readings(m: &Machine, rpm: f64, by: usize) -> f64 {
+    let mut seed: u64 = 11;
+    let (mut until, mut upto) = (0, 0);
+    let (set, readings) = run(m, rpm, |k, n| {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        if k < until {
+            return upto;
+        }
+        if by > 0 && (seed >> 33).is_multiple_of(14) {
+            (until, upto) = (k + 1 + (seed >> 40) as usize % by, n - 1);
+            return upto;
+        }
+        n
+    });
+    let ahead = (m.interpolation.setpoint_delay_ms / 1000.0 / m.dt()).round() as usize;
+    let cpr = f64::from(readings[0].counts_per_rev);
+    let err: Vec<f64> = (1..set.len().saturating_sub(ahead))
+        .filter(|&k| set[k][1] < set[k - 1][1] && (-35.0..-5.0).contains(&set[k][1]))
+        .map(|k| -set[k][1] / 1.5 * cpr - (readings[k + ahead].count as f64 + 0.5))
+        .collect();
+    assert!(err.len() > 500, "S{rpm}: {} samples", err.len());
+    let hi = err.iter().copied().fold(f64::MIN, f64::max);
+    let lo = err.iter().copied().fold(f64::MAX, f64::min);
+    hi - lo
+}
+
+/// Late readings cost the lead little. Measured (counts of 4096; on time
+/// 1.49, 1.39 and 1.68 at S200, S800 and S2000): up to 1 cycle late
+/// 1.94, 1.60, 2.00; up to 3 cycles 2.09, 1.74, 2.11; up to 8 cycles
+/// 2.94, 1.96, 2.25. The old fit's prediction, eased into the new one's
+/// over 5 ms, is a little further from the spindle than an immediate
+/// refit, which each cycle made before (1.65, 1.51, 1.83; 1.97, 1.63,
+/// 1.96; 2.69, 1.82, 2.35) at up to 1.25 km/s³ of jerk.
+#[test]
+fn readings_that_come_late_keep_the_lead_within_three_counts() {
+    let m = lathe();
+    for rpm in SPEEDS {
+        let on_time = lead_spread_with_late_readings(&m, rpm, 0);
+        for by in [1, 3, 8] {
+            let s = lead_spread_with_late_readings(&m, rpm, by);
+            eprintln!("S{rpm}, readings up to {by} cycles late: spread {s:.2} counts (on time {on_time:.2})");
+            assert!(s <= 3.1, "S{rpm}, up to {by} cycles late: {s:.2} counts");
         }
     }
 }
