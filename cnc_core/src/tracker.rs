@@ -24,8 +24,15 @@ const HISTORY: usize = 256;
 const DEGREE: usize = 2;
 /// The fit's coefficients: [`DEGREE`] + 1.
 const TERMS: usize = DEGREE + 1;
-/// The readings the tracker fits span at most this long, s.
+/// The readings the tracker fits span at most this long, s, where the
+/// oldest's weight is about 0.03 ([`weight`]).
 const WINDOW_S: f64 = 0.024;
+/// The oldest reading the fit takes (s before the newest): its weight
+/// ramps down to 0 there, so a reading leaves the fit without a step.
+/// (Leaving at [`WINDOW_S`], with 0.03, it stepped the fit by up to a
+/// count when a gap of lost readings put the few old ones it leant on
+/// near there: 725 m/s³ after 12 lost readings.)
+const REACH_S: f64 = WINDOW_S + 1.0e-3;
 
 /// How many ms the weights of the oldest and of the newest readings in the
 /// tracker's window ramp over (see [`weight`]).
@@ -125,26 +132,26 @@ impl Fit {
 }
 
 /// How long a step between two fits is eased over, ms ([`Blend`]): a step
-/// of a count (0.37 µm of a 1.5 mm lead at 4096 counts) eased over 5 ms
-/// has a jerk of at most 60·0.37 µm / (5 ms)³ = 176 m/s³, and the steps
-/// late readings make are fractions of a count (the whole thread with
-/// readings 1–8 cycles late keeps 200 m/s³:
-/// `cnc_node/tests/encoder_timing.rs`). Every ms of ease keeps the old
-/// fit's prediction longer: eased over 8 ms, readings a cycle late now
-/// and then widened the lead error's spread by 0.4 counts at S200, over 5
-/// ms by 0.3.
-const BLEND_MS: f64 = 5.0;
-/// How long the difference of two fits' slopes and curvatures is eased
-/// over, ms: the old fit's slope carried on for [`BLEND_MS`] moves the
-/// lead away from the new fit's as it goes (the difference times the
-/// time), so it goes sooner.
-const BLEND_RATE_MS: f64 = 2.0;
+/// of a count (0.37 µm of a 1.5 mm lead at 4096 counts) eased over 8 ms
+/// has a jerk of at most 60·0.37 µm / (8 ms)³ = 43 m/s³. Every ms of
+/// ease keeps the old fit's prediction longer: with readings up to 8
+/// cycles late now and then, the lead error's spread widens by up to 0.6
+/// counts (`cnc_node/tests/encoder_timing.rs`); eased over 4 ms, the
+/// jerk reached 281 m/s³ there.
+const BLEND_MS: f64 = 8.0;
 /// A new fit after no reading came for longer than this (s) replaces the
 /// prediction at once and ends every ease: that is a stall, not a
 /// transport's jitter, and the setpoints of a stalled machine are late
 /// anyway; easing would keep the stale fit's prediction longer (the
-/// thread with 20 ms stalls: 3.52 counts of spread at S200, 4.03 eased).
-const STALL_S: f64 = 0.012;
+/// thread with 20 ms stalls: 3.51 counts of spread at S200, 4.03 eased).
+const STALL_S: f64 = 0.020;
+/// How long the two fits' slopes' and curvatures' difference is eased
+/// over, ms: the old fit's slope carried on moves its prediction away
+/// from the new fit's as it goes (by the difference times the time), so
+/// it goes sooner (the spread of a thread with readings 8 cycles late:
+/// 3.05 counts at S200, 3.11 with 8 ms); 3 ms stepped the lead after
+/// readings lost for 16 cycles (306 m/s³).
+const BLEND_RATE_MS: f64 = 5.0;
 /// The cycles over which the transport's usual lateness is learned.
 const LATENESS_CYCLES: usize = 64;
 /// At most this many steps are being eased at once.
@@ -154,8 +161,8 @@ const BLENDS: usize = 16;
 /// prediction goes on from the old fit's (its angle, slope and curvature
 /// at the step, as a parabola `e` in ms after `start`) and moves to the
 /// new fit's over [`BLEND_MS`] (a quintic smoothstep, zero slope and
-/// curvature at both ends); the part that the two fits' slopes and
-/// curvatures differ by, over [`BLEND_RATE_MS`].
+/// curvature at both ends); the part the two fits' slopes and curvatures
+/// differ by, over [`BLEND_RATE_MS`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Blend {
     /// the cycle it starts at, s
@@ -212,6 +219,8 @@ pub struct SpindleTracker {
     /// missed beyond the usual lateness.
     held: bool,
     excess: i32,
+    /// Whether the last fit's window had readings lost in it.
+    gap: bool,
     /// How many readings each of the last cycles missed (a ring).
     lateness: [u8; LATENESS_CYCLES],
     lateness_at: usize,
@@ -233,6 +242,7 @@ impl Default for SpindleTracker {
             newest_then: f64::NEG_INFINITY,
             held: false,
             excess: 0,
+            gap: false,
             lateness: [0; LATENESS_CYCLES],
             lateness_at: 0,
             lateness_n: 0,
@@ -332,6 +342,20 @@ impl SpindleTracker {
         (k, n.min(f64::from(u8::MAX)) as u8, p)
     }
 
+    /// Whether readings are lost in the fit's window (from the reading `k0`
+    /// before the newest back): fewer there than its span holds at the
+    /// period `p`, with older readings beyond it. Such a fit leans on a few
+    /// readings, and each new one, or each old one that leaves, moves it
+    /// by more than usual.
+    fn thin_window(&self, k0: usize, p: f64) -> bool {
+        let t1 = self.at(k0).0;
+        let there = (k0..self.len)
+            .take_while(|&k| self.at(k).0 - t1 >= -REACH_S)
+            .count();
+        // (a window still filling, at the first readings, is not thin)
+        k0 + there < self.len && (there as f64) < (REACH_S / p).floor()
+    }
+
     /// How many readings the last [`LATENESS_CYCLES`] cycles missed at the
     /// least: the transport's steady lateness, which the weights count
     /// back from as if it were none.
@@ -356,7 +380,7 @@ impl SpindleTracker {
         for k in k0..self.len {
             let (t, c) = self.at(k);
             let tau = t - t1;
-            if tau < -WINDOW_S {
+            if tau < -REACH_S {
                 break;
             }
             let x = tau * 1000.0;
@@ -418,9 +442,10 @@ impl SpindleTracker {
     ///   should be, so the readings there keep their weights; at most
     ///   [`MISSING_MOST`] is counted missing, beyond it every reading
     ///   there weighs fully);
-    /// - and a new fit while readings are missing, or right after, does not
-    ///   step the prediction: the old fit's goes on and eases into it
-    ///   ([`Blend`]), unless no reading came for over [`STALL_S`] (a
+    /// - and a new fit while readings are missing, or right after, or while
+    ///   lost readings leave the window thin ([`thin_window`](Self::thin_window)),
+    ///   does not step the prediction: the old fit's goes on and eases
+    ///   into it ([`Blend`]), unless no reading came for over [`STALL_S`] (a
     ///   stall, where the new fit takes over at once).
     ///
     /// A second prediction for the same cycle uses the same fit.
@@ -460,6 +485,7 @@ impl SpindleTracker {
         let newest = self.at(k0).0;
         let hold =
             prev.is_some() && newest == self.newest_then && now - self.fitted_at <= MISSING_MOST;
+        let mut gap = self.gap;
         if !hold {
             let (t0, count0) = self.at(k0);
             let fit = Fit {
@@ -467,11 +493,13 @@ impl SpindleTracker {
                 count0,
                 c: self.fit(k0, missing),
             };
+            gap = self.thin_window(k0, p);
             if prev.is_some() && now - self.newest_then > STALL_S {
                 self.blends = [None; BLENDS];
-            } else if let (Some(old), true) =
-                (prev, self.held || excess > 0 || excess != self.excess)
-            {
+            } else if let (Some(old), true) = (
+                prev,
+                self.held || excess > 0 || excess != self.excess || gap || self.gap,
+            ) {
                 // the old fit's prediction goes on and eases into the new
                 let (a, b) = (old.at(t), fit.at(t));
                 let e = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
@@ -490,6 +518,7 @@ impl SpindleTracker {
         }
         self.held = hold;
         self.excess = excess;
+        self.gap = gap;
         self.cycle = now;
     }
 }

@@ -265,7 +265,7 @@ fn plot_thread_and_compare_of_a_recording() {
         "{out}"
     );
     assert!(
-        out.contains("    groove phase there (0 = the programmed start angle): setpoint mean -0.0001°, worst 0.0585°, spread 0.1168° (2226 samples); actual mean -0.0286°"),
+        out.contains("    groove phase there (0 = the programmed start angle): setpoint mean +0.0000°, worst 0.0585°, spread 0.1159° (2226 samples); actual mean -0.0286°"),
         "{out}"
     );
     let text = std::fs::read_to_string(&svg).unwrap();
@@ -331,11 +331,11 @@ fn plot_thread_and_compare_of_a_recording() {
     let (code, out, err) = cnc(&["bag", "compare", rec_s, rec_s]);
     assert_eq!(code, 0, "{err}");
     assert!(
-        out.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean -0.0001° worst 0.0585° (2226 samples), B mean -0.0001° worst 0.0585° (2226 samples), B - A mean +0.0000° worst +0.0000°"),
+        out.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean +0.0000° worst 0.0585° (2226 samples), B mean +0.0000° worst 0.0585° (2226 samples), B - A mean +0.0000° worst +0.0000°"),
         "{out}"
     );
     assert!(
-        out.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0286° worst 4.1031° (2225 samples)"),
+        out.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0286° worst 4.1027° (2225 samples)"),
         "{out}"
     );
     assert!(

@@ -387,7 +387,7 @@ fn pass_with_stalls(cycles: i64) -> Vec<(f64, f64, f64)> {
 fn readings_held_up_8_ms_now_and_then_keep_the_thread_within_two_counts() {
     // (the newest reading is then up to 9.5 ms old; 2.0 counts before G33
     // led by the 3 ms setpoint delay: the newest reading is now up to 12.5
-    // ms behind the angle predicted; 2.31 measured at S200, 1.84 at S2000,
+    // ms behind the angle predicted; 2.32 measured at S200, 1.80 at S2000,
     // where the tracker keeps its fit for the first 4 ms of a stall and
     // eases into the next: 2.35 and 1.77 when it refitted every cycle)
     for (rpm, spread, _) in pass_with_stalls(8) {
@@ -400,7 +400,7 @@ fn readings_held_up_20_ms_now_and_then_do_not_lose_the_encoder() {
     // a VM that holds up the simulator's loop for 20 ms: under the default
     // timeout (25 cycles) the thread goes on, on the spindle's predicted
     // angle while no reading comes (with the 10 cycles of before, the
-    // first stall ended the job); 3.52 counts measured at S200, 3.31 at
+    // first stall ended the job); 3.51 counts measured at S200, 3.28 at
     // S2000 (3.64 and 2.94 when the tracker refitted every cycle; the
     // stall ends with the new fit taking over at once)
     for (rpm, spread, phase) in pass_with_stalls(20) {

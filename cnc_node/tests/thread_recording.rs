@@ -233,7 +233,7 @@ fn a_shifted_index_moves_the_groove_by_90_degrees() {
     let text = r.to_string();
     eprintln!("{text}");
     assert!(
-        text.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean -0.0001° worst 0.0585° (2226 samples), B mean +89.9999°"),
+        text.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean +0.0000° worst 0.0585° (2226 samples), B mean +90.0000°"),
         "{text}"
     );
     assert!(
@@ -315,7 +315,7 @@ fn no_encoder_no_thread_no_job_are_errors() {
         "{text}"
     );
     assert!(
-        text.contains("groove phase, setpoints: A none, B mean -0.0001°"),
+        text.contains("groove phase, setpoints: A none, B mean +0.0000°"),
         "{text}"
     );
 }
