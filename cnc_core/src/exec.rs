@@ -346,19 +346,18 @@ impl<S: ProgramSource> Executor<S> {
         let Some(t) = self.tracker.as_mut() else {
             return;
         };
-        if self.encoder_bad.is_none() {
-            if let Some(why) = t.implausible(&r, self.spindle_max_rps) {
-                // (the sample before this reading's first used the tracker)
-                if t.followed_at() >= (self.k as f64 - 1.5) * self.dt {
-                    self.encoder_bad = Some(why);
-                } else {
-                    *t = SpindleTracker::default();
-                }
+        if self.encoder_bad.is_some() {
+            return;
+        }
+        if let Some(why) = t.implausible(&r, self.spindle_max_rps) {
+            // (the sample before this reading's first used the tracker)
+            if t.followed_at() >= (self.k as f64 - 1.5) * self.dt {
+                self.encoder_bad = Some(why);
+                return;
             }
+            *t = SpindleTracker::default();
         }
-        if self.encoder_bad.is_none() {
-            t.push(r);
-        }
+        t.push(r);
     }
 
     /// Why the run ended early (lost encoder, spindle not turning), if it did.

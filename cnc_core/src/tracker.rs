@@ -343,15 +343,11 @@ impl SpindleTracker {
     }
 
     /// Whether readings are lost in the fit's window (from the reading `k0`
-    /// before the newest back): fewer there than its span holds at the
-    /// period `p`, with older readings beyond it. Such a fit leans on a few
-    /// readings, and each new one, or each old one that leaves, moves it
-    /// by more than usual.
-    fn thin_window(&self, k0: usize, p: f64) -> bool {
-        let t1 = self.at(k0).0;
-        let there = (k0..self.len)
-            .take_while(|&k| self.at(k).0 - t1 >= -REACH_S)
-            .count();
+    /// before the newest back, where the fit found `there`): fewer there
+    /// than its span holds at the period `p`, with older readings beyond
+    /// it. Such a fit leans on a few readings, and each new one, or each
+    /// old one that leaves, moves it by more than usual.
+    fn thin_window(&self, k0: usize, there: usize, p: f64) -> bool {
         // (a window still filling, at the first readings, is not thin)
         k0 + there < self.len && (there as f64) < (REACH_S / p).floor()
     }
@@ -371,8 +367,8 @@ impl SpindleTracker {
     /// t₀ in ms (well scaled for the normal equations), where (t₀, count₀)
     /// is the reading `k0` readings before the newest; each reading from
     /// there back weighted by its age ([`weight`]), the newest end's ramp
-    /// counted from `missing` ms after t₀.
-    fn fit(&self, k0: usize, missing: f64) -> [f64; TERMS] {
+    /// counted from `missing` ms after t₀; and how many readings it took.
+    fn fit(&self, k0: usize, missing: f64) -> ([f64; TERMS], usize) {
         let (t1, c1) = self.at(k0);
         let mut a = nalgebra::SMatrix::<f64, TERMS, TERMS>::zeros();
         let mut b = nalgebra::SVector::<f64, TERMS>::zeros();
@@ -408,11 +404,11 @@ impl SpindleTracker {
                 if x.iter().all(|v| v.is_finite()) {
                     let mut out = [0.0; TERMS];
                     out[..m].copy_from_slice(x.as_slice());
-                    return out;
+                    return (out, n);
                 }
             }
         }
-        [0.0; TERMS]
+        ([0.0; TERMS], n)
     }
 
     /// The predicted angle at time `t`, in counts (the centre of the
@@ -482,18 +478,18 @@ impl SpindleTracker {
         // (the fit of the cycle before: a prediction resumed after a pause,
         // say the next pass of a thread, starts afresh)
         let prev = self.current.filter(|_| now - self.cycle < 1.5 * p);
-        let newest = self.at(k0).0;
+        let (newest, count0) = self.at(k0);
         let hold =
             prev.is_some() && newest == self.newest_then && now - self.fitted_at <= MISSING_MOST;
         let mut gap = self.gap;
         if !hold {
-            let (t0, count0) = self.at(k0);
+            let (c, there) = self.fit(k0, missing);
             let fit = Fit {
-                t0,
+                t0: newest,
                 count0,
-                c: self.fit(k0, missing),
+                c,
             };
-            gap = self.thin_window(k0, p);
+            gap = self.thin_window(k0, there, p);
             if prev.is_some() && now - self.newest_then > STALL_S {
                 self.blends = [None; BLENDS];
             } else if let (Some(old), true) = (

@@ -31,7 +31,17 @@ fn program(rpm: f64) -> String {
 fn run(
     m: &Machine,
     rpm: f64,
+    deliver: impl FnMut(usize, usize) -> usize,
+) -> (Vec<Vec<f64>>, Vec<EncoderReading>) {
+    run_losing(m, rpm, deliver, |_| false)
+}
+
+/// [`run`], where the readings `j` that `lost(j)` never reach the executor.
+fn run_losing(
+    m: &Machine,
+    rpm: f64,
     mut deliver: impl FnMut(usize, usize) -> usize,
+    lost: impl Fn(usize) -> bool,
 ) -> (Vec<Vec<f64>>, Vec<EncoderReading>) {
     let p = program(rpm);
     let mut model = model_for(m);
@@ -51,14 +61,29 @@ fn run(
         ));
         set.push(pos);
         let upto = deliver(set.len(), readings.len()).min(readings.len());
-        for r in readings.iter().take(upto).skip(given) {
-            exec.encoder(*r);
+        for (j, r) in readings.iter().enumerate().take(upto).skip(given) {
+            if !lost(j) {
+                exec.encoder(*r);
+            }
         }
         given = given.max(upto);
         assert!(set.len() < 200_000, "the run did not end");
     }
     assert_eq!(exec.fault(), None);
     (set, readings)
+}
+
+/// Every joint's largest sampled jerk within the machine's limit (`what`:
+/// the case, for the message).
+fn assert_within_jerk_limits(m: &Machine, set: &[Vec<f64>], what: &str) {
+    for (j, got) in max_jerk(set, m.dt()).iter().enumerate() {
+        let lim = m.axes[j].max_jerk_mm_s3.unwrap();
+        assert!(
+            *got <= lim * (1.0 + 1e-6),
+            "{what}: joint {j} at {:.1} m/s³",
+            got / 1000.0
+        );
+    }
 }
 
 /// Largest sampled jerk per joint, mm/s³.
@@ -100,14 +125,7 @@ fn readings_that_come_late_keep_the_thread_within_the_jerk_limit() {
                 n
             });
             assert!(set.len() > 2000, "S{rpm}: {} samples", set.len());
-            for (j, got) in max_jerk(&set, m.dt()).iter().enumerate() {
-                let lim = m.axes[j].max_jerk_mm_s3.unwrap();
-                assert!(
-                    *got <= lim * (1.0 + 1e-6),
-                    "{by} cycles late, S{rpm}: joint {j} at {:.1} m/s³",
-                    got / 1000.0
-                );
-            }
+            assert_within_jerk_limits(&m, &set, &format!("{by} cycles late, S{rpm}"));
         }
     }
 }
@@ -218,34 +236,10 @@ fn readings_lost_now_and_then_keep_the_thread_within_the_jerk_limit() {
     let m = lathe();
     for gap in [4, 8, 12, 16] {
         for rpm in SPEEDS {
-            let p = program(rpm);
-            let mut model = model_for(&m);
-            let mut exec = Executor::new(StrSource::new(&p), Dialect::Cnc836, &m);
-            exec.attach_encoder();
-            let joints = m.joint_indices();
-            let mut set: Vec<Vec<f64>> = Vec::new();
-            while let Some(s) = exec.next_sample() {
-                let pos: Vec<f64> = joints.iter().map(|&i| s.pos[i]).collect();
-                if s.k > 0 {
-                    model.step(&pos, s.spindle_rpm, m.dt());
-                }
-                let r = encoder_reading(&model.spindle.as_ref().unwrap().encoder(), s.t);
-                set.push(pos);
-                if set.len() < 1000 || set.len() % 300 >= gap {
-                    exec.encoder(r);
-                }
-                assert!(set.len() < 200_000, "the run did not end");
-            }
-            assert_eq!(exec.fault(), None, "{gap} lost, S{rpm}");
+            // (the reading after sample j is lost while (j + 1) mod 300 < gap)
+            let (set, _) = run_losing(&m, rpm, |_, n| n, |j| j + 1 >= 1000 && (j + 1) % 300 < gap);
             assert!(set.len() > 2000, "S{rpm}: {} samples", set.len());
-            for (j, got) in max_jerk(&set, m.dt()).iter().enumerate() {
-                let lim = m.axes[j].max_jerk_mm_s3.unwrap();
-                assert!(
-                    *got <= lim * (1.0 + 1e-6),
-                    "{gap} lost, S{rpm}: joint {j} at {:.1} m/s³",
-                    got / 1000.0
-                );
-            }
+            assert_within_jerk_limits(&m, &set, &format!("{gap} lost, S{rpm}"));
         }
     }
 }
