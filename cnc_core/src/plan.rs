@@ -649,6 +649,11 @@ impl<K: Copy> Lookahead<K> {
 
     /// Commits every head whose exit speed can no longer change.
     fn commit(&mut self, all: bool, out: &mut impl ItemSink<Kept = K>) {
+        // (jerk: a cap of a move still to come falls on whole pieces, so
+        // it may lower the entry of the piece that reaches over the last
+        // `lag_distance(top)` from as far back as that piece starts; found
+        // once, when the room is otherwise there)
+        let mut straddle = None;
         while let Some(h) = self.queue.front() {
             let v1 = match self.queue.get(1) {
                 Some(nx) => {
@@ -664,8 +669,11 @@ impl<K: Copy> Lookahead<K> {
                     let final_exit = nx.entry_b >= nx.j_max || reach <= nx.entry_b;
                     // (jerk: not while a move still to come may cap the
                     // next one, whose entry this fixes)
+                    let room = self.queued - h.length - nx.length;
                     let covered = !self.lim.jerk.limited()
-                        || self.queued - h.length - nx.length >= self.reach_room;
+                        || room >= self.reach_room
+                            && room - *straddle.get_or_insert_with(|| self.straddle())
+                                >= self.reach_room;
                     let full = self.queue.len() > self.lim.lookahead;
                     let overfull = self.queue.len() > REACH_QUEUE * self.lim.lookahead;
                     if !(all || (final_exit || full) && covered || overfull) {
@@ -697,6 +705,27 @@ impl<K: Copy> Lookahead<K> {
             self.v_head = 0.0;
             self.queued = 0.0;
         }
+    }
+
+    /// Jerk: how far the queued piece that reaches over the last
+    /// `lag_distance(top)` of the queue starts before that point (0 if a
+    /// piece ends there, or the queue is shorter). A move still to come
+    /// caps the pieces within its reach whole ([`Self::smear`]): a long
+    /// piece there takes its cap, and lowers its entry, from its start
+    /// on. Without this room a head before it was committed at an exit
+    /// the piece could no longer take (a full circle's long middle behind
+    /// a line, capped by the slower end pieces of the circle's own end:
+    /// twice the acceleration limit on the mill at 300 m/s³).
+    fn straddle(&self) -> f64 {
+        let reach = self.lim.jerk.lag_distance(self.lim.top);
+        let mut behind = 0.0;
+        for q in self.queue.iter().rev() {
+            if behind + q.length > reach {
+                return behind + q.length - reach;
+            }
+            behind += q.length;
+        }
+        0.0
     }
 
     /// Plans everything queued to a stop.

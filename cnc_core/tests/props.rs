@@ -514,3 +514,46 @@ proptest! {
         prop_assert!(over.is_none(), "{}\n{}", over.unwrap_or_default(), text);
     }
 }
+
+/// A full circle behind a line, ending beside a small arc, on the mill at
+/// 290-310 m/s³ under G64 P0: the circle's middle piece (101.6 mm) was
+/// capped whole by the slower pieces of the circle's own end after the
+/// piece before it had been committed at the faster speed, and the
+/// setpoints decelerated at up to 4,242 mm/s² on X (the limit is 2,000).
+/// The look-ahead now keeps the room behind the piece that reaches over
+/// the last cap's reach (`Lookahead::straddle`).
+#[test]
+fn a_long_piece_capped_whole_by_a_move_to_come_keeps_every_limit() {
+    let text = "G17 G90 G64 P0\nG00 X250 Y250 Z0\nF13033.3941\nG01 X258.5696 Y250\n\
+                G02 X258.5696 Y250 I0 J-17.5391\nG02 X258.6195 Y249.9973 I-0.0024 J-0.5\nM30\n";
+    for jerk in [2.9e5, 3.0e5, 3.1e5] {
+        let mut m = Machine::builtin_mill();
+        for a in &mut m.axes {
+            a.max_jerk_mm_s3 = Some(jerk);
+        }
+        let r = check(StrSource::new(text), Dialect::Cnc836, &m);
+        assert!(r.ok(), "{}", r.message());
+        let s: Vec<Sample> = Executor::new(StrSource::new(text), Dialect::Cnc836, &m).collect();
+        let last = s.last().unwrap();
+        assert_eq!(last.k, r.ticks, "at {jerk} mm/s³");
+        assert!(
+            (last.pos - V3::new(258.6195, 249.9973, 0.0)).norm() < 1e-9,
+            "ends at {:?}",
+            last.pos
+        );
+        // the largest acceleration on X: the limit, reached only by the
+        // rapid (before the fix -3,946 to -4,242 mm/s² on the circle)
+        let dt = m.dt();
+        let ax = s
+            .windows(3)
+            .map(|w| ((w[2].pos.x - 2.0 * w[1].pos.x + w[0].pos.x) / (dt * dt)).abs())
+            .fold(0.0, f64::max);
+        assert!(ax <= 2000.0 + 1e-6, "|a_x| {ax} mm/s² at {jerk} mm/s³");
+        let over = over_a_limit(&s, &m, true);
+        assert!(
+            over.is_none(),
+            "{} at {jerk} mm/s³",
+            over.unwrap_or_default()
+        );
+    }
+}
