@@ -650,9 +650,11 @@ proptest! {
     /// Chains of tangent lines and arcs (curvature steps: a line into an
     /// arc, an arc into a tighter, wider or opposite one, full circles)
     /// at any jerk from 20 to 1000 m/s³, under G61, G64 P0 or a tolerance,
-    /// any feed and look-ahead: every axis within its velocity,
+    /// any feed and look-ahead, with a feed hold or an override of 5-200 %
+    /// for a while somewhere: every axis within its velocity,
     /// acceleration and jerk at every sample, the path within the
-    /// tolerance, the end exact and on the check's tick. (The random
+    /// tolerance, the end exact (and without the hold on the check's
+    /// tick). (The random
     /// programs above meet at corners nearly always; this is where the
     /// look-ahead once committed a piece that a later cap slowed:
     /// `a_long_piece_capped_whole_by_a_move_to_come_keeps_every_limit`.)
@@ -663,6 +665,11 @@ proptest! {
         jerk in 2.0e4..1.0e6f64,
         tol in prop_oneof![Just(0.0), Just(0.001), 0.001..0.2f64],
         look in prop_oneof![3 => Just(200usize), 1 => 2usize..12],
+        hold in prop::option::of((
+            10usize..3000,
+            1usize..3000,
+            prop_oneof![Just(0.0), 0.05..1.0f64, 1.0..2.0f64, Just(2.0)],
+        )),
     ) {
         let mut m = Machine::builtin_mill();
         for a in &mut m.axes {
@@ -672,10 +679,26 @@ proptest! {
         let (text, end, els) = tangent_chain(&moves, feed, tol);
         let r = check(StrSource::new(&text), Dialect::Cnc836, &m);
         prop_assume!(r.ok());
-        let s: Vec<Sample> = Executor::new(StrSource::new(&text), Dialect::Cnc836, &m).collect();
+        // (a feed hold or an override for a while, as the executor's
+        // live feed target: the path and every limit hold all the same)
+        let mut ex = Executor::new(StrSource::new(&text), Dialect::Cnc836, &m);
+        let mut s: Vec<Sample> = Vec::new();
+        while let Some(x) = ex.next_sample() {
+            if let Some((at, len, level)) = hold {
+                if s.len() == at {
+                    ex.set_feed_target(level);
+                } else if s.len() == at + len {
+                    ex.set_feed_target(1.0);
+                }
+            }
+            s.push(x);
+            prop_assert!(s.len() as u64 <= 2 * r.ticks + 10_000, "no end after {} samples\n{}", s.len(), text);
+        }
         let last = s.last().unwrap();
         prop_assert_eq!(last.pos, end);
-        prop_assert_eq!(last.k, r.ticks);
+        if hold.is_none() {
+            prop_assert_eq!(last.k, r.ticks);
+        }
         let bound = r4(tol).max(m.smoothing_error_mm()) + 1e-9;
         for x in &s {
             let d = els.iter().map(|e| el_dist(x.pos, e)).fold(f64::MAX, f64::min);
