@@ -516,7 +516,8 @@ proptest! {
 }
 
 /// A full circle behind a line, ending beside a small arc, on the mill at
-/// 290-310 m/s³ under G64 P0: the circle's middle piece (101.6 mm) was
+/// 290-310 m/s³ under G64 P0 (and at its own 200 m/s³ under G64
+/// P0.0022): the circle's middle piece (101.6 mm) was
 /// capped whole by the slower pieces of the circle's own end after the
 /// piece before it had been committed at the faster speed, and the
 /// setpoints decelerated at up to 4,242 mm/s² on X (the limit is 2,000).
@@ -524,9 +525,15 @@ proptest! {
 /// the last cap's reach (`Lookahead::straddle`).
 #[test]
 fn a_long_piece_capped_whole_by_a_move_to_come_keeps_every_limit() {
-    let text = "G17 G90 G64 P0\nG00 X250 Y250 Z0\nF13033.3941\nG01 X258.5696 Y250\n\
-                G02 X258.5696 Y250 I0 J-17.5391\nG02 X258.6195 Y249.9973 I-0.0024 J-0.5\nM30\n";
-    for jerk in [2.9e5, 3.0e5, 3.1e5] {
+    let text = |p: &str| {
+        format!(
+            "G17 G90 G64 P{p}\nG00 X250 Y250 Z0\nF13033.3941\nG01 X258.5696 Y250\n\
+             G02 X258.5696 Y250 I0 J-17.5391\nG02 X258.6195 Y249.9973 I-0.0024 J-0.5\nM30\n"
+        )
+    };
+    // (the bundled mill at its own 200 m/s³ under P 2.2 µm: 2,483.9 mm/s²)
+    for (jerk, p) in [(2.9e5, "0"), (3.0e5, "0"), (3.1e5, "0"), (2.0e5, "0.0022")] {
+        let text = &text(p);
         let mut m = Machine::builtin_mill();
         for a in &mut m.axes {
             a.max_jerk_mm_s3 = Some(jerk);
