@@ -421,34 +421,7 @@ proptest! {
         // what comes within the path filter's reach)
         m.planner.lookahead_blocks = look;
         let (text, end, els) = program_path(&moves, feed, tol);
-        let r = check(StrSource::new(&text), Dialect::Cnc836, &m);
-        prop_assume!(r.ok());
-        let mut ex = Executor::new(StrSource::new(&text), Dialect::Cnc836, &m);
-        let mut s: Vec<Sample> = Vec::new();
-        while let Some(x) = ex.next_sample() {
-            if let Some((at, len, level)) = hold {
-                if s.len() == at {
-                    ex.set_feed_target(level);
-                } else if s.len() == at + len {
-                    ex.set_feed_target(1.0);
-                }
-            }
-            s.push(x);
-            // (a run that never ends fails here instead of filling memory)
-            prop_assert!(s.len() as u64 <= 2 * r.ticks + 10_000, "no end after {} samples\n{}", s.len(), text);
-        }
-        let last = s.last().unwrap();
-        prop_assert_eq!(last.pos, end);
-        if hold.is_none() {
-            prop_assert_eq!(last.k, r.ticks);
-        }
-        let bound = r4(tol).max(m.smoothing_error_mm()) + 1e-9;
-        for x in &s {
-            let d = els.iter().map(|e| el_dist(x.pos, e)).fold(f64::MAX, f64::min);
-            prop_assert!(d <= bound, "{} mm off the path at k={} (bound {})\n{}", d, x.k, bound, text);
-        }
-        let over = over_a_limit(&s, &m, true);
-        prop_assert!(over.is_none(), "{}\n{}", over.unwrap_or_default(), text);
+        runs_within_limits_and_path(&m, &text, end, &els, tol, hold)?;
     }
 }
 
@@ -669,8 +642,14 @@ proptest! {
     fn tangent_chains_keep_every_limit_and_the_path(
         moves in prop::collection::vec(tangent(), 1..8),
         feed in 100.0..20000.0f64,
-        jerk in 2.0e4..1.0e6f64,
-        tol in prop_oneof![Just(0.0), Just(0.001), 0.001..0.2f64],
+        // (a quarter in the bands where the XYZ filter's step budget
+        // reaches its deviation budget under G61 or P up to 3 µm, where
+        // an arc beside a line has no inner part: the committed-piece case)
+        jerk in prop_oneof![
+            3 => 2.0e4..1.0e6f64,
+            1 => prop_oneof![1.75e5..1.85e5f64, 2.85e5..3.15e5f64, 5.0e5..6.2e5f64],
+        ],
+        tol in prop_oneof![Just(0.0), Just(0.001), 0.001..0.003f64, 0.001..0.2f64],
         look in prop_oneof![3 => Just(200usize), 1 => 2usize..12],
         hold in prop::option::of((
             10usize..3000,
@@ -678,40 +657,108 @@ proptest! {
             prop_oneof![Just(0.0), 0.05..1.0f64, 1.0..2.0f64, Just(2.0)],
         )),
     ) {
-        let mut m = Machine::builtin_mill();
-        for a in &mut m.axes {
-            a.max_jerk_mm_s3 = Some(jerk);
-        }
-        m.planner.lookahead_blocks = look;
-        let (text, end, els) = tangent_chain(&moves, feed, tol);
-        let r = check(StrSource::new(&text), Dialect::Cnc836, &m);
-        prop_assume!(r.ok());
-        // (a feed hold or an override for a while, as the executor's
-        // live feed target: the path and every limit hold all the same)
-        let mut ex = Executor::new(StrSource::new(&text), Dialect::Cnc836, &m);
-        let mut s: Vec<Sample> = Vec::new();
-        while let Some(x) = ex.next_sample() {
-            if let Some((at, len, level)) = hold {
-                if s.len() == at {
-                    ex.set_feed_target(level);
-                } else if s.len() == at + len {
-                    ex.set_feed_target(1.0);
-                }
-            }
-            s.push(x);
-            prop_assert!(s.len() as u64 <= 2 * r.ticks + 10_000, "no end after {} samples\n{}", s.len(), text);
-        }
-        let last = s.last().unwrap();
-        prop_assert_eq!(last.pos, end);
-        if hold.is_none() {
-            prop_assert_eq!(last.k, r.ticks);
-        }
-        let bound = r4(tol).max(m.smoothing_error_mm()) + 1e-9;
-        for x in &s {
-            let d = els.iter().map(|e| el_dist(x.pos, e)).fold(f64::MAX, f64::min);
-            prop_assert!(d <= bound, "{} mm off the path at k={} (bound {})\n{}", d, x.k, bound, text);
-        }
-        let over = over_a_limit(&s, &m, true);
-        prop_assert!(over.is_none(), "{}\n{}", over.unwrap_or_default(), text);
+        tangent_chain_run(&moves, feed, jerk, tol, look, hold)?;
     }
+
+    /// The same in the jerk bands and tolerances of the committed-piece
+    /// case only, for a long search (`PROPTEST_CASES=5000 cargo test
+    /// --release -p cnc_core --test props -- --ignored`): against the
+    /// look-ahead before cedf773 it finds a full circle behind a line that
+    /// decelerates over the limit of 2,000 mm/s² after some hundred cases
+    /// (2,390.8 and 2,479.6 mm/s² in two searches, G64 P0). 5,000 cases
+    /// pass in about 12 s.
+    #[test]
+    #[ignore]
+    fn tangent_chains_in_the_bands_where_an_arc_has_no_inner_part(
+        moves in prop::collection::vec(tangent(), 1..8),
+        feed in 100.0..20000.0f64,
+        jerk in prop_oneof![1.75e5..1.85e5f64, 1.95e5..2.05e5f64, 2.85e5..3.15e5f64, 5.0e5..6.2e5f64],
+        tol in prop_oneof![Just(0.0), Just(0.0022), 0.001..0.003f64],
+    ) {
+        tangent_chain_run(&moves, feed, jerk, tol, 200, None)?;
+    }
+}
+
+/// Runs a tangent chain (with a feed hold or override `hold`: from
+/// sample, for samples, to level) and checks every limit, the path
+/// within the tolerance, the end, and without a hold the check's tick.
+fn tangent_chain_run(
+    moves: &[Tangent],
+    feed: f64,
+    jerk: f64,
+    tol: f64,
+    look: usize,
+    hold: Option<(usize, usize, f64)>,
+) -> Result<(), TestCaseError> {
+    let mut m = Machine::builtin_mill();
+    for a in &mut m.axes {
+        a.max_jerk_mm_s3 = Some(jerk);
+    }
+    m.planner.lookahead_blocks = look;
+    let (text, end, els) = tangent_chain(moves, feed, tol);
+    runs_within_limits_and_path(&m, &text, end, &els, tol, hold)
+}
+
+/// Checks `text` on `m` (a case the check refuses is rejected), runs it
+/// with a feed hold or override `hold` (from sample, for samples, to
+/// level), and asserts: the end exact, without a hold on the check's
+/// tick, every sample within the tolerance `tol` of the path `els` (or
+/// the XYZ filter's own bound), and every axis within its velocity,
+/// acceleration and jerk.
+fn runs_within_limits_and_path(
+    m: &Machine,
+    text: &str,
+    end: V3,
+    els: &[El],
+    tol: f64,
+    hold: Option<(usize, usize, f64)>,
+) -> Result<(), TestCaseError> {
+    let r = check(StrSource::new(text), Dialect::Cnc836, m);
+    if !r.ok() {
+        return Err(TestCaseError::reject("not accepted"));
+    }
+    // (a feed hold or an override for a while, as the executor's
+    // live feed target: the path and every limit hold all the same)
+    let mut ex = Executor::new(StrSource::new(text), Dialect::Cnc836, m);
+    let mut s: Vec<Sample> = Vec::new();
+    while let Some(x) = ex.next_sample() {
+        if let Some((at, len, level)) = hold {
+            if s.len() == at {
+                ex.set_feed_target(level);
+            } else if s.len() == at + len {
+                ex.set_feed_target(1.0);
+            }
+        }
+        s.push(x);
+        // (a run that never ends fails here instead of filling memory)
+        prop_assert!(
+            s.len() as u64 <= 2 * r.ticks + 10_000,
+            "no end after {} samples\n{}",
+            s.len(),
+            text
+        );
+    }
+    let last = s.last().unwrap();
+    prop_assert_eq!(last.pos, end);
+    if hold.is_none() {
+        prop_assert_eq!(last.k, r.ticks);
+    }
+    let bound = r4(tol).max(m.smoothing_error_mm()) + 1e-9;
+    for x in &s {
+        let d = els
+            .iter()
+            .map(|e| el_dist(x.pos, e))
+            .fold(f64::MAX, f64::min);
+        prop_assert!(
+            d <= bound,
+            "{} mm off the path at k={} (bound {})\n{}",
+            d,
+            x.k,
+            bound,
+            text
+        );
+    }
+    let over = over_a_limit(&s, m, true);
+    prop_assert!(over.is_none(), "{}\n{}", over.unwrap_or_default(), text);
+    Ok(())
 }
