@@ -669,14 +669,17 @@ impl<K: Copy> Lookahead<K> {
                     let final_exit = nx.entry_b >= nx.j_max || reach <= nx.entry_b;
                     // (jerk: not while a move still to come may cap the
                     // next one, whose entry this fixes)
+                    // (looked at only when the rest would commit it)
                     let room = self.queued - h.length - nx.length;
-                    let covered = !self.lim.jerk.limited()
-                        || room >= self.reach_room
-                            && room - *straddle.get_or_insert_with(|| self.straddle())
-                                >= self.reach_room;
+                    let mut covered = || {
+                        !self.lim.jerk.limited()
+                            || room >= self.reach_room
+                                && room - *straddle.get_or_insert_with(|| self.straddle())
+                                    >= self.reach_room
+                    };
                     let full = self.queue.len() > self.lim.lookahead;
                     let overfull = self.queue.len() > REACH_QUEUE * self.lim.lookahead;
-                    if !(all || (final_exit || full) && covered || overfull) {
+                    if !(all || (final_exit || full) && covered() || overfull) {
                         return;
                     }
                     nx.entry_b.min(reach)
