@@ -386,6 +386,14 @@ impl PlanLimits {
     /// meet there ([`Turn`]).
     #[inline]
     pub(crate) fn junction(&self, t1: &V3, t2: &V3) -> (f64, Turn) {
+        self.spaced_junction(t1, t2, f64::INFINITY)
+    }
+
+    /// [`junction`](Self::junction) with `gap`, the path length (mm) to
+    /// the nearest other junction that may turn: kinks closer than a
+    /// sample's path share its reserve ([`spaced_cap`]).
+    #[inline]
+    pub(crate) fn spaced_junction(&self, t1: &V3, t2: &V3, gap: f64) -> (f64, Turn) {
         if t1.dot(t2) < self.exact_stop_cos {
             return (0.0, Turn::Smooth);
         }
@@ -402,14 +410,33 @@ impl PlanLimits {
                     KINK_SHARE
                 };
                 v = v
-                    .min(share * self.amax[i] * self.dt / d)
-                    .min(self.jerk.kink_cap(d));
+                    .min(spaced_cap(share * self.amax[i] * self.dt / d, gap, self.dt))
+                    .min(spaced_cap(self.jerk.kink_cap(d), gap, self.dt));
             }
         }
         // (a fine kink's own limit is the fastest path speed or more: only
         // the jerk caps it)
         (v, turn)
     }
+}
+
+/// A kink's speed cap `cap` (its velocity jump over one sample within a
+/// reserve), for kinks `gap` mm or more apart. A sample's acceleration (the
+/// second difference of the positions) weighs each kink's jump by a tent of
+/// half-width v·dt about the sample; kinks at least v·dt apart have weights
+/// that sum to 1 at most, so up to the speed gap/dt `cap` holds as it is.
+/// Faster, several kinks' jumps fall in one sample: with each jump within
+/// gap/(gap + v·dt) of the reserve they add up to the reserve at most
+/// (evenly spaced kinks: the weights sum to 1 + v·dt/gap at most), so
+/// v·(gap + v·dt) ≤ cap·gap; the cap is the larger of the two speeds.
+#[inline]
+pub(crate) fn spaced_cap(cap: f64, gap: f64, dt: f64) -> f64 {
+    if !cap.is_finite() || cap * dt <= gap {
+        return cap;
+    }
+    // (the root of dt·v² + gap·v − cap·gap, in its stable form)
+    let crowded = 2.0 * cap * gap / (gap + (gap * gap + 4.0 * dt * cap * gap).sqrt());
+    crowded.max(gap / dt)
 }
 
 /// What a junction asks of the moves that meet there.
@@ -559,5 +586,25 @@ mod tests {
             }
         }
         assert!(flat > 1000, "{flat} flat arcs");
+    }
+
+    #[test]
+    fn kinks_closer_than_a_sample_share_its_reserve() {
+        let dt = 0.001;
+        // far apart, or no cap: the cap as it is
+        assert_eq!(spaced_cap(15.0, f64::INFINITY, dt), 15.0);
+        assert_eq!(spaced_cap(15.0, 0.015, dt), 15.0);
+        assert_eq!(spaced_cap(f64::INFINITY, 0.001, dt), f64::INFINITY);
+        // 10 µm apart, a cap of 15 mm/s (15 µm a sample): the kinks a
+        // sample apart, 10 mm/s, is faster than the root of v·(gap + v·dt)
+        // = cap·gap, 8.229 mm/s
+        assert_eq!(spaced_cap(15.0, 0.01, dt), 10.0);
+        // 1 µm apart, a cap of 30 mm/s: the root, 5 mm/s (v² + v = 30), at
+        // which each jump is within 1/6 of the reserve
+        let v = spaced_cap(30.0, 0.001, dt);
+        assert!((v - 5.0).abs() < 1e-12, "{v}");
+        // 50 µm apart, 1000 mm/s: 200 mm/s (v² + 50·v = 50,000)
+        let v = spaced_cap(1000.0, 0.05, dt);
+        assert!((v - 200.0).abs() < 1e-9, "{v}");
     }
 }

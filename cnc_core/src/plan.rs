@@ -116,11 +116,9 @@ struct Pending {
     prep: MovePrep,
     /// whether it starts from a stop
     entry_stop: bool,
-    /// whether the move before continues into it with its curvature
-    /// ([`JerkBudget::curve_speed`])
+    /// whether the move before continues into it with its curvature ([`JerkBudget::curve_speed`])
     entry_curve: bool,
-    /// whether it starts from a stop or from a long line, tangent
-    /// ([`ArcPart::Beside`])
+    /// whether it starts from a stop or from a long line, tangent ([`ArcPart::Beside`])
     entry_beside: bool,
     /// a cap on its entry junction (∞: none): the speed up to which the
     /// arc before continues into it as one curve
@@ -237,6 +235,10 @@ pub(crate) struct Lookahead<K> {
     /// moves planned beyond those that came in (the pieces of split
     /// lines): what a count of programmed moves takes off
     pub(crate) extra: u64,
+    /// mm queued since the last kink or fine kink (∞: none yet)
+    since_turn: f64,
+    /// mm: the whole move being queued (all its pieces)
+    move_length: f64,
 }
 
 impl<K: Copy> Lookahead<K> {
@@ -251,6 +253,8 @@ impl<K: Copy> Lookahead<K> {
             entry_cap: f64::INFINITY,
             flushing: false,
             extra: 0,
+            since_turn: f64::INFINITY,
+            move_length: f64::INFINITY,
             reach_room: 2.0 * lim.jerk.lag_distance(lim.top)
                 + lim.top * lim.top / (2.0 * lim.amax.min()),
         }
@@ -309,6 +313,7 @@ impl<K: Copy> Lookahead<K> {
             return;
         }
         if !self.lim.jerk.limited() {
+            self.move_length = prep.length;
             self.enqueue(O::keep(geom, feed, src), prep, out);
             return;
         }
@@ -388,6 +393,7 @@ impl<K: Copy> Lookahead<K> {
         };
         // (the first piece queued takes it)
         self.entry_cap = p.entry_cap;
+        self.move_length = p.prep.length;
         if p.entry_curve && exit_curve && matches!(p.geom, Geom::Arc(_)) {
             self.curve_inside(&p, out);
             return;
@@ -419,10 +425,16 @@ impl<K: Copy> Lookahead<K> {
         let cap = std::mem::replace(&mut self.entry_cap, f64::INFINITY);
         let (j_kink, turn) = match self.queue.back() {
             Some(prev) => {
-                let (j, turn) = self.lim.junction(&prev.t_end, &t2);
+                // (the nearest other kink: the last one, or this move's end)
+                let gap = self.since_turn.min(self.move_length);
+                let (j, turn) = self.lim.spaced_junction(&prev.t_end, &t2, gap);
                 (j.min(cap), turn)
             }
             None => (self.v_head, Turn::Smooth),
+        };
+        self.since_turn = match turn {
+            Turn::Smooth => self.since_turn + length,
+            _ => length,
         };
         match (turn, self.queue.back_mut()) {
             (Turn::Kink, Some(prev)) => {
