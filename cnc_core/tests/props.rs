@@ -567,11 +567,50 @@ proptest! {
         if !aborted {
             let last = s.last().unwrap();
             prop_assert_eq!(last.k, r.ticks);
-            prop_assert!(s.iter().any(|x| x.sync.is_some_and(|y| y.on_line)), "no sample on the thread line\n{}", text);
+            // (on the line, or at its speed where the line between the
+            // run-in and the deceleration is shorter than a sample's travel:
+            // 0.05 mm at S1907 F3.63, where the check asks for 8.852 mm)
+            let line = pitch * rpm / 60.0;
+            let top = s.iter().filter(|x| x.sync.is_some()).map(|x| x.path_speed).fold(0.0, f64::max);
+            prop_assert!(
+                s.iter().any(|x| x.sync.is_some_and(|y| y.on_line)) || top >= line * (1.0 - 1e-3),
+                "the thread never reached its line (top speed {} mm/s, the line's {})\n{}",
+                top,
+                line,
+                text
+            );
         }
         let over = over_a_limit(&s, &m, true);
         prop_assert!(over.is_none(), "{}\n{}", over.unwrap_or_default(), text);
     }
+}
+
+/// A thread whose line between the run-in and the deceleration is
+/// shorter than a sample's travel: S1907 F3.63 on the bundled lathe needs
+/// 4.426 mm of Z for each, and the block has 8.9 mm, so the line is 0.048
+/// mm, 0.4 ms. No sample falls on it, but the run-in reaches the line's
+/// speed (115.3735 mm/s) to within 0.006 mm/s, and every limit holds.
+#[test]
+fn a_thread_line_shorter_than_a_sample_is_reached() {
+    let m = Machine::builtin_lathe();
+    let text =
+        "N5 G00 X20 Z5\nN10 M03 S1907\nN20 G33 X20 Z-3.9 F3.63\nN30 G00 X30\nN40 Z5\nN50 M30\n";
+    let r = check(StrSource::new(text), Dialect::Cnc836, &m);
+    assert!(r.ok());
+    let s: Vec<Sample> = Executor::new(StrSource::new(text), Dialect::Cnc836, &m).collect();
+    assert!(!s.iter().any(|x| x.sync.is_some_and(|y| y.on_line)));
+    let top = s
+        .iter()
+        .filter(|x| x.sync.is_some())
+        .map(|x| x.path_speed)
+        .fold(0.0, f64::max);
+    let line = 3.63 * 1907.0 / 60.0;
+    assert!(top <= line && line - top < 0.006, "{top} against {line}");
+    assert_eq!(over_a_limit(&s, &m, true), None);
+    // (8.85 mm: too short for both, refused)
+    let short = text.replace("Z-3.9", "Z-3.85");
+    let r = check(StrSource::new(&short), Dialect::Cnc836, &m);
+    assert!(!r.ok());
 }
 
 /// A full circle behind a line, ending beside a small arc, on the mill at
