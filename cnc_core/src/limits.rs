@@ -415,7 +415,7 @@ impl PlanLimits {
             }
         }
         // (a fine kink's own limit is the fastest path speed or more: only
-        // the jerk caps it)
+        // the jerk caps it, and kinks that crowd a sample)
         (v, turn)
     }
 }
@@ -427,7 +427,8 @@ impl PlanLimits {
 /// that sum to 1 at most, so up to the speed gap/dt `cap` holds as it is.
 /// Faster, several kinks' jumps fall in one sample: with each jump within
 /// gap/(gap + v·dt) of the reserve they add up to the reserve at most
-/// (evenly spaced kinks: the weights sum to 1 + v·dt/gap at most), so
+/// (evenly spaced kinks' weights sum to 1 + v·dt/gap at most; uneven ones:
+/// `dense_polylines_keep_every_limit`, `tests/wild.rs`), so
 /// v·(gap + v·dt) ≤ cap·gap; the cap is the larger of the two speeds.
 #[inline]
 pub(crate) fn spaced_cap(cap: f64, gap: f64, dt: f64) -> f64 {
