@@ -64,19 +64,6 @@ fn mv() -> impl Strategy<Value = Mv> {
     ]
 }
 
-/// Cases to run: `default`, or `PROPTEST_CASES` from the environment (for
-/// long runs: `PROPTEST_CASES=3000 cargo test --release --test props`).
-fn cases(default: u32) -> u32 {
-    std::env::var("PROPTEST_CASES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
-
-fn r4(v: f64) -> f64 {
-    (v * 1e4).round() / 1e4
-}
-
 /// Builds a program; positions stay inside the mill's travel.
 fn program(moves: &[Mv], feed: f64) -> (String, V3) {
     let (text, end, _) = program_path(moves, feed, 0.0);
@@ -109,6 +96,8 @@ proptest! {
 /// (`over_a_limit`), shared as it is.
 #[path = "../../fuzz/fuzz_targets/common.rs"]
 mod common;
+mod runs;
+use runs::{cases, hold, r4, samples_with_hold};
 
 /// The first sample at which an axis exceeds its velocity, acceleration
 /// or (with `jerk`, the machine's) jerk limit, as sampled differences.
@@ -711,16 +700,6 @@ fn turn(
     (r, sweep, any::<bool>()).prop_map(|(r, sweep, ccw)| Tangent::Turn { r, sweep, ccw })
 }
 
-/// A feed hold or override for a while (from sample, for samples, to
-/// level), or none.
-fn hold() -> impl Strategy<Value = Option<(usize, usize, f64)>> {
-    prop::option::of((
-        10usize..3000,
-        1usize..3000,
-        prop_oneof![Just(0.0), 0.05..1.0f64, 1.0..2.0f64, Just(2.0)],
-    ))
-}
-
 /// A program of tangent lines and arcs in XY from X250 Y250 heading +X.
 fn tangent_chain(moves: &[Tangent], feed: f64, tol: f64) -> (String, V3, Vec<El>) {
     let mut p = V3::new(250.0, 250.0, 0.0);
@@ -937,27 +916,9 @@ fn runs_within_limits_and_path(
     if !r.ok() {
         return Err(TestCaseError::reject("not accepted"));
     }
-    // (a feed hold or an override for a while, as the executor's
-    // live feed target: the path and every limit hold all the same)
-    let mut ex = Executor::new(StrSource::new(text), Dialect::Cnc836, m);
-    let mut s: Vec<Sample> = Vec::new();
-    while let Some(x) = ex.next_sample() {
-        if let Some((at, len, level)) = hold {
-            if s.len() == at {
-                ex.set_feed_target(level);
-            } else if s.len() == at + len {
-                ex.set_feed_target(1.0);
-            }
-        }
-        s.push(x);
-        // (a run that never ends fails here instead of filling memory)
-        prop_assert!(
-            s.len() as u64 <= 2 * r.ticks + 10_000,
-            "no end after {} samples\n{}",
-            s.len(),
-            text
-        );
-    }
+    // (a feed hold or an override for a while: the path and every limit
+    // hold all the same)
+    let s = samples_with_hold(m, text, r.ticks, hold)?;
     let last = s.last().unwrap();
     prop_assert_eq!(last.pos, end);
     if hold.is_none() {

@@ -1,5 +1,6 @@
-//! Property test: random programs in all three planes, dense 3D
-//! polylines and rapids keep every axis limit at every sample.
+//! Property tests: random programs in all three planes, dense 3D
+//! polylines and rapids, and compensated chains keep every axis limit at
+//! every sample.
 //!
 //! `props.rs` draws its programs in XY (Z only on its random lines). Here
 //! a program is runs of lines turning about Z and about a horizontal axis
@@ -12,24 +13,13 @@
 //! at 1,516 mm/s² against 1,500, a dense polyline in space); 60,000 cases
 //! pass (`PROPTEST_CASES=60000 cargo test --release -p cnc_core --test
 //! wild`, about a minute).
-use cnc_core::exec::{Executor, Sample};
 use cnc_core::source::StrSource;
 use cnc_core::{check, Dialect, Machine};
 use proptest::prelude::*;
 #[path = "../../fuzz/fuzz_targets/common.rs"]
 mod common;
-
-fn r4(v: f64) -> f64 {
-    (v * 1e4).round() / 1e4
-}
-
-/// Cases to run: `default`, or `PROPTEST_CASES` from the environment.
-fn cases(default: u32) -> u32 {
-    std::env::var("PROPTEST_CASES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
+mod runs;
+use runs::{cases, hold, r4, samples_with_hold};
 
 /// One step of a program.
 #[derive(Clone, Debug)]
@@ -187,33 +177,244 @@ fn prog(sts: &[St], feed: f64) -> (String, [f64; 3]) {
     (s, p)
 }
 
+/// Jerk limits: none, or 20 to 1000 m/s³.
+fn jerk() -> impl Strategy<Value = Option<f64>> {
+    prop_oneof![Just(None), (2.0e4..1.0e6f64).prop_map(Some)]
+}
+
+/// Checks `text` on the mill at `jerk` (a program the check refuses is
+/// rejected), runs it with `hold`, and asserts every axis within its
+/// limits at every sample, the end at `end` (if given) and, without a
+/// hold, on the check's tick.
+fn run_keeps_every_limit(
+    text: &str,
+    end: Option<[f64; 3]>,
+    jerk: Option<f64>,
+    hold: Option<(usize, usize, f64)>,
+) -> Result<(), TestCaseError> {
+    let mut m = Machine::builtin_mill();
+    for a in &mut m.axes {
+        a.max_jerk_mm_s3 = jerk;
+    }
+    let r = check(StrSource::new(text), Dialect::Cnc836, &m);
+    if !r.ok() {
+        return Err(TestCaseError::reject("not accepted"));
+    }
+    let s = samples_with_hold(&m, text, r.ticks, hold)?;
+    let last = s.last().unwrap();
+    if let Some(end) = end {
+        prop_assert_eq!([last.pos.x, last.pos.y, last.pos.z], end);
+    }
+    if hold.is_none() {
+        prop_assert_eq!(last.k, r.ticks);
+    }
+    let pos: Vec<[f64; 3]> = s.iter().map(|x| [x.pos.x, x.pos.y, x.pos.z]).collect();
+    let o = common::over_a_limit(&m, &pos, true);
+    prop_assert!(o.is_none(), "{}\n{}", o.unwrap_or_default(), text);
+    Ok(())
+}
+
 proptest! {
-    #![proptest_config(ProptestConfig { cases: cases(256), max_global_rejects: 1_000_000, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig {
+        cases: cases(256),
+        max_global_rejects: 1_000_000,
+        ..ProptestConfig::default()
+    })]
+
     /// (positions outside the mill's travel are refused by the check and
     /// skipped)
     #[test]
-    fn programs_in_every_plane_keep_every_limit(sts in prop::collection::vec(st(), 1..10), feed in 50.0..20000.0f64,
-            jerk in prop_oneof![Just(None), (2.0e4..1.0e6f64).prop_map(Some)],
-                        hold in prop::option::of((10usize..3000, 1usize..3000, prop_oneof![Just(0.0), 0.05..1.0f64, 1.0..2.0f64, Just(2.0)]))) {
-        let mut m = Machine::builtin_mill();
-        for a in &mut m.axes { a.max_jerk_mm_s3 = jerk; }
+    fn programs_in_every_plane_keep_every_limit(
+        sts in prop::collection::vec(st(), 1..10),
+        feed in 50.0..20000.0f64,
+        jerk in jerk(),
+        hold in hold(),
+    ) {
         let (text, end) = prog(&sts, feed);
-        let r = check(StrSource::new(&text), Dialect::Cnc836, &m);
-        prop_assume!(r.ok());
-        let mut ex = Executor::new(StrSource::new(&text), Dialect::Cnc836, &m);
-        let mut s: Vec<Sample> = Vec::new();
-        while let Some(x) = ex.next_sample() {
-            if let Some((at, len, level)) = hold {
-                if s.len() == at { ex.set_feed_target(level); } else if s.len() == at + len { ex.set_feed_target(1.0); }
-            }
-            s.push(x);
-            prop_assert!(s.len() as u64 <= 2 * r.ticks + 10_000, "no end\n{}", text);
-        }
-        let last = s.last().unwrap();
-        prop_assert_eq!([last.pos.x, last.pos.y, last.pos.z], end);
-        if hold.is_none() { prop_assert_eq!(last.k, r.ticks); }
-        let pos: Vec<[f64; 3]> = s.iter().map(|x| [x.pos.x, x.pos.y, x.pos.z]).collect();
-        let o = common::over_a_limit(&m, &pos, true);
-        prop_assert!(o.is_none(), "{}\n{}", o.unwrap_or_default(), text);
+        run_keeps_every_limit(&text, Some(end), jerk, hold)?;
     }
+}
+
+/// One step of a compensated program.
+#[derive(Clone, Debug)]
+enum Cs {
+    Poly {
+        n: usize,
+        len: f64,
+        a: f64,
+        zig: bool,
+    },
+    Arc {
+        r: f64,
+        sweep: f64,
+        ccw: bool,
+        k: f64,
+    },
+}
+fn cs() -> impl Strategy<Value = Cs> {
+    prop_oneof![
+        (
+            1usize..60,
+            prop_oneof![0.001..0.05f64, 0.05..2.0f64, 2.0..20.0f64],
+            prop_oneof![-0.03..0.03f64, -0.5..0.5f64],
+            any::<bool>()
+        )
+            .prop_map(|(n, len, a, zig)| Cs::Poly { n, len, a, zig }),
+        (
+            prop_oneof![0.05..2.0f64, 2.0..20.0f64],
+            0.05..3.0f64,
+            any::<bool>(),
+            prop_oneof![Just(0.0), -0.3..0.3f64]
+        )
+            .prop_map(|(r, sweep, ccw, k)| Cs::Arc { r, sweep, ccw, k }),
+    ]
+}
+/// A compensated program of `sts` (tool `tool`, G41 if `left`, else G42)
+/// from X260 Y250 heading +X; compensation ends 10 mm on along the last
+/// heading.
+fn comp_prog(sts: &[Cs], feed: f64, tol: f64, tool: u32, left: bool) -> String {
+    let mut d = [1.0f64, 0.0];
+    let mut s = format!(
+        "G17 G90 G64 P{} T{tool}\nG00 X250 Y250 Z0\nF{}\n{} G01 X260 Y250\n",
+        r4(tol),
+        r4(feed),
+        if left { "G41" } else { "G42" }
+    );
+    let mut p = [260.0f64, 250.0];
+    let rot = |d: &mut [f64; 2], a: f64| {
+        let (c, sn) = (a.cos(), a.sin());
+        let (x, y) = (d[0], d[1]);
+        d[0] = x * c - y * sn;
+        d[1] = x * sn + y * c;
+    };
+    for st in sts {
+        match *st {
+            Cs::Poly { n, len, a, zig } => {
+                for i in 0..n {
+                    rot(&mut d, if zig && i % 2 == 1 { -a } else { a });
+                    let e = [r4(p[0] + len * d[0]), r4(p[1] + len * d[1])];
+                    if e == p {
+                        continue;
+                    }
+                    s += &format!("G01 X{} Y{}\n", e[0], e[1]);
+                    p = e;
+                }
+            }
+            Cs::Arc { r, sweep, ccw, k } => {
+                rot(&mut d, k);
+                let (nx, ny) = if ccw { (-d[1], d[0]) } else { (d[1], -d[0]) };
+                let c = [r4(p[0] + r * nx), r4(p[1] + r * ny)];
+                let a0 = (p[1] - c[1]).atan2(p[0] - c[0]);
+                let a1 = if ccw { a0 + sweep } else { a0 - sweep };
+                let e = [r4(c[0] + r * a1.cos()), r4(c[1] + r * a1.sin())];
+                if e == p {
+                    continue;
+                }
+                s += &format!(
+                    "{} X{} Y{} I{} J{}\n",
+                    if ccw { "G03" } else { "G02" },
+                    e[0],
+                    e[1],
+                    r4(c[0] - p[0]),
+                    r4(c[1] - p[1])
+                );
+                let (ex, ey) = (e[0] - c[0], e[1] - c[1]);
+                let rn = ex.hypot(ey).max(1e-12);
+                d = if ccw {
+                    [-ey / rn, ex / rn]
+                } else {
+                    [ey / rn, -ex / rn]
+                };
+                p = e;
+            }
+        }
+    }
+    s += &format!(
+        "G40 G01 X{} Y{}\nM30\n",
+        r4(p[0] + 10.0 * d[0]),
+        r4(p[1] + 10.0 * d[1])
+    );
+    s
+}
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: cases(128),
+        max_global_rejects: 1_000_000,
+        ..ProptestConfig::default()
+    })]
+
+    /// Tool radius compensation (G41/G42 with the mill's tools of R 5, 3
+    /// and 1 mm) of CAM polylines (1 µm to 20 mm lines, kinks, zigzags)
+    /// and arcs of R 0.05 to 20 mm, met tangent or at a kink: the offset
+    /// path's corner arcs and trimmed lines keep every axis within its
+    /// limits at every sample, at 20 to 1000 m/s³, with a feed hold or
+    /// override for a while somewhere, and run as estimated (programs the
+    /// compensation refuses, as too short for the radius or cutting into
+    /// the contour, are skipped: about two in three). 20,000 accepted cases
+    /// pass. Without a jerk limit it finds a defect not fixed yet:
+    /// `a_kink_behind_a_move_shorter_than_a_sample_without_a_jerk_limit`.
+    #[test]
+    fn compensated_chains_keep_every_limit(
+        sts in prop::collection::vec(cs(), 1..8),
+        feed in 50.0..20000.0f64,
+        tol in prop_oneof![Just(0.0), 0.001..0.1f64],
+        tool in 1u32..4,
+        left in any::<bool>(),
+        jerk in (2.0e4..1.0e6f64).prop_map(Some),
+        hold in hold(),
+    ) {
+        let text = comp_prog(&sts, feed, tol, tool, left);
+        run_keeps_every_limit(&text, None, jerk, hold)?;
+    }
+}
+
+/// A known defect, not fixed yet (so ignored): without a jerk limit, a
+/// kink whose move before it is shorter than a sample's path. Here the
+/// compensation of a zigzag of 9.6 µm lines makes collinear lines, the
+/// last of them 7.5 µm long, and a kink of 0.004 rad into an arc at 63.5
+/// mm/s. The kink reserves 15 % of the acceleration in the two moves that
+/// meet there, but the sample around it also holds the line before the
+/// short one, which runs at the whole acceleration: X reaches 2,000.095
+/// mm/s² (limit 2,000; the property's case, with one more polyline and a
+/// hold, 2,000.34). A fix keeps the reserve in every move within two
+/// samples' path of a kink. At 20 to 1000 m/s³ the same programs keep
+/// every limit (`compensated_chains_keep_every_limit`).
+#[test]
+#[ignore]
+fn a_kink_behind_a_move_shorter_than_a_sample_without_a_jerk_limit() {
+    let sts = [
+        Cs::Arc {
+            r: 8.715023001126724,
+            sweep: 2.470792042598107,
+            ccw: false,
+            k: 0.14037442249642199,
+        },
+        Cs::Arc {
+            r: 1.0707604214395392,
+            sweep: 1.319626315606895,
+            ccw: true,
+            k: 0.0,
+        },
+        Cs::Arc {
+            r: 0.09940065184312817,
+            sweep: 2.9514580038838356,
+            ccw: false,
+            k: 0.27650191926666023,
+        },
+        Cs::Poly {
+            n: 54,
+            len: 0.009608530518983577,
+            a: -0.00896487935248491,
+            zig: true,
+        },
+        Cs::Arc {
+            r: 11.859668705773155,
+            sweep: 2.9155215739734697,
+            ccw: false,
+            k: 0.0,
+        },
+    ];
+    let text = comp_prog(&sts, 18745.608217249788, 0.0, 3, true);
+    let r = run_keeps_every_limit(&text, None, None, None);
+    assert!(r.is_ok(), "{r:?}");
 }
