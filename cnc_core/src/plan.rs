@@ -84,6 +84,9 @@ struct QSeg<K> {
     /// the limits with [`FINE_SHARE`](crate::shares::FINE_SHARE) and their `stop`: what `full`
     /// becomes if the exit junction is a fine kink
     fine: (MoveLimits, f64),
+    /// the share in force, and `full`'s ([`Turn::Kink`]: `LINE_SHARE`)
+    level: Turn,
+    full_level: Turn,
     /// largest entry speed the junction allows
     j: f64,
     /// what `j` becomes if the move takes its `full` limits
@@ -239,6 +242,9 @@ pub(crate) struct Lookahead<K> {
     since_turn: f64,
     /// mm: the whole move being queued (all its pieces)
     move_length: f64,
+    /// mm past the queue's end within which moves keep a kink's and a
+    /// fine kink's share (without setpoint filters: plan/turns.rs)
+    reach: [f64; 2],
 }
 
 impl<K: Copy> Lookahead<K> {
@@ -255,6 +261,7 @@ impl<K: Copy> Lookahead<K> {
             extra: 0,
             since_turn: f64::INFINITY,
             move_length: f64::INFINITY,
+            reach: [0.0; 2],
             reach_room: 2.0 * lim.jerk.lag_distance(lim.top)
                 + lim.top * lim.top / (2.0 * lim.amax.min()),
         }
@@ -428,14 +435,12 @@ impl<K: Copy> Lookahead<K> {
                 // (the nearest other kink: the last one, or this move's end)
                 let gap = self.since_turn.min(self.move_length);
                 let (j, turn) = self.lim.spaced_junction(&prev.t_end, &t2, gap);
-                (j.min(cap), turn)
+                (self.reach_cap(turn, j.min(cap)), turn)
             }
             None => (self.v_head, Turn::Smooth),
         };
-        self.since_turn = match turn {
-            Turn::Smooth => self.since_turn + length,
-            _ => length,
-        };
+        let level = self.start_level(turn);
+        self.pass_junction(turn, j_kink, length);
         match (turn, self.queue.back_mut()) {
             (Turn::Kink, Some(prev)) => {
                 // a kink: the move before keeps its share for good
@@ -448,13 +453,14 @@ impl<K: Copy> Lookahead<K> {
                 // is at least the fine one's)
                 if prev.full.is_some() {
                     prev.full = Some(prev.fine);
+                    prev.full_level = Turn::Fine;
                     prev.j_max = prev.j_max.min(prev.fine.0.vcap);
                 }
                 self.upgrade_tail();
             }
             _ => self.upgrade_tail(),
         }
-        let full = match turn {
+        let full = match level {
             Turn::Smooth => Some((prep.full, prep.stop[2])),
             Turn::Fine => Some((prep.fine, prep.stop[1])),
             Turn::Kink => None,
@@ -475,6 +481,8 @@ impl<K: Copy> Lookahead<K> {
             stop: prep.stop[0],
             full,
             fine: (prep.fine, prep.stop[1]),
+            level: Turn::Kink,
+            full_level: level,
             j,
             j_max,
             entry_b: 0.0,
@@ -610,30 +618,6 @@ impl<K: Copy> Lookahead<K> {
                 margin = 0.0;
             }
         }
-    }
-
-    /// The queue's tail takes its whole acceleration (its exit junction is
-    /// smooth or a stop), if its entry allows; its entry limits rise.
-    fn upgrade_tail(&mut self) {
-        let n = self.queue.len();
-        let Some(t) = self.queue.back_mut() else {
-            return;
-        };
-        let Some((full, stop)) = t.full.take() else {
-            return;
-        };
-        t.lim = full;
-        t.stop = stop;
-        t.j = t.j_max;
-        if self.lim.jerk.limited() {
-            // (both callers walk the queue again right after, `recompute`,
-            // from a tail at least as far on: that walk reaches this move
-            // and takes its new limits back as far as they change anything)
-            return;
-        }
-        t.entry_b = t.entry_to_stop();
-        // (the tail's own entry_b; the pass takes it from here)
-        self.backward_pass(n - 1);
     }
 
     /// Raises the entry limits before segment `from` that it relaxes, from
@@ -797,3 +781,4 @@ impl Planner {
 mod pieces;
 #[cfg(test)]
 mod tests;
+mod turns;
