@@ -97,7 +97,7 @@ proptest! {
 #[path = "../../fuzz/fuzz_targets/common.rs"]
 mod common;
 mod runs;
-use runs::{cases, hold, r4, samples_with_hold};
+use runs::{cases, hold, r4, samples_with_hold, turn_in};
 
 /// The first sample at which an axis exceeds its velocity, acceleration
 /// or (with `jerk`, the machine's) jerk limit, as sampled differences.
@@ -703,7 +703,7 @@ fn turn(
 /// A program of tangent lines and arcs in XY from X250 Y250 heading +X.
 fn tangent_chain(moves: &[Tangent], feed: f64, tol: f64) -> (String, V3, Vec<El>) {
     let mut p = V3::new(250.0, 250.0, 0.0);
-    let mut dir = (1.0f64, 0.0f64);
+    let mut dir = [1.0f64, 0.0];
     let mut els = vec![El::Seg(V3::zeros(), p)];
     let mut s = format!(
         "G17 G90 G64 P{}\nG00 X{} Y{} Z0\nF{}\n",
@@ -715,7 +715,7 @@ fn tangent_chain(moves: &[Tangent], feed: f64, tol: f64) -> (String, V3, Vec<El>
     for m in moves {
         match *m {
             Tangent::Straight { len } => {
-                let e = V3::new(r4(p.x + len * dir.0), r4(p.y + len * dir.1), p.z);
+                let e = V3::new(r4(p.x + len * dir[0]), r4(p.y + len * dir[1]), p.z);
                 if e == p {
                     continue;
                 }
@@ -723,15 +723,15 @@ fn tangent_chain(moves: &[Tangent], feed: f64, tol: f64) -> (String, V3, Vec<El>
                 els.push(El::Seg(p, e));
                 let d = ((e.x - p.x), (e.y - p.y));
                 let n = d.0.hypot(d.1);
-                dir = (d.0 / n, d.1 / n);
+                dir = [d.0 / n, d.1 / n];
                 p = e;
             }
             Tangent::Turn { r, sweep, ccw } => {
                 // the centre on the heading's left (G03) or right (G02)
                 let (nx, ny) = if ccw {
-                    (-dir.1, dir.0)
+                    (-dir[1], dir[0])
                 } else {
-                    (dir.1, -dir.0)
+                    (dir[1], -dir[0])
                 };
                 let c = V3::new(r4(p.x + r * nx), r4(p.y + r * ny), p.z);
                 let a0 = (p.y - c.y).atan2(p.x - c.x);
@@ -746,13 +746,12 @@ fn tangent_chain(moves: &[Tangent], feed: f64, tol: f64) -> (String, V3, Vec<El>
                 let t = Geom::Arc(g).end_tangent();
                 let n = t.x.hypot(t.y);
                 if n > 0.0 {
-                    dir = (t.x / n, t.y / n);
+                    dir = [t.x / n, t.y / n];
                 }
                 p = e;
             }
             Tangent::Kink { angle } => {
-                let (c, sn) = (angle.cos(), angle.sin());
-                dir = (dir.0 * c - dir.1 * sn, dir.0 * sn + dir.1 * c);
+                turn_in(&mut dir, 0, 1, angle);
             }
             Tangent::Poly {
                 n,
@@ -762,9 +761,8 @@ fn tangent_chain(moves: &[Tangent], feed: f64, tol: f64) -> (String, V3, Vec<El>
             } => {
                 for i in 0..n {
                     let a = if zigzag && i % 2 == 1 { -turn } else { turn };
-                    let (c, sn) = (a.cos(), a.sin());
-                    dir = (dir.0 * c - dir.1 * sn, dir.0 * sn + dir.1 * c);
-                    let e = V3::new(r4(p.x + len * dir.0), r4(p.y + len * dir.1), p.z);
+                    turn_in(&mut dir, 0, 1, a);
+                    let e = V3::new(r4(p.x + len * dir[0]), r4(p.y + len * dir[1]), p.z);
                     if e == p {
                         continue;
                     }

@@ -19,7 +19,7 @@ use proptest::prelude::*;
 #[path = "../../fuzz/fuzz_targets/common.rs"]
 mod common;
 mod runs;
-use runs::{cases, hold, r4, samples_with_hold};
+use runs::{cases, hold, r4, samples_with_hold, turn_in};
 
 /// One step of a program.
 #[derive(Clone, Debug)]
@@ -66,12 +66,6 @@ fn prog(sts: &[St], feed: f64) -> (String, [f64; 3]) {
     let mut p = [250.0f64, 250.0, 0.0];
     let mut d = [1.0f64, 0.0, 0.0];
     let mut s = format!("G17 G90 G64 P0\nG00 X250 Y250 Z0\nF{}\n", r4(feed));
-    let rot = |d: &mut [f64; 3], i: usize, j: usize, a: f64| {
-        let (c, sn) = (a.cos(), a.sin());
-        let (x, y) = (d[i], d[j]);
-        d[i] = x * c - y * sn;
-        d[j] = x * sn + y * c;
-    };
     for st in sts {
         match *st {
             St::Poly {
@@ -82,8 +76,8 @@ fn prog(sts: &[St], feed: f64) -> (String, [f64; 3]) {
                 rapid,
             } => {
                 for _ in 0..n {
-                    rot(&mut d, 0, 1, a);
-                    rot(&mut d, 1, 2, b);
+                    turn_in(&mut d, 0, 1, a);
+                    turn_in(&mut d, 1, 2, b);
                     let nn = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
                     for x in d.iter_mut() {
                         *x /= nn;
@@ -118,7 +112,7 @@ fn prog(sts: &[St], feed: f64) -> (String, [f64; 3]) {
                     18 => (2, 0, "G18"),
                     _ => (1, 2, "G19"),
                 };
-                rot(&mut d, i, j, k);
+                turn_in(&mut d, i, j, k);
                 // tangent in plane: project d
                 let (ti, tj) = (d[i], d[j]);
                 let n = ti.hypot(tj);
@@ -245,14 +239,6 @@ proptest! {
     }
 }
 
-/// A heading in a plane `d`, turned by `a` rad.
-fn turn2(d: &mut [f64; 2], a: f64) {
-    let (c, sn) = (a.cos(), a.sin());
-    let (x, y) = (d[0], d[1]);
-    d[0] = x * c - y * sn;
-    d[1] = x * sn + y * c;
-}
-
 /// An arc in a plane from `p`, leaving along heading `d` turned by `k`
 /// rad, of radius `r` and sweep `sweep` rad (`ccw`: to the left): its
 /// centre (rounded), its end (rounded) and the heading at its end.
@@ -264,7 +250,7 @@ fn arc2(
     ccw: bool,
     k: f64,
 ) -> ([f64; 2], [f64; 2], [f64; 2]) {
-    turn2(&mut d, k);
+    turn_in(&mut d, 0, 1, k);
     let (nx, ny) = if ccw { (-d[1], d[0]) } else { (d[1], -d[0]) };
     let c = [r4(p[0] + r * nx), r4(p[1] + r * ny)];
     let a0 = (p[1] - c[1]).atan2(p[0] - c[0]);
@@ -337,7 +323,7 @@ fn lathe_prog(sts: &[Ls], tol: f64) -> String {
                 rapid,
             } => {
                 for i in 0..n {
-                    turn2(&mut d, if zig && i % 2 == 1 { -a } else { a });
+                    turn_in(&mut d, 0, 1, if zig && i % 2 == 1 { -a } else { a });
                     let e = [
                         r4((p[0] + len * d[0]).clamp(1.0, 140.0)),
                         r4((p[1] + len * d[1]).clamp(-290.0, 40.0)),
@@ -429,7 +415,7 @@ fn comp_prog(sts: &[Cs], feed: f64, tol: f64, tool: u32, left: bool) -> String {
         match *st {
             Cs::Poly { n, len, a, zig } => {
                 for i in 0..n {
-                    turn2(&mut d, if zig && i % 2 == 1 { -a } else { a });
+                    turn_in(&mut d, 0, 1, if zig && i % 2 == 1 { -a } else { a });
                     let e = [r4(p[0] + len * d[0]), r4(p[1] + len * d[1])];
                     if e == p {
                         continue;

@@ -52,8 +52,7 @@ impl<K: Copy> Lookahead<K> {
         if turn == Turn::Smooth || self.lim.jerk.filtered() {
             return j;
         }
-        let dt = self.lim.dt;
-        let reach = 2.0 * j.min(self.lim.top) * dt;
+        let reach = self.kink_reach(j);
         let mut cover = 0.0;
         for s in self.queue.iter().rev() {
             // (a move raised over the kink's share ends the walk)
@@ -65,7 +64,13 @@ impl<K: Copy> Lookahead<K> {
                 return j;
             }
         }
-        j.min(cover / (2.0 * dt))
+        j.min(cover / (2.0 * self.lim.dt))
+    }
+
+    /// How far a kink passed at up to `j` mm/s reaches on either side: the
+    /// path of two samples.
+    fn kink_reach(&self, j: f64) -> f64 {
+        2.0 * j.min(self.lim.top) * self.lim.dt
     }
 
     /// The share a move starting here may be raised to at most: that of a
@@ -92,7 +97,7 @@ impl<K: Copy> Lookahead<K> {
         if self.lim.jerk.filtered() {
             return;
         }
-        let reach = 2.0 * j.min(self.lim.top) * self.lim.dt;
+        let reach = self.kink_reach(j);
         match turn {
             Turn::Kink => self.reach[0] = self.reach[0].max(reach),
             Turn::Fine => self.reach[1] = self.reach[1].max(reach),

@@ -1,6 +1,6 @@
 //! What the property tests of `props.rs` and `wild.rs` share: the number
-//! of cases, the programs' rounding, a feed hold or override for a while,
-//! and a run under it.
+//! of cases, the programs' rounding, a heading's turn, a feed hold or
+//! override for a while, and a run under it.
 #![allow(dead_code)]
 
 use cnc_core::exec::{Executor, Sample};
@@ -20,6 +20,15 @@ pub fn cases(default: u32) -> u32 {
 /// A programmed coordinate: rounded to 0.1 µm.
 pub fn r4(v: f64) -> f64 {
     (v * 1e4).round() / 1e4
+}
+
+/// Turns the heading `d` by `a` rad in the plane of its components `i`
+/// and `j` (from `i` towards `j`).
+pub fn turn_in(d: &mut [f64], i: usize, j: usize, a: f64) {
+    let (c, sn) = (a.cos(), a.sin());
+    let (x, y) = (d[i], d[j]);
+    d[i] = x * c - y * sn;
+    d[j] = x * sn + y * c;
 }
 
 /// A feed hold or override for a while (from sample, for samples, to
