@@ -6,12 +6,15 @@
 //!   catching up after a late wake-up) it takes commands and the spindle
 //!   encoder's readings without blocking (the readings straight from their
 //!   subscription's cache, as the simulator's loop takes its setpoints),
-//!   computes one sample and hands it to the DDS thread through a bounded
-//!   queue (`try_send`: a full queue drops, it never blocks);
+//!   computes one sample, publishes its setpoints (and the spindle
+//!   command) and hands it to the DDS thread through a bounded queue
+//!   (`try_send`: a full queue drops, it never blocks);
 //! - check worker: reads and checks programs, answers run_program and the
 //!   goals of execute_program;
-//! - main (DDS): services, the action (`cnc_node::action`), publishers;
-//!   hands a recorded job's messages to
+//! - main (DDS): services, the action (`cnc_node::action`), the status,
+//!   the observer's topics; takes the control loop's samples a few at a
+//!   time while a job runs ([`SERVICE_POLL`]); hands a recorded job's
+//!   messages to
 //! - recorder (`cnc_node/recording.rs`): writes the job's recording (an
 //!   unbounded queue, so the DDS thread never waits and no message is
 //!   lost), at normal priority.
@@ -49,7 +52,7 @@ use std::time::{Duration, Instant};
 
 #[path = "cnc_node/control.rs"]
 mod control;
-use control::{control_loop, Readings};
+use control::{control_loop, Commands, Readings};
 #[path = "cnc_node/recording.rs"]
 mod recording;
 use recording::{Msg, Recording};
@@ -75,9 +78,6 @@ struct Out {
     stamp: Time,
     tick: Tick,
     place: Place,
-    /// publish the setpoints (every cycle of a job, else at the resting
-    /// pace; an `Out` may carry a status only)
-    setpoints: bool,
     status: Option<Status>,
     /// the running job, 0 if none
     job: u32,
@@ -190,6 +190,13 @@ fn run(setup: Setup) -> Result<(), String> {
     // the machine's joint states to the control loop (a thread's phase
     // is watched against them): bounded, never blocking
     let (act_tx, act_rx) = mpsc::sync_channel::<ActualSample>(256);
+    let names: Vec<String> = machine.axes.iter().map(|a| a.name.clone()).collect();
+    let commands = Commands {
+        setpoints: pub_set,
+        spindle: pub_spin,
+        names: names.clone(),
+        spindle_sent: None,
+    };
     {
         let m = machine.clone();
         let here = here.clone();
@@ -212,7 +219,7 @@ fn run(setup: Setup) -> Result<(), String> {
                     m,
                     cmd_rx,
                     (readings, act_rx),
-                    out_tx,
+                    (out_tx, commands),
                     here,
                     (state, checking),
                     stats,
@@ -234,7 +241,6 @@ fn run(setup: Setup) -> Result<(), String> {
             })
             .map_err(|e| e.to_string())?;
     }
-    let names: Vec<String> = machine.axes.iter().map(|a| a.name.clone()).collect();
     let mut action = ExecuteProgram::new(&mut node, ns, names.clone())?;
     ros_info!(
         "{} ({}), {} Hz, domain {domain}, serving {}/run_program",
@@ -243,8 +249,10 @@ fn run(setup: Setup) -> Result<(), String> {
         machine.interpolation.rate_hz,
         ns.trim_end_matches('/')
     );
+    // the spindle speed last recorded (recordings hold its changes)
     let mut last_spindle = f64::NAN;
-    let mut spindle_sent = Instant::now();
+    // the stamp of the last sample taken, ns
+    let mut last_stamp = 0i64;
     // the recording of a job, written on a thread of its own
     let mut recording = Recording::start(dds_rt > 0)?;
     let mut polled = Instant::now();
@@ -335,27 +343,30 @@ fn run(setup: Setup) -> Result<(), String> {
             }
             recording.send(Msg::Joints(m));
         }
-        // samples from the control loop, every one published and recorded
-        // (a job's samples come every cycle; at rest this waits for the
-        // next one, up to REST_WAIT)
+        // samples from the control loop (which published their setpoints),
+        // every one recorded: at rest this waits for the next one, up to
+        // REST_WAIT; while they come every cycle, it takes those of
+        // SERVICE_POLL at a time (below)
+        let mut streaming = false;
         drain(&out_rx, REST_WAIT, |mut o| {
+            let ns = time_ns(&o.stamp);
+            streaming |= ns - last_stamp < STREAMING_GAP_NS;
+            last_stamp = ns;
             if let Some((id, rec)) = o.recorder.take() {
                 recording.send(Msg::Start(id, rec));
                 // the recording starts with the spindle command in force
                 last_spindle = f64::NAN;
             }
             let t = &o.tick;
-            let js = convert::joint_setpoints(t, &names, o.stamp);
-            let spindle = (t.spindle_rpm != last_spindle).then(|| {
-                last_spindle = t.spindle_rpm;
-                convert::spindle_command(t.spindle_rpm)
-            });
             obs.sample(o.stamp, t, o.status.as_ref());
             let status = o.status.as_ref().map(|s| convert::status(s, o.stamp));
             if let Some(id) = recording.job() {
-                recording.send(Msg::Setpoints(js.clone()));
-                if let Some(f) = &spindle {
-                    recording.send(Msg::Spindle(stamp_ns(&o.stamp), f.clone()));
+                let js = convert::joint_setpoints(t, &names, o.stamp);
+                recording.send(Msg::Setpoints(js));
+                if t.spindle_rpm != last_spindle {
+                    last_spindle = t.spindle_rpm;
+                    let f = convert::spindle_command(t.spindle_rpm);
+                    recording.send(Msg::Spindle(stamp_ns(&o.stamp), f));
                 }
                 if let Some(s) = &status {
                     recording.send(Msg::Status(s.clone()));
@@ -364,16 +375,6 @@ fn run(setup: Setup) -> Result<(), String> {
                 if o.job != id {
                     recording.send(Msg::Finish);
                 }
-            }
-            if o.setpoints {
-                let _ = pub_set.publish(js);
-            }
-            // on change, and again at least every SPINDLE_REPEAT (a
-            // simulator or drive started later gets it; recordings hold
-            // the changes)
-            if spindle.is_some() || spindle_sent.elapsed() >= SPINDLE_AGAIN {
-                spindle_sent = Instant::now();
-                let _ = pub_spin.publish(convert::spindle_command(t.spindle_rpm));
             }
             action.cycle(Cycle {
                 stamp_ns: time_ns(&o.stamp),
@@ -388,6 +389,10 @@ fn run(setup: Setup) -> Result<(), String> {
         })
         .map_err(|_| "the control loop stopped".to_string())?;
         recording.flush_due();
+        if streaming {
+            // (the samples of the cycles meanwhile wait in the queue)
+            std::thread::sleep(SERVICE_POLL.saturating_sub(polled.elapsed()));
+        }
     }
 }
 
@@ -422,9 +427,15 @@ fn drain<T>(rx: &Receiver<T>, wait: Duration, mut f: impl FnMut(T)) -> Result<()
 const SHUTDOWN_GRACE: Duration = Duration::from_secs(4);
 
 /// How often the DDS thread looks for service requests and the feed
-/// override while samples come every cycle (a job, and the second after
-/// one); at rest it looks at every resting sample, [`REST_WAIT`].
+/// override, and takes the control loop's samples and the joint states,
+/// while samples come every cycle (a job, and the second after one): a
+/// wake-up every 4 ms, not one for each sample (the setpoints went out
+/// from the control loop already); at rest it looks at every resting
+/// sample, [`REST_WAIT`].
 const SERVICE_POLL: Duration = Duration::from_millis(4);
+/// Samples this close together (ns) come every cycle, not at the resting
+/// rate (`ros::REST_RATE_HZ`, 20 ms apart).
+const STREAMING_GAP_NS: i64 = 10_000_000;
 
 /// How long the DDS thread waits for a sample at most: at rest one comes
 /// every 1 / `ros::REST_RATE_HZ` (20 ms), so it then wakes about 50 times
@@ -433,15 +444,6 @@ const SERVICE_POLL: Duration = Duration::from_millis(4);
 /// answered up to 20 ms later; while samples come every cycle this wait
 /// never runs out, and nothing changes.
 const REST_WAIT: Duration = Duration::from_micros((1e6 / ros::REST_RATE_HZ) as u64);
-
-/// The spindle command is published on change and at least this often:
-/// the topic is volatile, and a simulator (or drive bridge) that starts
-/// while the spindle turns would otherwise never hear the command.
-const SPINDLE_REPEAT: Duration = Duration::from_millis(100);
-/// It is sent again with the first sample this long after the last: at
-/// rest samples come every 20 ms only (`ros::REST_RATE_HZ`), so the next
-/// one goes out within [`SPINDLE_REPEAT`].
-const SPINDLE_AGAIN: Duration = SPINDLE_REPEAT.saturating_sub(Duration::from_millis(20));
 
 /// Sends a command to the control loop and waits (briefly) for its answer.
 fn ask(

@@ -1,16 +1,16 @@
 //! The control loop (its thread in [`super`]): cycles on the instants of
 //! a fixed grid at the interpolation rate, commands and readings taken
-//! without blocking, one sample per cycle handed to the DDS thread; at
-//! rest it wakes only for the cycles that publish (`ros::Pace`,
-//! docs/ros_interface.md §3.1).
+//! without blocking, each cycle's setpoints published by the cycle itself
+//! and its sample handed to the DDS thread; at rest it wakes only for the
+//! cycles that publish (`ros::Pace`, docs/ros_interface.md §3.1).
 
 use super::{Cmd, Out, Rec};
 use cnc_core::Machine;
 use cnc_msgs::ros::{self, Grid, WallClock};
 use cnc_msgs::{ros_error, ros_info, ros_warn};
-use cnc_msgs::{SpindleEncoder, Time};
-use cnc_node::controller::{ActualSample, Controller, EncoderSample, Job};
-use cnc_node::convert::time_ns;
+use cnc_msgs::{Float64, JointState, SpindleEncoder, Time};
+use cnc_node::controller::{ActualSample, Controller, EncoderSample, Job, Tick};
+use cnc_node::convert::{self, time_ns};
 use cnc_node::diagnostics::LOOP;
 use cnc_node::params::Live;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
@@ -111,6 +111,55 @@ impl Readings {
     }
 }
 
+/// The setpoints and the spindle command, published by the cycle that
+/// computes them, as the simulator's loop publishes its joint states and
+/// readings. Handed to the DDS thread, each setpoint cost a wake-up of
+/// that thread a cycle (about a quarter of a running node's CPU time at 1
+/// kHz, BENCHMARKS.md "CPU per machine"); now that thread takes the
+/// cycles' samples a few at a time, for the status, the action, the
+/// observer and recordings. A publish serializes the message and adds it
+/// to the writer's send window under its lock (both publishers fail at
+/// once when the window is full: `ros::publisher_with_window`, the
+/// default profile), then rings the DDS event loop, which runs below the
+/// loop's priority and sends it.
+pub(super) struct Commands {
+    pub(super) setpoints: ros2_client::Publisher<JointState>,
+    pub(super) spindle: ros2_client::Publisher<Float64>,
+    /// the joints' names, in the machine's order
+    pub(super) names: Vec<String>,
+    /// the spindle speed last published, rpm, and the cycle it went out in
+    pub(super) spindle_sent: Option<(f64, u64)>,
+}
+
+/// The spindle command is published on change and at least this often:
+/// the topic is volatile, and a simulator (or drive bridge) that starts
+/// while the spindle turns would otherwise never hear the command.
+const SPINDLE_REPEAT_S: f64 = 0.1;
+/// It goes out again with the first published cycle this long after the
+/// last: at rest the cycles publish every 20 ms only
+/// (`ros::REST_RATE_HZ`), so the next one goes out within
+/// [`SPINDLE_REPEAT_S`].
+const SPINDLE_AGAIN_S: f64 = SPINDLE_REPEAT_S - 1.0 / ros::REST_RATE_HZ;
+
+impl Commands {
+    /// Publishes cycle `n`'s setpoints, stamped `stamp`, and the spindle
+    /// command when it changed or is due again (`again` cycles after the
+    /// last).
+    fn publish(&mut self, n: u64, tick: &Tick, stamp: Time, again: u64) {
+        let _ = self
+            .setpoints
+            .publish(convert::joint_setpoints(tick, &self.names, stamp));
+        let rpm = tick.spindle_rpm;
+        let due = self
+            .spindle_sent
+            .is_none_or(|(last, at)| last != rpm || n >= at + again);
+        if due {
+            self.spindle_sent = Some((rpm, n));
+            let _ = self.spindle.publish(convert::spindle_command(rpm));
+        }
+    }
+}
+
 /// A checked job waiting for its start (see [`Loop::cycle`]).
 struct Pending {
     job: Job,
@@ -126,6 +175,9 @@ struct Loop {
     encoder: Readings,
     actual: Receiver<ActualSample>,
     out: SyncSender<Out>,
+    commands: Commands,
+    /// cycles between the spindle command's repeats
+    spindle_again: u64,
     here: Arc<[AtomicU64; 3]>,
     state: Arc<AtomicU32>,
     /// the cycles of the last status and of the last one sent for a line
@@ -160,7 +212,7 @@ pub(super) fn control_loop(
     machine: Machine,
     cmds: Receiver<Cmd>,
     (encoder, actual): (Readings, Receiver<ActualSample>),
-    out: SyncSender<Out>,
+    (out, commands): (SyncSender<Out>, Commands),
     here: Arc<[AtomicU64; 3]>,
     (state, checking): (Arc<AtomicU32>, Arc<AtomicBool>),
     live: Arc<Live>,
@@ -185,6 +237,8 @@ pub(super) fn control_loop(
         encoder,
         actual,
         out,
+        commands,
+        spindle_again: (SPINDLE_AGAIN_S / dt).round().max(1.0) as u64,
         here,
         state,
         last_status: None,
@@ -408,11 +462,13 @@ impl Loop {
         if !(setpoints || status.is_some()) {
             return true;
         }
+        if setpoints {
+            self.commands.publish(n, &tick, stamp, self.spindle_again);
+        }
         let o = Out {
             stamp,
             tick,
             place: self.ctl.place(),
-            setpoints,
             status,
             job: self.ctl.job_id(),
             recorder,
