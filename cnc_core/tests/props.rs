@@ -501,7 +501,13 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: cases(64), ..ProptestConfig::default() })]
+    // (about one case in twelve is a thread the check refuses: a long
+    // run must not stop at proptest's default of 1,024 of those)
+    #![proptest_config(ProptestConfig {
+        cases: cases(64),
+        max_global_rejects: 1_000_000,
+        ..ProptestConfig::default()
+    })]
 
     /// G33 on the bundled lathe with the ideal spindle, for any jerk limit
     /// from 20 to 1000 m/s³, spindle speed, pitch, length, taper and

@@ -114,7 +114,7 @@ impl Readings {
 /// The setpoints and the spindle command, published by the cycle that
 /// computes them, as the simulator's loop publishes its joint states and
 /// readings. Handed to the DDS thread, each setpoint cost a wake-up of
-/// that thread a cycle (about a quarter of a running node's CPU time at 1
+/// that thread a cycle (about a fifth of a running node's CPU time at 1
 /// kHz, BENCHMARKS.md "CPU per machine"); now that thread takes the
 /// cycles' samples a few at a time, for the status, the action, the
 /// observer and recordings. A publish serializes the message and adds it
