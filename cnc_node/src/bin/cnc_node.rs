@@ -191,12 +191,7 @@ fn run(setup: Setup) -> Result<(), String> {
     // is watched against them): bounded, never blocking
     let (act_tx, act_rx) = mpsc::sync_channel::<ActualSample>(256);
     let names: Vec<String> = machine.axes.iter().map(|a| a.name.clone()).collect();
-    let commands = Commands {
-        setpoints: pub_set,
-        spindle: pub_spin,
-        names: names.clone(),
-        spindle_sent: None,
-    };
+    let commands = Commands::new(pub_set, pub_spin, names.clone(), machine.dt());
     {
         let m = machine.clone();
         let here = here.clone();

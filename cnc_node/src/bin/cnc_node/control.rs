@@ -123,12 +123,14 @@ impl Readings {
 /// default profile), then rings the DDS event loop, which runs below the
 /// loop's priority and sends it.
 pub(super) struct Commands {
-    pub(super) setpoints: ros2_client::Publisher<JointState>,
-    pub(super) spindle: ros2_client::Publisher<Float64>,
+    setpoints: ros2_client::Publisher<JointState>,
+    spindle: ros2_client::Publisher<Float64>,
     /// the joints' names, in the machine's order
-    pub(super) names: Vec<String>,
+    names: Vec<String>,
     /// the spindle speed last published, rpm, and the cycle it went out in
-    pub(super) spindle_sent: Option<(f64, u64)>,
+    spindle_sent: Option<(f64, u64)>,
+    /// cycles after which the spindle command goes out again
+    spindle_again: u64,
 }
 
 /// The spindle command is published on change and at least this often:
@@ -142,17 +144,33 @@ const SPINDLE_REPEAT_S: f64 = 0.1;
 const SPINDLE_AGAIN_S: f64 = SPINDLE_REPEAT_S - 1.0 / ros::REST_RATE_HZ;
 
 impl Commands {
+    /// The publishers of the setpoints of the joints `names` and of the
+    /// spindle command, for cycles `dt` s apart.
+    pub(super) fn new(
+        setpoints: ros2_client::Publisher<JointState>,
+        spindle: ros2_client::Publisher<Float64>,
+        names: Vec<String>,
+        dt: f64,
+    ) -> Self {
+        Commands {
+            setpoints,
+            spindle,
+            names,
+            spindle_sent: None,
+            spindle_again: (SPINDLE_AGAIN_S / dt).round().max(1.0) as u64,
+        }
+    }
+
     /// Publishes cycle `n`'s setpoints, stamped `stamp`, and the spindle
-    /// command when it changed or is due again (`again` cycles after the
-    /// last).
-    fn publish(&mut self, n: u64, tick: &Tick, stamp: Time, again: u64) {
+    /// command when it changed or is due again.
+    fn publish(&mut self, n: u64, tick: &Tick, stamp: Time) {
         let _ = self
             .setpoints
             .publish(convert::joint_setpoints(tick, &self.names, stamp));
         let rpm = tick.spindle_rpm;
         let due = self
             .spindle_sent
-            .is_none_or(|(last, at)| last != rpm || n >= at + again);
+            .is_none_or(|(last, at)| last != rpm || n >= at + self.spindle_again);
         if due {
             self.spindle_sent = Some((rpm, n));
             let _ = self.spindle.publish(convert::spindle_command(rpm));
@@ -176,8 +194,6 @@ struct Loop {
     actual: Receiver<ActualSample>,
     out: SyncSender<Out>,
     commands: Commands,
-    /// cycles between the spindle command's repeats
-    spindle_again: u64,
     here: Arc<[AtomicU64; 3]>,
     state: Arc<AtomicU32>,
     /// the cycles of the last status and of the last one sent for a line
@@ -238,7 +254,6 @@ pub(super) fn control_loop(
         actual,
         out,
         commands,
-        spindle_again: (SPINDLE_AGAIN_S / dt).round().max(1.0) as u64,
         here,
         state,
         last_status: None,
@@ -463,7 +478,7 @@ impl Loop {
             return true;
         }
         if setpoints {
-            self.commands.publish(n, &tick, stamp, self.spindle_again);
+            self.commands.publish(n, &tick, stamp);
         }
         let o = Out {
             stamp,
