@@ -158,14 +158,15 @@ impl Arc {
         v
     }
 
+    /// The unit tangent at `at`, a point on the arc (its start or end):
+    /// the radius vector turned by a quarter in the sweep's sense, with the
+    /// axial travel (no trigonometry: the point gives sin and cos).
     #[inline]
-    fn tangent(&self, frac: f64) -> V3 {
+    fn tangent_at(&self, at: &V3) -> V3 {
         let (p, q, n) = self.plane.axes();
-        let th = self.theta0 + self.sweep * frac;
         let mut v = V3::zeros();
-        let k = self.radius * self.sweep;
-        v[p] = -k * th.sin();
-        v[q] = k * th.cos();
+        v[p] = -self.sweep * (at[q] - self.center[q]);
+        v[q] = self.sweep * (at[p] - self.center[p]);
         v[n] = self.axial;
         let l = v.norm();
         if l > 0.0 {
@@ -253,7 +254,7 @@ impl Geom {
     pub fn start_tangent(&self) -> V3 {
         match self {
             Geom::Line { start, end } => (end - start).normalize(),
-            Geom::Arc(a) => a.tangent(0.0),
+            Geom::Arc(a) => a.tangent_at(&a.start),
         }
     }
 
@@ -262,7 +263,7 @@ impl Geom {
     pub fn end_tangent(&self) -> V3 {
         match self {
             Geom::Line { start, end } => (end - start).normalize(),
-            Geom::Arc(a) => a.tangent(1.0),
+            Geom::Arc(a) => a.tangent_at(&a.end),
         }
     }
 
@@ -376,6 +377,74 @@ mod tests {
             0,
         );
         assert!((d.sweep - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+    }
+
+    /// The ends' tangents (from the radius vectors, no trigonometry) are
+    /// the direction of travel: the chord to a point 10⁻⁷ of the length
+    /// inside either end, in every plane, both senses, on a helix and a
+    /// full circle with extra turns.
+    #[test]
+    fn end_tangents_are_the_direction_of_travel() {
+        let cases = [
+            (
+                v(10., 0., 0.),
+                v(0., 10., 0.),
+                V3::zeros(),
+                Plane::XY,
+                true,
+                0,
+            ),
+            (
+                v(10., 0., 0.),
+                v(0., 10., 0.),
+                V3::zeros(),
+                Plane::XY,
+                false,
+                0,
+            ),
+            (
+                v(3., 4., -1.),
+                v(-4., 3., 2.),
+                V3::zeros(),
+                Plane::XY,
+                true,
+                1,
+            ),
+            (
+                v(0., 5., 10.),
+                v(10., 5., 0.),
+                v(0., 0., 0.),
+                Plane::ZX,
+                true,
+                0,
+            ),
+            (
+                v(0., 10., 0.),
+                v(3., 0., 10.),
+                V3::zeros(),
+                Plane::YZ,
+                false,
+                0,
+            ),
+            (
+                v(7., 2., 0.),
+                v(7., 2., -3.),
+                v(5., 2., 0.),
+                Plane::XY,
+                false,
+                2,
+            ),
+        ];
+        for (s, e, c, plane, ccw, turns) in cases {
+            let g = Geom::Arc(Arc::new(s, e, c, plane, ccw, turns));
+            let h = 1e-7 * g.length();
+            let t0 = (g.eval(h) - g.start()).normalize();
+            let t1 = (g.end() - g.eval(g.length() - h)).normalize();
+            assert!((g.start_tangent() - t0).norm() < 1e-5, "{s} {e} {ccw}");
+            assert!((g.end_tangent() - t1).norm() < 1e-5, "{s} {e} {ccw}");
+            assert!((g.start_tangent().norm() - 1.0).abs() < 1e-15);
+            assert!((g.end_tangent().norm() - 1.0).abs() < 1e-15);
+        }
     }
 
     #[test]
