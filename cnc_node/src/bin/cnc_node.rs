@@ -372,7 +372,7 @@ fn run(setup: Setup) -> Result<(), String> {
                 }
             }
             action.cycle(Cycle {
-                stamp_ns: time_ns(&o.stamp),
+                stamp_ns: ns,
                 tick: &o.tick,
                 job: o.job,
                 place: o.place,
