@@ -508,6 +508,8 @@ def main():
     ap.add_argument("--ellipse-biarcs", type=int, default=0, metavar="N",
                     help="cam: the ellipse as N tangent biarcs instead of 1600 rounded lines")
     a = ap.parse_args()
+    if a.ellipse_biarcs < 0 or a.ellipse_biarcs == 1:
+        ap.error("--ellipse-biarcs: 0 (the polyline) or 2 or more biarcs (one would start and end at one point)")
     pr = {"part": part, "cam": lambda: cam(a.ellipse_biarcs)}.get(
         a.program, lambda: dense(a.segments, a.noise, a.seed))()
     text = emit(pr, a.dialect, a.mode)

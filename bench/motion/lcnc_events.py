@@ -2,7 +2,8 @@
 """Counts the events of a speed profile that a jerk limit makes slower:
 stops, dips and acceleration phases, from a 1 kHz sample file.
 
-usage: lcnc_events.py FILE.tsv   (jerk.sh's lcnc_cam.tsv: t_s x_mm y_mm z_mm ...)
+usage: lcnc_events.py FILE   (LinuxCNC's TSV, e.g. jerk.sh's lcnc_cam.tsv, or
+                             our CSV: read as analyse.py reads samples)
 
   stops   runs of samples under 0.5 mm/s between moving ones
   dips    local minima of the speed (over +-20 ms) above 0.5 mm/s and under
@@ -13,14 +14,17 @@ Python 3 stdlib only.
 """
 import collections
 import math
+import os
 import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import analyse  # noqa: E402
 
 
 def main():
     if len(sys.argv) != 2:
         sys.exit(__doc__)
-    rows = [ln.split("\t") for ln in open(sys.argv[1]).read().split("\n")[1:] if ln]
-    pts = [(float(r[1]), float(r[2]), float(r[3])) for r in rows]
+    _, _, pts = analyse.read_samples(sys.argv[1])
     dt = 0.001
     v = [0.0] + [math.dist(pts[i], pts[i - 1]) / dt for i in range(1, len(pts))]
     stops, moving = 0, False
