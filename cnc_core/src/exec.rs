@@ -537,20 +537,31 @@ impl<S: ProgramSource> Executor<S> {
     }
 
     /// The spindle for this tick's setpoint (measured: predicted `ahead`
-    /// s after its instant), counted in direction `dir`.
-    fn spindle_angle(&mut self, dir: f64, ahead: f64) -> Result<SpindleNow, String> {
+    /// s after its instant), counted in direction `dir`. `None`: no
+    /// reading has come yet, and the run is younger than the encoder's
+    /// timeout (a run that starts with G33 or G95 waits for the first).
+    fn spindle_angle(&mut self, dir: f64, ahead: f64) -> Result<Option<SpindleNow>, String> {
         let Some(tr) = self.tracker.as_mut() else {
-            return Ok(SpindleNow {
+            return Ok(Some(SpindleNow {
                 theta: dir * self.pipe.timeline.ideal_rev(self.vk),
                 index: Some(0.0),
                 rev_s: dir * self.pipe.timeline.spin_rpm / 60.0,
                 rev_s2: 0.0,
-            });
+            }));
         };
         if let Some(why) = &self.encoder_bad {
             return Err(why.clone());
         }
         let t = self.k as f64 * self.dt;
+        if tr.last.is_none() {
+            if t <= self.encoder_timeout {
+                return Ok(None);
+            }
+            return Err(format!(
+                "no spindle encoder reading came in the first {:.0} ms",
+                self.encoder_timeout * 1000.0
+            ));
+        }
         let (Some(last), Some(p)) = (tr.last, tr.predict_motion(t + ahead, t)) else {
             return Err("no spindle encoder reading".into());
         };
@@ -562,12 +573,12 @@ impl<S: ProgramSource> Executor<S> {
             ));
         }
         let cpr = tr.cpr();
-        Ok(SpindleNow {
+        Ok(Some(SpindleNow {
             theta: dir * p.counts / cpr,
             index: (last.index_count > 0).then(|| dir * last.count_at_index as f64 / cpr),
             rev_s: dir * p.per_s / cpr,
             rev_s2: dir * p.per_s2 / cpr,
-        })
+        }))
     }
 
     /// Ends the run after a controlled stop of a thread from where `run`
@@ -601,8 +612,21 @@ impl<S: ProgramSource> Executor<S> {
             rev_s,
             rev_s2,
         } = match self.spindle_angle(dir, ahead) {
-            Ok(a) => a,
-            Err(why) => {
+            Ok(Some(a)) => a,
+            Ok(None) if run.theta0.is_none() => {
+                // the encoder's first reading is still to come: wait at the
+                // start (as for a spindle not at speed yet)
+                run.waited += 1;
+                self.src = m.src;
+                let s = self.sample(m.seg.start, 0.0, false);
+                self.cur = Some(Cur::Thread(run));
+                self.advance(1.0);
+                return Some(s);
+            }
+            r => {
+                let why = r
+                    .err()
+                    .unwrap_or_else(|| "no spindle encoder reading".into());
                 let why = format!("line {}: {why}", m.src.line);
                 if run.theta0.is_none() {
                     // not moving yet: the run ends here
@@ -971,9 +995,11 @@ impl<S: ProgramSource> Executor<S> {
         }
         let dir = if rpm < 0.0 { -1.0 } else { 1.0 };
         match self.spindle_angle(dir, self.delay) {
-            Ok(SpindleNow { rev_s, .. }) => {
+            Ok(Some(SpindleNow { rev_s, .. })) => {
                 self.sp_scale = (rev_s * 60.0 / rpm.abs()).clamp(0.0, 2.0);
             }
+            // (the encoder's first reading is still to come: the axes wait)
+            Ok(None) => self.sp_scale = 0.0,
             Err(why) => {
                 self.fault = Some(format!("line {}: {why}", m.src.line));
                 self.set_feed_target(0.0);

@@ -111,6 +111,79 @@ fn simulate_prints_cycle_time_and_following_error_and_writes_csv() {
     std::fs::remove_file(csv).ok();
 }
 
+/// A program whose first motion follows the spindle (G33, G95) runs to
+/// its end offline: the executor waits for the simulated encoder's first
+/// reading (it once ended the run at its first sample, silently).
+#[test]
+fn simulate_runs_a_program_that_starts_with_g33_or_g95() {
+    for (name, text, col, end, secs) in [
+        // Z from 20 to -40 at 1 mm/rev and 200 rpm: 18 s, and the
+        // spindle's ramp to speed before it
+        (
+            "g33.nc",
+            "N10 M03 S200\nN20 G33 Z-40 F1\n",
+            2,
+            -40.0,
+            18.0..19.5,
+        ),
+        // X from radius 100 to 5 at 0.1 mm/rev and 1000 rpm: 57 s
+        (
+            "g95.nc",
+            "N10 M03 S1000\nN20 G95 G01 X10 F0.1\n",
+            1,
+            5.0,
+            57.0..58.5,
+        ),
+    ] {
+        let p = tmp(name, text);
+        let csv = p.with_extension("csv");
+        let (code, out, err) = cnc(&[
+            "simulate",
+            p.to_str().unwrap(),
+            "--machine",
+            "lathe",
+            "--csv",
+            csv.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{name}: {out}{err}");
+        let text = std::fs::read_to_string(&csv).unwrap();
+        let last: Vec<f64> = text
+            .lines()
+            .last()
+            .unwrap()
+            .split(',')
+            .map(|v| v.parse().unwrap())
+            .collect();
+        assert_eq!(last[col], end, "{name}: {last:?}");
+        assert!(secs.contains(&last[0]), "{name}: ended at {} s", last[0]);
+    }
+}
+
+/// A run that stops early offline (here: a spindle too noisy ever to be
+/// at speed for G33) says why and fails, as it does on the node.
+#[test]
+fn simulate_fails_a_run_that_stopped_and_says_why() {
+    let machine = std::fs::read_to_string(root().join("config/lathe.toml")).unwrap();
+    let noisy = machine.replace("sim_noise_rpm = 0.0", "sim_noise_rpm = 400.0");
+    assert_ne!(noisy, machine);
+    let m = tmp("noisy_lathe.toml", &noisy);
+    let p = tmp("thread.nc", "N10 M03 S200\nN20 G33 Z-40 F1\n");
+    let (code, out, err) = cnc(&[
+        "simulate",
+        p.to_str().unwrap(),
+        "--machine",
+        m.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(out.contains("cycle time"), "{out}");
+    assert!(
+        err.contains(
+            "thread.nc: the run stopped: line 2: G33 needs the spindle at S200 but it turns at"
+        ),
+        "{err}"
+    );
+}
+
 /// `--mcap` and `--csv` together: one run feeds both; the recording is the
 /// golden byte for byte (as `record_simulation` writes it) and the CSV the
 /// same as a run with `--csv` alone.

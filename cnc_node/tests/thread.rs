@@ -520,6 +520,37 @@ fn a_lost_encoder_during_the_cut_stops_the_axes_under_control() {
     assert!(decel.is_some_and(|k| (24..=27).contains(&k)), "{decel:?}");
 }
 
+/// A program whose first motion is G33 asks for the spindle before the
+/// encoder's first reading can have come (offline the simulator's first
+/// reading follows the first sample): the thread waits for it as for the
+/// spindle's speed, and cuts to its end. With no reading at all it is an
+/// error after the encoder's timeout (25 ms by default), and nothing
+/// moves.
+#[test]
+fn a_thread_as_the_first_motion_waits_for_the_encoders_first_reading() {
+    let m = lathe(0.0);
+    let p = "N10 M03 S800\nN20 G33 Z-10 F1\n";
+    let (s, fault) = faulty(p, &m, |_| true, |rpm| rpm);
+    assert_eq!(fault, None);
+    let last = s.last().unwrap();
+    assert_eq!(last.pos[2], -10.0);
+    // it waited at the start (Z 20 on the bundled lathe) until the spindle
+    // was at speed, then cut from Z20 to Z-10 at 1 mm/rev and 800 rpm
+    // (2.25 s, and the run-in and deceleration)
+    let start = s.iter().position(|x| x.pos[2] < 20.0).unwrap();
+    assert!(start > 500, "the thread started after {start} ms");
+    let cut = s.len() - start;
+    assert!((2250..=2450).contains(&cut), "{cut} samples from the start");
+
+    let (s, fault) = faulty(p, &m, |_| false, |rpm| rpm);
+    assert_eq!(
+        fault.as_deref(),
+        Some("line 2: no spindle encoder reading came in the first 25 ms")
+    );
+    assert!(s.iter().all(|x| x.pos[2] == 20.0));
+    assert!((26..=27).contains(&s.len()), "{} samples", s.len());
+}
+
 #[test]
 fn a_stopped_spindle_at_a_g33_block_is_an_error_and_nothing_moves() {
     let m = lathe(0.0);

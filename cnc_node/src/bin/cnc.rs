@@ -547,6 +547,12 @@ fn cmd_simulate(
         m.interpolation.rate_hz,
         errs.join(", ")
     );
+    // a run that stopped early (the spindle encoder lost, a thread whose
+    // spindle never came to speed) ends as a failed run
+    if let Some(f) = &summary.fault {
+        eprintln!("{}: the run stopped: {f}", file.display());
+        return Ok(ExitCode::from(1));
+    }
     Ok(ExitCode::SUCCESS)
 }
 
