@@ -16,6 +16,12 @@ pub struct Src {
     pub block_no: Option<u64>,
 }
 
+/// The smallest feed a move or a thread's lead may have, mm/min (G94's F;
+/// G95's F times S; G33's pitch times S): the smallest most controls
+/// take. Below it a 10 mm move would take over a week, and at the least
+/// sizes a float takes a move's time no longer counts in samples.
+pub const MIN_FEED_MM_MIN: f64 = 0.001;
+
 /// How fast a move goes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Feed {

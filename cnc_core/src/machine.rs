@@ -380,6 +380,17 @@ impl std::fmt::Display for MachineError {
 
 impl std::error::Error for MachineError {}
 
+/// A value in a message about a machine file: as written for the usual
+/// sizes, with an exponent for the tiny and the huge (1e-300, not 300
+/// digits).
+fn shown(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1.0e-4..1.0e15).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 impl Machine {
     /// Parses and validates a machine file's text.
     pub fn from_toml(text: &str) -> Result<Machine, MachineError> {
@@ -400,7 +411,11 @@ impl Machine {
         Machine::from_toml(include_str!("../../config/lathe.toml")).expect("bundled lathe.toml")
     }
 
-    fn validate(&self) -> Result<(), MachineError> {
+    /// Checks every value against what a machine can have (the first that
+    /// cannot, by its key). [`Machine::from_toml`] does; a caller that
+    /// changes a value afterwards (the interpolation rate on the command
+    /// line) checks again.
+    pub fn validate(&self) -> Result<(), MachineError> {
         let bad = |key: String, why: String| {
             Err(MachineError(format!("machine file: key `{key}`: {why}")))
         };
@@ -444,20 +459,30 @@ impl Machine {
                     format!("{} is outside min_mm..max_mm", a.home_mm),
                 );
             }
-            for (f, v) in [
-                ("max_velocity_mm_s", a.max_velocity_mm_s),
-                ("max_acceleration_mm_s2", a.max_acceleration_mm_s2),
-                ("servo_kp", a.servo_kp),
+            // (a machine's own figures, not a float's: a limit of 1e-300
+            // would make a 10 mm move last longer than the tick count holds)
+            for (f, v, lo, hi) in [
+                ("max_velocity_mm_s", a.max_velocity_mm_s, 0.01, 1.0e5),
+                (
+                    "max_acceleration_mm_s2",
+                    a.max_acceleration_mm_s2,
+                    1.0,
+                    1.0e7,
+                ),
+                ("servo_kp", a.servo_kp, 0.1, 1.0e5),
             ] {
-                if !(v.is_finite() && v > 0.0) {
-                    return bad(k(f), format!("must be greater than 0 (got {v})"));
+                if !(v.is_finite() && (lo..=hi).contains(&v)) {
+                    return bad(
+                        k(f),
+                        format!("must be between {lo} and {hi} (got {})", shown(v)),
+                    );
                 }
             }
             if let Some(j) = a.max_jerk_mm_s3 {
-                if !(j.is_finite() && j > 0.0) {
+                if !(j.is_finite() && j > 0.0 && j <= 1.0e10) {
                     return bad(
                         k("max_jerk_mm_s3"),
-                        format!("must be greater than 0 (got {j})"),
+                        format!("must be greater than 0 and at most 1e10 (got {})", shown(j)),
                     );
                 }
             }
@@ -601,14 +626,14 @@ impl Machine {
             }
         }
         if let Some(s) = &self.spindle {
-            for (f, v) in [
-                ("max_rpm", s.max_rpm),
-                ("acceleration_rpm_s", s.acceleration_rpm_s),
+            for (f, v, lo, hi) in [
+                ("max_rpm", s.max_rpm, 1.0, 1.0e6),
+                ("acceleration_rpm_s", s.acceleration_rpm_s, 1.0, 1.0e7),
             ] {
-                if !(v.is_finite() && v > 0.0) {
+                if !(v.is_finite() && (lo..=hi).contains(&v)) {
                     return bad(
                         format!("spindle.{f}"),
-                        format!("must be greater than 0 (got {v})"),
+                        format!("must be between {lo} and {hi} (got {})", shown(v)),
                     );
                 }
             }
@@ -624,11 +649,17 @@ impl Machine {
                     "must be between 0 and 0.5".into(),
                 );
             }
-            if !(s.sim_ripple_hz.is_finite() && s.sim_ripple_hz >= 0.0) {
-                return bad("spindle.sim_ripple_hz".into(), "must be 0 or more".into());
+            if !(s.sim_ripple_hz.is_finite() && (0.0..=1000.0).contains(&s.sim_ripple_hz)) {
+                return bad(
+                    "spindle.sim_ripple_hz".into(),
+                    "must be between 0 and 1000".into(),
+                );
             }
-            if !(s.sim_noise_rpm.is_finite() && s.sim_noise_rpm >= 0.0) {
-                return bad("spindle.sim_noise_rpm".into(), "must be 0 or more".into());
+            if !(s.sim_noise_rpm.is_finite() && (0.0..=s.max_rpm).contains(&s.sim_noise_rpm)) {
+                return bad(
+                    "spindle.sim_noise_rpm".into(),
+                    format!("must be between 0 and max_rpm ({})", s.max_rpm),
+                );
             }
         } else if self.kind == MachineKind::Lathe {
             return bad("spindle".into(), "a lathe needs a [spindle] table".into());
@@ -967,7 +998,7 @@ mod tests {
         let e = with("max_velocity_mm_s = 250.0", "max_velocity_mm_s = -1.0").unwrap_err();
         assert_eq!(
             e.0,
-            "machine file: key `axis[0].max_velocity_mm_s`: must be greater than 0 (got -1)"
+            "machine file: key `axis[0].max_velocity_mm_s`: must be between 0.01 and 100000 (got -1)"
         );
         let e = with("max_velocity_mm_s = 250.0", "max_velocty_mm_s = 250.0").unwrap_err();
         assert!(e.0.contains("unknown field `max_velocty_mm_s`"), "{}", e.0);

@@ -178,9 +178,18 @@ pub(crate) fn parse_words(
             i = end;
             continue;
         }
-        if c == b' ' || c == b'\t' || c == b'\r' {
+        if c == b' ' || c == b'\t' {
             i += 1;
             continue;
+        }
+        if c == b'\r' {
+            // (a line's own CRLF end is gone: a CR left inside it is a
+            // line end of an old Mac file, whose blocks would run together)
+            return Err(err(
+                i,
+                1,
+                "carriage return inside a line: lines end with LF or CRLF (a file with CR-only line ends must be converted)".into(),
+            ));
         }
         if c == comment {
             *has_comment = true;
@@ -489,6 +498,22 @@ mod tests {
         let long = "X1 ".repeat(40);
         let e = p(Dialect::Cnc836, &long).unwrap_err();
         assert!(e.message.starts_with("too many words"));
+    }
+
+    /// A CR inside a line (CR-only line ends, an old Mac file) is an error:
+    /// as a blank it ran the file's blocks together into one, and an M30
+    /// among them ended nothing. A CRLF line's own end is trimmed before.
+    #[test]
+    fn a_carriage_return_inside_a_line_is_an_error() {
+        let e = p(Dialect::Cnc836, "G00 X10\rM30\rY10").unwrap_err();
+        assert_eq!(e.col, 8);
+        assert_eq!(
+            e.message,
+            "carriage return inside a line: lines end with LF or CRLF (a file with CR-only line ends must be converted)"
+        );
+        assert!(p(Dialect::Heidenhain, "N10 G00 X+10 *\r; note").is_err());
+        // a comment may hold anything
+        assert!(p(Dialect::Cnc836, "G00 X10 \"a\rb").is_ok());
     }
 
     #[test]

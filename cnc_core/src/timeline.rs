@@ -72,7 +72,10 @@ impl Timeline {
 
     /// For a move that ends at rest: the tick of its end (the next group's start).
     pub fn stop_tick(&self, m: &PlannedMove) -> Option<u64> {
-        (m.profile.v1 == 0.0).then(|| self.group_k0 + self.ticks(self.seg_t0 + m.profile.duration))
+        (m.profile.v1 == 0.0).then(|| {
+            self.group_k0
+                .saturating_add(self.ticks(self.seg_t0 + m.profile.duration))
+        })
     }
 
     /// Time of (virtual) tick `k` relative to the start of the current move;
@@ -96,7 +99,10 @@ impl Timeline {
                 Some(m) => u64::from(m) - 1,
                 None => self.hold,
             };
-            self.group_k0 += self.ticks(self.seg_t0 + p.duration) + hold;
+            self.group_k0 = self
+                .group_k0
+                .saturating_add(self.ticks(self.seg_t0 + p.duration))
+                .saturating_add(hold);
             self.seg_t0 = 0.0;
         } else {
             self.seg_t0 += p.duration;
@@ -141,13 +147,14 @@ impl Timeline {
             return self.group_k0;
         }
         let now = dir * self.ideal_rev(self.group_k0 as f64);
-        self.group_k0 + self.ticks((self.theta0 + m.end_x() - now) / speed * self.dt)
+        self.group_k0
+            .saturating_add(self.ticks((self.theta0 + m.end_x() - now) / speed * self.dt))
     }
 
     /// A group (a thread chain) ended at rest at tick `k`; the next starts
     /// after the hold.
     pub fn finish_group_at(&mut self, k: u64) {
-        self.group_k0 = k + self.hold;
+        self.group_k0 = k.saturating_add(self.hold);
         self.seg_t0 = 0.0;
     }
 
@@ -165,7 +172,7 @@ impl Timeline {
 
     /// Advances past a dwell starting at the current group tick.
     pub fn finish_dwell(&mut self, seconds: f64) {
-        self.group_k0 += self.ticks(seconds);
+        self.group_k0 = self.group_k0.saturating_add(self.ticks(seconds));
         self.seg_t0 = 0.0;
     }
 }

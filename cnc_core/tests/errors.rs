@@ -100,6 +100,37 @@ fn missing_feed() {
     assert!(mill_errors("M03 S1000\nG95 G01 X1 F0.1\n").is_empty());
 }
 
+/// A feed so small that the move would take longer than the sample count
+/// holds (F1e-16: the estimate once wrapped to 0.018 s while the run never
+/// ended) is refused: the smallest feed is 0.001 mm/min, for G94's F,
+/// G95's F times S and a thread's pitch times S.
+#[test]
+fn feed_under_the_smallest_is_refused() {
+    assert_eq!(
+        mill_errors("G01 X10 F0.0000000000000001\n"),
+        vec!["line 1, column 9: feed F0.0000000000000001 mm/min is under the smallest feed, 0.001 mm/min"]
+    );
+    assert!(mill_errors("G01 X10 F0.001\n").is_empty());
+    assert_eq!(
+        mill_errors("M03 S0.0000001\nG95 G01 X10 F0.1\n"),
+        vec!["line 2, column 13: feed F0.1 mm/rev at S0.0000001 is under the smallest feed, 0.001 mm/min"]
+    );
+    // (the feed is judged where it moves: F set under G95 is mm/min after G94)
+    assert_eq!(
+        mill_errors("M03 S1000\nG95 G01 X10 F0.0005\nG94 X20\n"),
+        vec!["line 3, column 5: feed F0.0005 mm/min is under the smallest feed, 0.001 mm/min"]
+    );
+    let lathe = Machine::builtin_lathe();
+    assert_eq!(
+        errors(
+            "G00 X20 Z5\nM03 S0.000001\nG33 Z-10 F0.000000001\n",
+            Dialect::Cnc836,
+            &lathe
+        ),
+        vec!["line 3, column 10: thread pitch F0.000000001 mm/rev at S0.000001 leads under the smallest feed, 0.001 mm/min"]
+    );
+}
+
 #[test]
 fn every_error_in_one_report() {
     let prog = "N10 G00 X10\nN20 G01 X20\nN30 X1 #\nN40 G02 X30 I0 J0 F10\nN50 G01 X9999\nN60 G01 G00 X1\n";

@@ -250,23 +250,50 @@ fn simulate_at_ten_kilohertz() {
 #[test]
 fn bad_machine_file_names_the_key() {
     let m = std::fs::read_to_string(root().join("config/mill.toml")).unwrap();
-    let p = tmp(
-        "m.toml",
-        &m.replacen(
-            "max_acceleration_mm_s2 = 2000.0",
-            "max_acceleration_mm_s2 = 0.0",
-            1,
-        ),
+    // the bundled mill with one line changed: the check's exit code and
+    // what it printed on stderr
+    let with = |from: &str, to: &str| {
+        let p = tmp("m.toml", &m.replacen(from, to, 1));
+        let (code, _, err) = cnc(&[
+            "check",
+            "examples/mill_pocket.nc",
+            "--machine",
+            p.to_str().unwrap(),
+        ]);
+        (code, err)
+    };
+    let (code, err) = with(
+        "max_acceleration_mm_s2 = 2000.0",
+        "max_acceleration_mm_s2 = 0.0",
     );
-    let (code, _, err) = cnc(&[
-        "check",
-        "examples/mill_pocket.nc",
-        "--machine",
-        p.to_str().unwrap(),
-    ]);
     assert_eq!(code, 2);
     assert!(
-        err.contains("key `axis[0].max_acceleration_mm_s2`: must be greater than 0 (got 0)"),
+        err.contains(
+            "key `axis[0].max_acceleration_mm_s2`: must be between 1 and 10000000 (got 0)"
+        ),
+        "{err}"
+    );
+    // a limit no machine has (its estimate was 3 s, its run never ended)
+    let (code, err) = with("max_velocity_mm_s = 250.0", "max_velocity_mm_s = 1e-300");
+    assert_eq!(code, 2);
+    assert!(
+        err.contains(
+            "key `axis[0].max_velocity_mm_s`: must be between 0.01 and 100000 (got 1e-300)"
+        ),
+        "{err}"
+    );
+    // not a regular file: read until the memory ran out
+    let (code, _, err) = cnc(&["check", "examples/mill_pocket.nc", "--machine", "/dev/zero"]);
+    assert_eq!(
+        (code, err.trim()),
+        (2, "error: /dev/zero: not a regular file")
+    );
+    // --rate is held to the machine file's rules: at 100 kHz the bundled
+    // mill's jerk filter would need 4000 samples
+    let (code, out, err) = cnc(&["simulate", "examples/mill_pocket.nc", "--rate", "100000"]);
+    assert_eq!(code, 2, "{out}");
+    assert!(
+        err.contains("--rate 100000: machine file: key `axis.max_jerk_mm_s3`: too low for the acceleration: the jerk filter would need 4000 samples (at most 1000)"),
         "{err}"
     );
     let (code, _, err) = cnc(&["check", "examples/mill_pocket.nc", "--machine", "drill"]);

@@ -40,11 +40,26 @@ pub fn model_for(machine: &Machine, seed: u64) -> MachineModel {
     MachineModel::new(axes, spindle)
 }
 
+/// The largest machine file read, bytes (the bundled ones are about 3 KiB).
+pub const MAX_MACHINE_FILE_BYTES: u64 = 1 << 20;
+
 /// Loads a machine: a path to a TOML file, or the name of a bundled one
 /// (`mill`, `lathe`) when no such file exists.
 pub fn load_machine(arg: &str) -> Result<Machine, String> {
     let p = std::path::Path::new(arg);
     if p.exists() {
+        // (not a device, a pipe or a directory: /dev/zero would be read
+        // until the memory runs out, a FIFO would wait for a writer)
+        let meta = std::fs::metadata(p).map_err(|e| format!("{arg}: {e}"))?;
+        if !meta.is_file() {
+            return Err(format!("{arg}: not a regular file"));
+        }
+        if meta.len() > MAX_MACHINE_FILE_BYTES {
+            return Err(format!(
+                "{arg}: {} bytes; a machine file is at most {MAX_MACHINE_FILE_BYTES} bytes",
+                meta.len()
+            ));
+        }
         let text = std::fs::read_to_string(p).map_err(|e| format!("{arg}: {e}"))?;
         return Machine::from_toml(&text).map_err(|e| format!("{arg}: {e}"));
     }

@@ -5,7 +5,7 @@
 use super::modal::Motion;
 use super::state::Interpreter;
 use super::words::{slot, Words, CENTER_LETTERS};
-use crate::canon::{Canon, Event, Feed, Src};
+use crate::canon::{Canon, Event, Feed, Src, MIN_FEED_MM_MIN};
 use crate::diag::num;
 use crate::geom::V3;
 use crate::geom::{Arc, Geom};
@@ -174,13 +174,34 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                 return None;
             }
         };
+        let at = fw.or(anchor.copied());
         if self.modal.per_rev {
             let rpm = self.modal.spindle_rpm();
             if rpm == 0.0 {
                 self.error(anchor, "G95 feed per revolution needs the spindle turning (M03/M04 with S greater than 0)".into());
                 return None;
             }
+            if f * rpm.abs() < MIN_FEED_MM_MIN {
+                self.error(
+                    at.as_ref(),
+                    format!(
+                        "feed F{f} mm/rev at S{} is under the smallest feed, {} mm/min",
+                        rpm.abs(),
+                        num(MIN_FEED_MM_MIN)
+                    ),
+                );
+                return None;
+            }
             Some(Feed::PerRev { mm_per_rev: f, rpm })
+        } else if f < MIN_FEED_MM_MIN {
+            self.error(
+                at.as_ref(),
+                format!(
+                    "feed F{f} mm/min is under the smallest feed, {} mm/min",
+                    num(MIN_FEED_MM_MIN)
+                ),
+            );
+            None
         } else {
             Some(Feed::PerMin(f))
         }

@@ -5,7 +5,7 @@
 
 use super::state::{Held, Interpreter};
 use super::words::{slot, Words, AXIS_LETTERS};
-use crate::canon::{Canon, Event, RunoutPath, Src, ThreadMove, ThreadSeg};
+use crate::canon::{Canon, Event, RunoutPath, Src, ThreadMove, ThreadSeg, MIN_FEED_MM_MIN};
 use crate::diag::{num, Diagnostic};
 use crate::geom::Geom;
 use crate::geom::V3;
@@ -82,6 +82,17 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                 }
             },
         };
+        if pitch * rpm.abs() < MIN_FEED_MM_MIN {
+            self.error(
+                Some(w.f().as_ref().unwrap_or(g33)),
+                format!(
+                    "thread pitch F{pitch} mm/rev at S{} leads under the smallest feed, {} mm/min",
+                    rpm.abs(),
+                    num(MIN_FEED_MM_MIN)
+                ),
+            );
+            return;
+        }
         self.thread_pitch = Some(pitch);
         if !w.axes().any(|a| a.is_some()) {
             self.error(

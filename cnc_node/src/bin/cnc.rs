@@ -371,6 +371,10 @@ fn load(machine: &str, rate: Option<f64>) -> Result<Machine, String> {
             return Err(format!("--rate {r}: must be between 10 and 100000 Hz"));
         }
         m.interpolation.rate_hz = r;
+        // (the machine's limits hold at this rate too: its jerk filter's
+        // length in samples)
+        m.validate()
+            .map_err(|e| format!("--rate {}: {e}", cnc_core::diag::num(r)))?;
     }
     Ok(m)
 }

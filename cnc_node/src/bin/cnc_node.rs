@@ -119,6 +119,9 @@ fn run(setup: Setup) -> Result<(), String> {
             return Err(format!("--rate {r}: must be between 10 and 20000 Hz"));
         }
         machine.interpolation.rate_hz = r;
+        machine
+            .validate()
+            .map_err(|e| format!("--rate {}: {e}", cnc_core::diag::num(r)))?;
     }
     let dir = program_dir(args, &machine);
     let domain = args.domain.unwrap_or_else(ros::domain_from_env);
