@@ -806,6 +806,15 @@ fn cmd_bag(cmd: BagCmd) -> Result<ExitCode, String> {
         BagCmd::Recover { file, out } => {
             let r = cnc_node::recover::recover(&file, &out)?;
             println!("{r}");
+            if r.lost() {
+                // the output holds what was whole; the rest is named above
+                eprintln!(
+                    "{}: damaged records were skipped: their contents are not in {}",
+                    file.display(),
+                    out.display()
+                );
+                return Ok(ExitCode::from(1));
+            }
             Ok(ExitCode::SUCCESS)
         }
     }
