@@ -416,3 +416,53 @@ fn plot_thread_and_compare_of_a_recording() {
         "{out}"
     );
 }
+
+/// `--wait` and `--duration` that are not a number of seconds (NaN, inf,
+/// negative) are usage errors at parsing (exit 2), never a panic in
+/// `Duration::from_secs_f64` nor a recording of nothing with exit 0.
+#[test]
+fn waits_and_durations_must_be_numbers_of_seconds() {
+    let wait_err = |v: &str| {
+        format!(
+            "error: invalid value '{v}' for '--wait <WAIT>': must be a number of seconds, 0 or more\n\nFor more information, try '--help'.\n"
+        )
+    };
+    for v in ["nan", "NaN", "inf", "-inf", "-1", "1e400", "soon"] {
+        let eq = format!("--wait={v}");
+        let runs: [Vec<&str>; 8] = [
+            vec!["status", "--domain", "201", &eq],
+            vec!["abort", "--domain", "201", &eq],
+            vec!["hold", "--domain", "201", &eq],
+            vec!["resume", "--domain", "201", &eq],
+            vec!["override", "50", "--domain", "201", &eq],
+            vec!["run", "examples/mill_pocket.nc", "--domain", "201", &eq],
+            vec!["status", "--domain", "201", "--wait", v],
+            vec!["run", "examples/mill_pocket.nc", "--wait", v],
+        ];
+        for args in runs {
+            let (code, out, err) = cnc(&args);
+            assert_eq!((code, out.as_str()), (2, ""), "{args:?}: {err}");
+            assert_eq!(err, wait_err(v), "{args:?}");
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("x.mcap");
+    for v in ["nan", "inf", "-1", "0", "-0"] {
+        let (code, out, err) = cnc(&[
+            "bag",
+            "record",
+            "-o",
+            rec.to_str().unwrap(),
+            "--domain",
+            "201",
+            "--duration",
+            v,
+        ]);
+        assert_eq!((code, out.as_str()), (2, ""), "{v}: {err}");
+        assert_eq!(
+            err,
+            format!("error: invalid value '{v}' for '--duration <DURATION>': must be a number of seconds, more than 0\n\nFor more information, try '--help'.\n")
+        );
+        assert!(!rec.exists(), "--duration {v} created the recording");
+    }
+}

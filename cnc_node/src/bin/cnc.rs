@@ -109,7 +109,7 @@ enum Cmd {
         #[arg(long)]
         record: bool,
         /// seconds to wait for the node
-        #[arg(long, default_value_t = 30.0)]
+        #[arg(long, default_value_t = 30.0, value_parser = seconds, allow_hyphen_values = true)]
         wait: f64,
     },
     /// Abort the running job (<namespace>/abort): it decelerates along its
@@ -159,7 +159,7 @@ struct Controller {
     #[arg(long)]
     domain: Option<u16>,
     /// seconds to wait for the node
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, default_value_t = 10.0, value_parser = seconds, allow_hyphen_values = true)]
     wait: f64,
 }
 
@@ -186,8 +186,8 @@ enum BagCmd {
         sim_namespace: String,
         #[arg(long)]
         domain: Option<u16>,
-        /// seconds
-        #[arg(long)]
+        /// seconds (more than 0)
+        #[arg(long, value_parser = positive_seconds, allow_hyphen_values = true)]
         duration: Option<f64>,
     },
     /// Compare two recordings: per topic and joint the largest deviation,
@@ -243,6 +243,22 @@ enum BagCmd {
         #[arg(short, long)]
         out: PathBuf,
     },
+}
+
+/// A number of seconds (`--wait`): finite, 0 or more.
+fn seconds(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err("must be a number of seconds, 0 or more".into()),
+    }
+}
+
+/// A number of seconds (`--duration`): finite, more than 0.
+fn positive_seconds(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err("must be a number of seconds, more than 0".into()),
+    }
 }
 
 fn main() -> ExitCode {
@@ -755,7 +771,8 @@ fn cmd_bag(cmd: BagCmd) -> Result<ExitCode, String> {
                 namespace,
                 sim_namespace,
                 domain: domain(d),
-                duration: duration.map(|s| std::time::Duration::from_secs_f64(s.clamp(0.0, 1e9))),
+                // (finite and > 0: the argument's parser)
+                duration: duration.map(|s| std::time::Duration::from_secs_f64(s.min(1e9))),
             };
             let s = cnc_node::live::record_live(&opts, &out)?;
             println!(
