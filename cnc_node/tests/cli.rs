@@ -466,3 +466,28 @@ fn waits_and_durations_must_be_numbers_of_seconds() {
         assert!(!rec.exists(), "--duration {v} created the recording");
     }
 }
+
+/// `cnc bag replay --rate` outside 0.001..1000 (where a recording's times
+/// divided by the rate would not fit a `Duration`, e.g. 1e-25) is a usage
+/// error, not a panic.
+#[test]
+fn replay_rates_outside_their_range_are_usage_errors() {
+    for v in [
+        "1e-25", "1e-300", "0", "-1", "nan", "inf", "0.0009", "1000.5",
+    ] {
+        let (code, out, err) = cnc(&[
+            "bag",
+            "replay",
+            "bags/mill_pocket.mcap",
+            "--domain",
+            "200",
+            "--rate",
+            v,
+        ]);
+        assert_eq!((code, out.as_str()), (2, ""), "{v}: {err}");
+        assert_eq!(
+            err,
+            format!("error: invalid value '{v}' for '--rate <RATE>': must be a speed factor from 0.001 to 1000\n\nFor more information, try '--help'.\n")
+        );
+    }
+}

@@ -206,8 +206,8 @@ enum BagCmd {
     /// Republish a recording on DDS at its own pace.
     Replay {
         file: PathBuf,
-        /// playback speed factor
-        #[arg(long, default_value_t = 1.0)]
+        /// playback speed factor, 0.001..1000 (2 plays twice as fast)
+        #[arg(long, default_value_t = 1.0, value_parser = replay_rate, allow_hyphen_values = true)]
         rate: f64,
         #[arg(long)]
         domain: Option<u16>,
@@ -258,6 +258,15 @@ fn positive_seconds(s: &str) -> Result<f64, String> {
     match s.trim().parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
         _ => Err("must be a number of seconds, more than 0".into()),
+    }
+}
+
+/// A playback speed factor (`cnc bag replay --rate`).
+fn replay_rate(s: &str) -> Result<f64, String> {
+    let (lo, hi) = cnc_node::live::REPLAY_RATES;
+    match s.trim().parse::<f64>() {
+        Ok(v) if (lo..=hi).contains(&v) => Ok(v),
+        _ => Err(format!("must be a speed factor from {lo} to {hi}")),
     }
 }
 
