@@ -349,11 +349,7 @@ fn attachment_fits(body: &[u8]) -> bool {
 /// recording `out`. Errors, with nothing left at `out`, for a file that is
 /// not MCAP, for `out` equal to `input`, and for I/O errors.
 pub fn recover(input: &Path, out: &Path) -> Result<Recovery, String> {
-    let same = match (input.canonicalize(), out.canonicalize()) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
-    };
-    if same {
+    if crate::files::same_file(input, out) {
         return Err(format!(
             "{}: the output must be another file than the input",
             out.display()
