@@ -109,11 +109,20 @@ where
     }))
 }
 
+/// The playback speed factors [`replay`] accepts (lowest, highest): a
+/// recording's times divided by the rate stay within what a `Duration`
+/// holds.
+pub const REPLAY_RATES: (f64, f64) = (0.001, 1000.0);
+
 /// Republishes every message of a recording on its topic, paced by the log
-/// times (`rate` 2.0 plays twice as fast). Returns the messages published.
+/// times (`rate` 2.0 plays twice as fast; see [`REPLAY_RATES`]). Returns
+/// the messages published.
 pub fn replay(path: &Path, rate: f64, domain: u16) -> Result<u64, String> {
-    if !(rate.is_finite() && rate > 0.0) {
-        return Err(format!("--rate {rate}: must be greater than 0"));
+    let (lo, hi) = REPLAY_RATES;
+    if !(lo..=hi).contains(&rate) {
+        return Err(format!(
+            "--rate {rate}: must be a speed factor from {lo} to {hi}"
+        ));
     }
     let bag = Bag::read(path)?;
     let (_ctx, mut node) = ros::join(
@@ -164,7 +173,9 @@ pub fn replay(path: &Path, rate: f64, domain: u16) -> Result<u64, String> {
         if stop.load(Ordering::SeqCst) {
             break;
         }
-        let due = Duration::from_secs_f64((t - t0) as f64 * 1e-9 / rate);
+        // (at most 2^64 ns / 0.001: well within a Duration)
+        let due =
+            Duration::try_from_secs_f64((t - t0) as f64 * 1e-9 / rate).unwrap_or(Duration::MAX);
         if let Some(wait) = due.checked_sub(start.elapsed()) {
             std::thread::sleep(wait);
         }

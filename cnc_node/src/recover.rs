@@ -8,8 +8,17 @@
 //! first record that runs past the end of the file (the chunk that was
 //! open when the process died: its header still holds the placeholder
 //! lengths the MCAP writer patches when it closes the chunk). A record
-//! that is whole but damaged (bad CRC, bad compression) is skipped and
-//! reported.
+//! that is whole but damaged (bad CRC, bad compression, sizes that do
+//! not add up) is skipped and reported. When a damaged chunk held the
+//! definitions of channels (schemas and channels are written where they
+//! are first used), those of a complete file's summary are taken instead,
+//! so the messages of the chunks after it are kept.
+//!
+//! Every chunk is decompressed by [`chunk_records`], which takes no size
+//! from the file on trust (the `mcap` crate's chunk reader allocates what
+//! a chunk's header and its records claim, so one flipped bit could make
+//! it ask for exabytes); [`crate::bag::Bag`] checks every chunk with it
+//! before it hands a file to the `mcap` reader.
 //!
 //! The output is written the way [`crate::record`] writes recordings
 //! (profile of the input, zstd chunks of [`record::CHUNK_SIZE`], schema
@@ -24,8 +33,122 @@ use mcap::records::{op, Record};
 use std::collections::BTreeMap;
 use std::fmt;
 use std::fs::File;
-use std::io::{BufReader, BufWriter, Read, Seek, Write};
+use std::io::{BufReader, BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
+
+/// The largest uncompressed chunk read, bytes (1 GiB; the recorder writes
+/// chunks of about 1 MiB, a single larger message gets a chunk of its own).
+pub const MAX_CHUNK_BYTES: u64 = 1 << 30;
+
+/// How far zstd data can expand at most: a block holds at most 128 KiB and
+/// takes at least 4 bytes (a 3-byte block header and one byte repeated).
+const ZSTD_MAX_EXPANSION: u64 = 128 * 1024 / 4;
+
+/// The records of a chunk (its `records` field), decompressed and checked,
+/// taking no size from the file on trust: the uncompressed size its header
+/// gives must be at most [`MAX_CHUNK_BYTES`] and no more than its compressed
+/// data can expand to; the data must decompress to exactly that size (never
+/// more is decoded, and memory grows with what is decoded), match the
+/// header's CRC (unless that is 0, "not computed") and be whole records
+/// (opcode, length, body) to its end. Err: what is wrong with it.
+pub fn chunk_records(header: &mcap::records::ChunkHeader, data: &[u8]) -> Result<Vec<u8>, String> {
+    let size = header.uncompressed_size;
+    if size > MAX_CHUNK_BYTES {
+        return Err(format!(
+            "its header gives an uncompressed size of {size} bytes, more than the {MAX_CHUNK_BYTES} bytes a chunk is read up to"
+        ));
+    }
+    let records = match header.compression.as_str() {
+        "" => {
+            if data.len() as u64 != size {
+                return Err(format!(
+                    "it is not compressed, yet its header gives {size} bytes for its {} bytes of records",
+                    data.len()
+                ));
+            }
+            data.to_vec()
+        }
+        "zstd" => {
+            let most = (data.len() as u64).saturating_mul(ZSTD_MAX_EXPANSION);
+            if size > most {
+                return Err(format!(
+                    "its header gives an uncompressed size of {size} bytes, more than its {} bytes of zstd data can expand to ({most})",
+                    data.len()
+                ));
+            }
+            let mut out = Vec::new();
+            let decoder = zstd::stream::read::Decoder::with_buffer(data)
+                .map_err(|e| format!("bad compression: zstd: {e}"))?;
+            // one byte more than the header gives: more is damage too
+            decoder
+                .take(size + 1)
+                .read_to_end(&mut out)
+                .map_err(|e| format!("bad compression: zstd: {e}"))?;
+            if out.len() as u64 != size {
+                return Err(format!(
+                    "it decompresses to {}{} bytes, its header gives {size}",
+                    if out.len() as u64 > size {
+                        "more than "
+                    } else {
+                        ""
+                    },
+                    out.len().min(size as usize)
+                ));
+            }
+            out
+        }
+        other => {
+            return Err(format!(
+                "unsupported compression {other:?} (zstd or none are read)"
+            ))
+        }
+    };
+    if header.uncompressed_crc != 0 {
+        let crc = crc32fast::hash(&records);
+        if crc != header.uncompressed_crc {
+            return Err(format!(
+                "bad CRC: its records hash to {crc:08x}, its header gives {:08x}",
+                header.uncompressed_crc
+            ));
+        }
+    }
+    let mut at = 0usize;
+    while at < records.len() {
+        let left = records.len() - at;
+        let Some(head) = records.get(at..at + 9) else {
+            return Err(format!(
+                "its records end in {left} bytes at byte {at} of {}, too few for a record's opcode and length",
+                records.len()
+            ));
+        };
+        let len = u64::from_le_bytes(head[1..].try_into().unwrap_or_default());
+        if len > (left - 9) as u64 {
+            return Err(format!(
+                "a {} at byte {at} of its {} bytes of records claims {len} bytes, more than the {} left",
+                record_name(head[0]),
+                records.len(),
+                left - 9
+            ));
+        }
+        at += 9 + len as usize;
+    }
+    Ok(records)
+}
+
+/// The records of [`chunk_records`]' output, parsed: the whole chunk or
+/// nothing of it.
+fn parse_chunk_records(records: &[u8]) -> Result<Vec<Record<'_>>, mcap::McapError> {
+    let mut out = Vec::new();
+    let mut at = 0usize;
+    while let Some(head) = records.get(at..at + 9) {
+        let len = u64::from_le_bytes(head[1..].try_into().unwrap_or_default()) as usize;
+        // chunk_records checked that every record is whole
+        let body = records.get(at + 9..at + 9 + len).unwrap_or_default();
+        out.push(mcap::read::parse_record(head[0], body)?);
+        at += 9 + len;
+    }
+    Ok(out)
+}
 
 /// What [`recover`] found and wrote.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -57,8 +180,15 @@ pub struct Recovery {
     pub dropped: Option<String>,
     /// whole records that could not be read (bad CRC, bad compression), skipped
     pub damaged: Vec<String>,
+    /// how many of them were chunks
+    pub damaged_chunks: usize,
     /// messages of channels whose definition was lost, skipped
     pub orphans: u64,
+    /// channels whose definition was lost with a damaged chunk, taken
+    /// from the input's summary
+    pub from_summary: usize,
+    /// the messages the input's summary counts (a complete input)
+    pub summary_messages: Option<u64>,
     /// size of the output, bytes
     pub bytes: u64,
 }
@@ -96,13 +226,24 @@ impl fmt::Display for Recovery {
                 e % 1_000_000_000
             )?;
         }
-        match (&self.dropped, self.complete) {
-            (Some(what), _) => write!(f, "; dropped {} bytes of {what}", self.dropped_bytes)?,
-            (None, true) => write!(f, "; the file was complete, nothing was lost")?,
-            (None, false) => write!(f, "; the file ended after a whole record, nothing was cut")?,
+        let clean = self.damaged.is_empty() && !self.lost();
+        match (&self.dropped, self.complete, clean) {
+            (Some(what), _, _) => write!(f, "; dropped {} bytes of {what}", self.dropped_bytes)?,
+            (None, true, true) => write!(f, "; the file was complete, nothing was lost")?,
+            (None, true, false) => write!(f, "; the file ended properly")?,
+            (None, false, _) => {
+                write!(f, "; the file ended after a whole record, nothing was cut")?
+            }
         }
         for d in &self.damaged {
             write!(f, "; skipped {d}")?;
+        }
+        if self.from_summary > 0 {
+            write!(
+                f,
+                "; took the definitions of {} channel(s) from the file's summary",
+                self.from_summary
+            )?;
         }
         if self.orphans > 0 {
             write!(
@@ -110,6 +251,18 @@ impl fmt::Display for Recovery {
                 "; skipped {} message(s) of channels whose definition was lost",
                 self.orphans
             )?;
+        }
+        match self.summary_messages {
+            Some(n) if n > self.messages => write!(
+                f,
+                "; LOST {} of the {n} messages the file's summary counts",
+                n - self.messages
+            )?,
+            Some(n) if !self.damaged.is_empty() => write!(
+                f,
+                "; all {n} messages the file's summary counts were recovered"
+            )?,
+            _ => {}
         }
         writeln!(f)?;
         let list = |v: &[String]| {
@@ -134,6 +287,21 @@ impl fmt::Display for Recovery {
             },
             list(&self.attachments)
         )
+    }
+}
+
+impl Recovery {
+    /// Something of the input's whole records is not in the output: a
+    /// damaged record was skipped (of a complete input with statistics,
+    /// a damaged chunk counts only when messages are missing, since its
+    /// schemas and channels are taken from the summary), or messages were
+    /// skipped without their channel. A cut end is not counted.
+    pub fn lost(&self) -> bool {
+        let damaged = match self.summary_messages {
+            Some(n) => n > self.messages || self.damaged.len() > self.damaged_chunks,
+            None => !self.damaged.is_empty(),
+        };
+        damaged || self.orphans > 0
     }
 }
 
@@ -181,11 +349,7 @@ fn attachment_fits(body: &[u8]) -> bool {
 /// recording `out`. Errors, with nothing left at `out`, for a file that is
 /// not MCAP, for `out` equal to `input`, and for I/O errors.
 pub fn recover(input: &Path, out: &Path) -> Result<Recovery, String> {
-    let same = match (input.canonicalize(), out.canonicalize()) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
-    };
-    if same {
+    if crate::files::same_file(input, out) {
         return Err(format!(
             "{}: the output must be another file than the input",
             out.display()
@@ -268,6 +432,70 @@ struct ChannelInfo {
     count: u64,
 }
 
+/// The schemas and channels of a complete input's summary, and the
+/// messages its statistics count.
+#[derive(Default)]
+struct SummaryDefs {
+    schemas: BTreeMap<u16, (String, String, Vec<u8>)>,
+    channels: BTreeMap<u16, mcap::records::Channel>,
+    messages: Option<u64>,
+}
+
+/// [`SummaryDefs`] of an input of `len` bytes that ends with a footer
+/// (else none); what cannot be read of it is left out. Leaves `r` where
+/// it was.
+fn summary_defs<R: Read + Seek>(r: &mut R, len: u64) -> Result<SummaryDefs, String> {
+    let io = |e: std::io::Error| format!("reading the file: {e}");
+    let mut defs = SummaryDefs::default();
+    // footer: opcode, length 20, summary start, summary offset start, CRC; then the magic
+    const FOOTER: u64 = 9 + 20 + 8;
+    if len < 8 + FOOTER {
+        return Ok(defs);
+    }
+    let back = r.stream_position().map_err(io)?;
+    let footer_at = len - FOOTER;
+    r.seek(SeekFrom::Start(footer_at)).map_err(io)?;
+    let mut tail = [0u8; FOOTER as usize];
+    r.read_exact(&mut tail).map_err(io)?;
+    let u64_at =
+        |b: &[u8], at: usize| u64::from_le_bytes(b[at..at + 8].try_into().unwrap_or_default());
+    let start = u64_at(&tail, 9);
+    if tail[0] == op::FOOTER
+        && u64_at(&tail, 1) == 20
+        && tail[29..] == mcap::MAGIC[..]
+        && start >= 8
+        && start < footer_at
+    {
+        let mut summary = vec![0u8; (footer_at - start) as usize];
+        r.seek(SeekFrom::Start(start)).map_err(io)?;
+        r.read_exact(&mut summary).map_err(io)?;
+        let mut at = 0usize;
+        while let Some(head) = summary.get(at..at + 9) {
+            let len = u64::from_le_bytes(head[1..].try_into().unwrap_or_default());
+            let Some(body) = usize::try_from(len)
+                .ok()
+                .and_then(|n| summary.get(at + 9..(at + 9).checked_add(n)?))
+            else {
+                break;
+            };
+            match mcap::read::parse_record(head[0], body) {
+                Ok(Record::Schema { header, data }) => {
+                    defs.schemas
+                        .insert(header.id, (header.name, header.encoding, data.into_owned()));
+                }
+                Ok(Record::Channel(c)) => {
+                    defs.channels.insert(c.id, c);
+                }
+                Ok(Record::Statistics(s)) => defs.messages = Some(s.message_count),
+                _ => {}
+            }
+            at += 9 + body.len();
+        }
+    }
+    r.seek(SeekFrom::Start(back)).map_err(io)?;
+    Ok(defs)
+}
+
 struct State<W: Write + Seek> {
     w: mcap::Writer<W>,
     rec: Recovery,
@@ -275,6 +503,7 @@ struct State<W: Write + Seek> {
     schema_names: BTreeMap<u16, String>,
     rosbag2: Option<mcap::records::Metadata>,
     profile: String,
+    summary: SummaryDefs,
 }
 
 impl<W: Write + Seek> State<W> {
@@ -321,6 +550,12 @@ impl<W: Write + Seek> State<W> {
     }
 
     fn message(&mut self, h: &mcap::records::MessageHeader, data: &[u8]) -> Result<(), String> {
+        if !self.channels.contains_key(&h.channel_id) {
+            // its definition was in a damaged chunk: the summary's
+            if let Some(c) = self.summary.channels.get(&h.channel_id).cloned() {
+                self.define_from_summary(&c)?;
+            }
+        }
         let Some(c) = self.channels.get_mut(&h.channel_id) else {
             self.rec.orphans += 1;
             return Ok(());
@@ -333,6 +568,20 @@ impl<W: Write + Seek> State<W> {
         let t = h.log_time;
         self.rec.start_ns = Some(self.rec.start_ns.map_or(t, |s| s.min(t)));
         self.rec.end_ns = Some(self.rec.end_ns.map_or(t, |e| e.max(t)));
+        Ok(())
+    }
+
+    /// A channel (and its schema) as the input's summary defines it.
+    fn define_from_summary(&mut self, c: &mcap::records::Channel) -> Result<(), String> {
+        if c.schema_id != 0 && !self.schema_names.contains_key(&c.schema_id) {
+            if let Some((name, encoding, data)) = self.summary.schemas.get(&c.schema_id).cloned() {
+                self.schema(c.schema_id, &name, &encoding, &data)?;
+            }
+        }
+        self.channel(c)?;
+        if self.channels.contains_key(&c.id) {
+            self.rec.from_summary += 1;
+        }
         Ok(())
     }
 
@@ -350,6 +599,9 @@ impl<W: Write + Seek> State<W> {
             Ok(r) => r,
             Err(e) => {
                 self.rec.damaged.push(damaged(e));
+                if opcode == op::CHUNK {
+                    self.rec.damaged_chunks += 1;
+                }
                 return Ok(true);
             }
         };
@@ -362,15 +614,21 @@ impl<W: Write + Seek> State<W> {
             Record::Message { header, data } => self.message(&header, &data)?,
             Record::Chunk { header, data } => {
                 // the whole chunk or nothing of it
-                let records: Result<Vec<Record>, _> =
-                    match mcap::read::ChunkReader::new(header, &data) {
-                        Ok(r) => r.collect(),
-                        Err(e) => Err(e),
-                    };
-                let records = match records {
+                let plain = match chunk_records(&header, &data) {
+                    Ok(p) => p,
+                    Err(e) => {
+                        self.rec
+                            .damaged
+                            .push(format!("a damaged chunk at byte {at} ({e})"));
+                        self.rec.damaged_chunks += 1;
+                        return Ok(true);
+                    }
+                };
+                let records = match parse_chunk_records(&plain) {
                     Ok(r) => r,
                     Err(e) => {
                         self.rec.damaged.push(damaged(e));
+                        self.rec.damaged_chunks += 1;
                         return Ok(true);
                     }
                 };
@@ -420,13 +678,14 @@ impl<W: Write + Seek> State<W> {
     }
 }
 
-fn recover_records<R: Read, W: Write + Seek>(
+fn recover_records<R: Read + Seek, W: Write + Seek>(
     r: &mut R,
     len: u64,
     w: W,
     file_name: &str,
 ) -> Result<(Recovery, W), String> {
     let io = |e: std::io::Error| format!("reading the file: {e}");
+    let summary = summary_defs(r, len)?;
     // (opcode, length) of the next record, or what cut it off
     let next = |r: &mut R, pos: u64| -> Result<Result<(u8, u64), Recovery>, String> {
         let left = len - pos;
@@ -492,6 +751,7 @@ fn recover_records<R: Read, W: Write + Seek>(
         schema_names: BTreeMap::new(),
         rosbag2: None,
         profile,
+        summary,
     };
     while cut.is_none() && pos < len {
         match next(r, pos)? {
@@ -511,14 +771,29 @@ fn recover_records<R: Read, W: Write + Seek>(
         st.rec.dropped_bytes = c.dropped_bytes;
         st.rec.dropped = c.dropped;
     }
+    // channels defined in a damaged chunk, of which no message was read
+    let undefined: Vec<mcap::records::Channel> = st
+        .summary
+        .channels
+        .values()
+        .filter(|c| !st.channels.contains_key(&c.id))
+        .cloned()
+        .collect();
+    for c in &undefined {
+        st.define_from_summary(c)?;
+    }
     let State {
         mut w,
         mut rec,
         channels,
         rosbag2,
         profile,
+        summary,
         ..
     } = st;
+    if rec.complete {
+        rec.summary_messages = summary.messages;
+    }
     let rosbag2 = match rosbag2 {
         Some(m) => {
             rec.rosbag2_kept = true;

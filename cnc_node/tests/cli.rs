@@ -1,6 +1,6 @@
 //! The `cnc` binary as a user runs it.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn root() -> PathBuf {
@@ -442,4 +442,185 @@ fn plot_thread_and_compare_of_a_recording() {
         out.trim_end().ends_with("result: within tolerance"),
         "{out}"
     );
+}
+
+/// `--wait` and `--duration` that are not a number of seconds (NaN, inf,
+/// negative) are usage errors at parsing (exit 2), never a panic in
+/// `Duration::from_secs_f64` nor a recording of nothing with exit 0.
+#[test]
+fn waits_and_durations_must_be_numbers_of_seconds() {
+    let wait_err = |v: &str| {
+        format!(
+            "error: invalid value '{v}' for '--wait <WAIT>': must be a number of seconds, 0 or more\n\nFor more information, try '--help'.\n"
+        )
+    };
+    for v in ["nan", "NaN", "inf", "-inf", "-1", "1e400", "soon"] {
+        let eq = format!("--wait={v}");
+        let runs: [Vec<&str>; 8] = [
+            vec!["status", "--domain", "201", &eq],
+            vec!["abort", "--domain", "201", &eq],
+            vec!["hold", "--domain", "201", &eq],
+            vec!["resume", "--domain", "201", &eq],
+            vec!["override", "50", "--domain", "201", &eq],
+            vec!["run", "examples/mill_pocket.nc", "--domain", "201", &eq],
+            vec!["status", "--domain", "201", "--wait", v],
+            vec!["run", "examples/mill_pocket.nc", "--wait", v],
+        ];
+        for args in runs {
+            let (code, out, err) = cnc(&args);
+            assert_eq!((code, out.as_str()), (2, ""), "{args:?}: {err}");
+            assert_eq!(err, wait_err(v), "{args:?}");
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("x.mcap");
+    for v in ["nan", "inf", "-1", "0", "-0"] {
+        let (code, out, err) = cnc(&[
+            "bag",
+            "record",
+            "-o",
+            rec.to_str().unwrap(),
+            "--domain",
+            "201",
+            "--duration",
+            v,
+        ]);
+        assert_eq!((code, out.as_str()), (2, ""), "{v}: {err}");
+        assert_eq!(
+            err,
+            format!("error: invalid value '{v}' for '--duration <DURATION>': must be a number of seconds, more than 0\n\nFor more information, try '--help'.\n")
+        );
+        assert!(!rec.exists(), "--duration {v} created the recording");
+    }
+}
+
+/// `cnc bag replay --rate` outside 0.001..1000 (where a recording's times
+/// divided by the rate would not fit a `Duration`, e.g. 1e-25) is a usage
+/// error, not a panic.
+#[test]
+fn replay_rates_outside_their_range_are_usage_errors() {
+    for v in [
+        "1e-25", "1e-300", "0", "-1", "nan", "inf", "0.0009", "1000.5",
+    ] {
+        let (code, out, err) = cnc(&[
+            "bag",
+            "replay",
+            "bags/mill_pocket.mcap",
+            "--domain",
+            "200",
+            "--rate",
+            v,
+        ]);
+        assert_eq!((code, out.as_str()), (2, ""), "{v}: {err}");
+        assert_eq!(
+            err,
+            format!("error: invalid value '{v}' for '--rate <RATE>': must be a speed factor from 0.001 to 1000\n\nFor more information, try '--help'.\n")
+        );
+    }
+}
+
+/// An output that is the input, or two outputs that are one file, are
+/// refused before anything is written (the program is left as it was).
+#[test]
+fn outputs_must_be_other_files_than_the_input_and_each_other() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let text = std::fs::read(root().join("examples/mill_pocket.nc")).unwrap();
+    let prog = d.join("self.nc");
+    std::fs::write(&prog, &text).unwrap();
+    let p = prog.to_str().unwrap();
+    // the same file spelt another way, and a hard link to it
+    let dotted = d.join(".").join("self.nc");
+    let linked = d.join("linked.nc");
+    std::fs::hard_link(&prog, &linked).unwrap();
+    let same_as_input = |out: &Path| {
+        format!(
+            "error: {}: the output must be another file than the input\n",
+            out.display()
+        )
+    };
+    for out in [prog.as_path(), dotted.as_path(), linked.as_path()] {
+        let o = out.to_str().unwrap();
+        for args in [
+            vec!["simulate", p, "--csv", o],
+            vec!["simulate", p, "--mcap", o],
+            vec!["simulate", p, "--csv", o, "--mcap", o],
+        ] {
+            let (code, stdout, err) = cnc(&args);
+            assert_eq!((code, stdout.as_str()), (2, ""), "{args:?}: {err}");
+            assert_eq!(err, same_as_input(out), "{args:?}");
+            assert_eq!(
+                std::fs::read(&prog).unwrap(),
+                text,
+                "{args:?} changed the program"
+            );
+        }
+    }
+    // two outputs that are one file: neither is written
+    let a = d.join("a.csv");
+    let a_again = d.join(".").join("a.csv");
+    let (code, stdout, err) = cnc(&[
+        "simulate",
+        p,
+        "--csv",
+        a.to_str().unwrap(),
+        "--mcap",
+        a_again.to_str().unwrap(),
+    ]);
+    assert_eq!((code, stdout.as_str()), (2, ""), "{err}");
+    assert_eq!(
+        err,
+        format!(
+            "error: {}: the outputs of --csv and --mcap must be different files\n",
+            a_again.display()
+        )
+    );
+    assert!(!a.exists());
+    let t = d.join("t.svg");
+    let (code, stdout, err) = cnc(&[
+        "plot",
+        "examples/lathe_thread.nc",
+        "--machine",
+        "lathe",
+        "-o",
+        t.to_str().unwrap(),
+        "--thread",
+        t.to_str().unwrap(),
+    ]);
+    assert_eq!((code, stdout.as_str()), (2, ""), "{err}");
+    assert_eq!(
+        err,
+        format!(
+            "error: {}: the outputs of -o and --thread must be different files\n",
+            t.display()
+        )
+    );
+    assert!(!t.exists());
+    // a plot onto its own program, a rerun or rrd onto its own recording
+    let svg_prog = d.join("prog.svg");
+    std::fs::write(&svg_prog, &text).unwrap();
+    let s = svg_prog.to_str().unwrap();
+    let rec = d.join("rec.mcap");
+    std::fs::copy(root().join("bags/mill_pocket.mcap"), &rec).unwrap();
+    let r = rec.to_str().unwrap();
+    for (args, out) in [
+        (vec!["plot", s, "-o", s], &svg_prog),
+        (vec!["plot", s, "--thread", s], &svg_prog),
+        (vec!["bag", "rerun", r, "-o", r], &rec),
+        (vec!["bag", "rrd", r, "-o", r], &rec),
+    ] {
+        let (code, stdout, err) = cnc(&args);
+        assert_eq!((code, stdout.as_str()), (2, ""), "{args:?}: {err}");
+        assert_eq!(err, same_as_input(out), "{args:?}");
+    }
+    assert_eq!(std::fs::read(&svg_prog).unwrap(), text);
+    assert_eq!(
+        std::fs::read(&rec).unwrap(),
+        std::fs::read(root().join("bags/mill_pocket.mcap")).unwrap()
+    );
+    // distinct files still work
+    let csv = d.join("run.csv");
+    let (code, _, err) = cnc(&["simulate", p, "--csv", csv.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(csv.exists());
 }

@@ -564,3 +564,217 @@ fn not_mcap_is_refused_with_a_clear_error() {
         messages(&std::fs::read(&out).unwrap());
     }
 }
+
+/// The golden mill_pocket recording with `edit` applied, written to `dir`.
+fn damaged_pocket(dir: &Path, name: &str, edit: impl FnOnce(&mut Vec<u8>)) -> PathBuf {
+    let mut b = std::fs::read(root().join("bags/mill_pocket.mcap")).unwrap();
+    edit(&mut b);
+    let p = dir.join(name);
+    std::fs::write(&p, &b).unwrap();
+    p
+}
+
+/// `cnc ARGS` from the repository root: exit code, stdout, stderr.
+fn cnc(args: &[&str]) -> (i32, String, String) {
+    let o = Command::new(env!("CARGO_BIN_EXE_cnc"))
+        .args(args)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    (
+        o.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// Every command that reads the recording `p` refuses it with `why` (and
+/// the way out) and writes nothing: no abort on what a header claims.
+fn every_reader_refuses(dir: &Path, p: &Path, why: &str) {
+    let ps = p.to_str().unwrap();
+    let want = format!(
+        "error: {ps}: {why}; `cnc bag recover {ps} -o OUT.mcap` skips it and keeps the rest\n"
+    );
+    let out = dir.join("out.mcap");
+    let svg = dir.join("out.svg");
+    let runs: [&[&str]; 5] = [
+        &["bag", "compare", "bags/mill_pocket.mcap", ps],
+        &["plot", ps, "-o", svg.to_str().unwrap()],
+        &["bag", "rerun", ps, "-o", out.to_str().unwrap()],
+        &["bag", "replay", ps, "--domain", "201"],
+        &["bag", "compare", ps, ps, "--tolerance", "1"],
+    ];
+    for args in runs {
+        let (code, stdout, err) = cnc(args);
+        assert_eq!(
+            (code, stdout.as_str(), err.as_str()),
+            (2, "", want.as_str()),
+            "{args:?}"
+        );
+        assert!(!out.exists() && !svg.exists(), "{args:?} wrote an output");
+    }
+}
+
+/// One flipped bit inside the zstd data of the fifth chunk (the tester's
+/// file): the chunk decompresses to other bytes, which once made the mcap
+/// reader allocate 1.2 EB and abort. Every reader names the damage;
+/// `recover` skips that chunk, keeps every other message and says how
+/// many were lost (exit 1).
+#[test]
+fn a_flipped_bit_in_a_chunk_is_named_and_the_rest_recovered() {
+    let dir = tmp("flipped_bit");
+    let p = damaged_pocket(&dir, "flipped.mcap", |b| b[863_035] ^= 64);
+    let why = "a damaged chunk at byte 831951 (bad CRC: its records hash to 86b7f234, its header gives 6e4facb2)";
+    every_reader_refuses(&dir, &p, why);
+
+    let out = dir.join("recovered.mcap");
+    let o = cnc_recover(&p, &out);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stdout}{stderr}");
+    assert_eq!(
+        stdout.lines().next().unwrap(),
+        format!(
+            "{}: recovered 55863 messages on 10 channels from 8 complete chunks, up to t = 19.862 s (last log time 1700000019.862000000 s); the file ended properly; skipped {why}; LOST 7937 of the 63800 messages the file's summary counts",
+            p.display()
+        )
+    );
+    assert_eq!(
+        stderr,
+        format!(
+            "{}: damaged records were skipped: their contents are not in {}\n",
+            p.display(),
+            out.display()
+        )
+    );
+    // exactly the messages of the other chunks, as they were
+    let golden = std::fs::read(root().join("bags/mill_pocket.mcap")).unwrap();
+    let want: Vec<Msg> = chunks(&golden)
+        .into_iter()
+        .filter(|c| c.0 != 831_951)
+        .flat_map(|c| c.2)
+        .collect();
+    let got = messages(&std::fs::read(&out).unwrap());
+    assert_eq!(got.len(), 55_863);
+    assert!(got == want);
+}
+
+/// The first chunk's `uncompressed_size` set to 2^60: refused by every
+/// reader before anything is allocated. `recover` skips the chunk (it
+/// holds the schemas and channels); with the file's summary it takes
+/// their definitions from there and keeps every message (exit 0, the
+/// skipped chunk named); the same file without its summary loses every
+/// message, and says so (exit 1).
+#[test]
+fn a_chunk_header_that_claims_2_to_the_60_bytes_is_damage() {
+    let dir = tmp("huge_chunk");
+    let p = damaged_pocket(&dir, "huge.mcap", |b| {
+        b[232..240].copy_from_slice(&(1u64 << 60).to_le_bytes())
+    });
+    let why = "a damaged chunk at byte 207 (its header gives an uncompressed size of 1152921504606846976 bytes, more than the 1073741824 bytes a chunk is read up to)";
+    every_reader_refuses(&dir, &p, why);
+
+    let out = dir.join("recovered.mcap");
+    let o = cnc_recover(&p, &out);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{stdout}");
+    assert!(o.stderr.is_empty());
+    assert_eq!(
+        stdout.lines().next().unwrap(),
+        format!(
+            "{}: recovered 63800 messages on 10 channels from 8 complete chunks, up to t = 19.862 s (last log time 1700000019.862000000 s); the file ended properly; skipped {why}; took the definitions of 10 channel(s) from the file's summary; all 63800 messages the file's summary counts were recovered",
+            p.display()
+        )
+    );
+    let golden = std::fs::read(root().join("bags/mill_pocket.mcap")).unwrap();
+    assert!(messages(&std::fs::read(&out).unwrap()) == messages(&golden));
+
+    // without the summary (cut where it begins): nothing to define the
+    // channels with, every message lost
+    let data_end = chunks(&golden).last().unwrap().1 as usize;
+    let cut = damaged_pocket(&dir, "huge_cut.mcap", |b| {
+        b[232..240].copy_from_slice(&(1u64 << 60).to_le_bytes());
+        // the message indexes after the last chunk, then the data end record
+        let mut at = data_end;
+        while b[at] != 0x0f {
+            at += 9 + u64::from_le_bytes(b[at + 1..at + 9].try_into().unwrap()) as usize;
+        }
+        b.truncate(at);
+    });
+    let _ = std::fs::remove_file(&out);
+    let o = cnc_recover(&cut, &out);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(1), "{stdout}");
+    assert_eq!(
+        stdout.lines().next().unwrap(),
+        format!(
+            "{}: recovered 0 messages on 0 channels from 8 complete chunks; the file ended after a whole record, nothing was cut; skipped {why}; skipped 63800 message(s) of channels whose definition was lost",
+            cut.display()
+        )
+    );
+    assert!(!stdout.contains("nothing was lost"), "{stdout}");
+}
+
+/// [`chunk_records`] takes no size on trust: the tester's chunk header
+/// variants and a record inside a chunk that claims more than the chunk.
+#[test]
+fn chunk_records_checks_every_size_of_a_chunk() {
+    use cnc_node::recover::chunk_records;
+    use mcap::records::{ChunkHeader, Record};
+    let golden = std::fs::read(root().join("bags/mill_pocket.mcap")).unwrap();
+    // the first chunk: at byte 207, 3549 bytes of zstd, 15948 uncompressed
+    let len = u64::from_le_bytes(golden[208..216].try_into().unwrap()) as usize;
+    let Ok(Record::Chunk { header, data }) =
+        mcap::read::parse_record(0x06, &golden[216..216 + len])
+    else {
+        panic!("no chunk at byte 207")
+    };
+    assert_eq!((header.uncompressed_size, data.len()), (15_948, 3_549));
+    assert_eq!(chunk_records(&header, &data).unwrap().len(), 15_948);
+    let with_size = |n: u64| ChunkHeader {
+        uncompressed_size: n,
+        ..header.clone()
+    };
+    for (size, want) in [
+        (15_949, "it decompresses to 15948 bytes, its header gives 15949".to_string()),
+        (15_947, "it decompresses to more than 15947 bytes, its header gives 15947".to_string()),
+        (
+            3_549 * 32_768 + 1,
+            "its header gives an uncompressed size of 116293633 bytes, more than its 3549 bytes of zstd data can expand to (116293632)".to_string(),
+        ),
+        (
+            u64::MAX,
+            "its header gives an uncompressed size of 18446744073709551615 bytes, more than the 1073741824 bytes a chunk is read up to".to_string(),
+        ),
+    ] {
+        assert_eq!(chunk_records(&with_size(size), &data), Err(want));
+    }
+    // an uncompressed chunk without a CRC whose one record claims 2^64 - 1 bytes
+    let mut rec = vec![0x05];
+    rec.extend_from_slice(&u64::MAX.to_le_bytes());
+    rec.extend_from_slice(&[1, 2, 3]);
+    let plain = ChunkHeader {
+        message_start_time: 0,
+        message_end_time: 0,
+        uncompressed_size: 12,
+        uncompressed_crc: 0,
+        compression: String::new(),
+        compressed_size: 12,
+    };
+    assert_eq!(
+        chunk_records(&plain, &rec),
+        Err("a message at byte 0 of its 12 bytes of records claims 18446744073709551615 bytes, more than the 3 left".into())
+    );
+    assert_eq!(
+        chunk_records(&plain, &rec[..10]),
+        Err(
+            "it is not compressed, yet its header gives 12 bytes for its 10 bytes of records"
+                .into()
+        )
+    );
+    let mut bad_zstd = data.to_vec();
+    bad_zstd[100] ^= 0xff;
+    assert!(chunk_records(&header, &bad_zstd)
+        .unwrap_err()
+        .starts_with("bad "));
+}

@@ -101,6 +101,14 @@ impl Bag {
         if !bytes.starts_with(mcap::MAGIC) {
             return Err("not an MCAP recording (no MCAP magic at the start)".into());
         }
+        // every chunk is checked before the mcap reader, which allocates
+        // what a chunk claims, sees it
+        check_chunks(bytes).map_err(|e| {
+            format!(
+                "{e}; `cnc bag recover {} -o OUT.mcap` skips it and keeps the rest",
+                path.display()
+            )
+        })?;
         let cut_ok = extent == Extent::AsFarAsItGoes;
         let ignore_end = mcap::read::Options::IgnoreEndMagic;
         let mut bag = Bag {
@@ -226,6 +234,41 @@ impl Bag {
             machine,
         })
     }
+}
+
+/// Every whole chunk of the data section, decompressed and checked with
+/// [`crate::recover::chunk_records`] (sizes, CRC, whole records); Err
+/// names the first damaged one. What is not a whole record (a file cut
+/// short) and a chunk compressed otherwise are left to the mcap reader,
+/// which reports them.
+fn check_chunks(bytes: &[u8]) -> Result<(), String> {
+    use mcap::records::{op, Record};
+    let mut at = mcap::MAGIC.len();
+    while let Some(head) = bytes.get(at..at + 9) {
+        let len = u64::from_le_bytes(head[1..].try_into().unwrap_or_default());
+        let Some(body) = usize::try_from(len)
+            .ok()
+            .and_then(|n| bytes.get(at + 9..(at + 9).checked_add(n)?))
+        else {
+            break;
+        };
+        match head[0] {
+            op::CHUNK => {
+                if let Ok(Record::Chunk { header, data }) =
+                    mcap::read::parse_record(op::CHUNK, body)
+                {
+                    if header.compression.is_empty() || header.compression == "zstd" {
+                        crate::recover::chunk_records(&header, &data)
+                            .map_err(|e| format!("a damaged chunk at byte {at} ({e})"))?;
+                    }
+                }
+            }
+            op::DATA_END | op::FOOTER => break,
+            _ => {}
+        }
+        at += 9 + body.len();
+    }
+    Ok(())
 }
 
 fn topic_data(c: &mcap::Channel) -> TopicData {

@@ -109,7 +109,7 @@ enum Cmd {
         #[arg(long)]
         record: bool,
         /// seconds to wait for the node
-        #[arg(long, default_value_t = 30.0)]
+        #[arg(long, default_value_t = 30.0, value_parser = seconds, allow_hyphen_values = true)]
         wait: f64,
     },
     /// Abort the running job (<namespace>/abort): it decelerates along its
@@ -159,7 +159,7 @@ struct Controller {
     #[arg(long)]
     domain: Option<u16>,
     /// seconds to wait for the node
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, default_value_t = 10.0, value_parser = seconds, allow_hyphen_values = true)]
     wait: f64,
 }
 
@@ -186,8 +186,8 @@ enum BagCmd {
         sim_namespace: String,
         #[arg(long)]
         domain: Option<u16>,
-        /// seconds
-        #[arg(long)]
+        /// seconds (more than 0)
+        #[arg(long, value_parser = positive_seconds, allow_hyphen_values = true)]
         duration: Option<f64>,
     },
     /// Compare two recordings: per topic and joint the largest deviation,
@@ -206,8 +206,8 @@ enum BagCmd {
     /// Republish a recording on DDS at its own pace.
     Replay {
         file: PathBuf,
-        /// playback speed factor
-        #[arg(long, default_value_t = 1.0)]
+        /// playback speed factor, 0.001..1000 (2 plays twice as fast)
+        #[arg(long, default_value_t = 1.0, value_parser = replay_rate, allow_hyphen_values = true)]
         rate: f64,
         #[arg(long)]
         domain: Option<u16>,
@@ -243,6 +243,52 @@ enum BagCmd {
         #[arg(short, long)]
         out: PathBuf,
     },
+}
+
+/// A number of seconds (`--wait`): finite, 0 or more.
+fn seconds(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err("must be a number of seconds, 0 or more".into()),
+    }
+}
+
+/// A number of seconds (`--duration`): finite, more than 0.
+fn positive_seconds(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err("must be a number of seconds, more than 0".into()),
+    }
+}
+
+/// A playback speed factor (`cnc bag replay --rate`).
+fn replay_rate(s: &str) -> Result<f64, String> {
+    let (lo, hi) = cnc_node::live::REPLAY_RATES;
+    match s.trim().parse::<f64>() {
+        Ok(v) if (lo..=hi).contains(&v) => Ok(v),
+        _ => Err(format!("must be a speed factor from {lo} to {hi}")),
+    }
+}
+
+/// Refuses, before anything is written, an output that is the input
+/// (`recover`'s wording) or the same file as another output.
+fn distinct_outputs(input: &Path, outs: &[(&str, &Path)]) -> Result<(), String> {
+    use cnc_node::files::same_file;
+    for (i, (name, out)) in outs.iter().enumerate() {
+        if same_file(input, out) {
+            return Err(format!(
+                "{}: the output must be another file than the input",
+                out.display()
+            ));
+        }
+        if let Some((other, _)) = outs[..i].iter().find(|(_, o)| same_file(o, out)) {
+            return Err(format!(
+                "{}: the outputs of {other} and {name} must be different files",
+                out.display()
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn main() -> ExitCode {
@@ -474,6 +520,11 @@ fn cmd_simulate(
     csv: Option<&Path>,
     mcap: Option<&Path>,
 ) -> Result<ExitCode, String> {
+    let outs: Vec<(&str, &Path)> = [("--csv", csv), ("--mcap", mcap)]
+        .into_iter()
+        .filter_map(|(n, p)| Some((n, p?)))
+        .collect();
+    distinct_outputs(file, &outs)?;
     let m = load(machine, rate)?;
     let d = dialect_for(Some(file), dialect, &m);
     // checked once; every output is a sink of the one run
@@ -683,6 +734,11 @@ fn cmd_plot(
     for o in out.iter().copied().chain(thread.map(|t| t.0)) {
         cnc_node::plot::Format::from_path(o)?;
     }
+    let outs: Vec<(&str, &Path)> = [("-o", out), ("--thread", thread.map(|t| t.0))]
+        .into_iter()
+        .filter_map(|(n, p)| Some((n, p?)))
+        .collect();
+    distinct_outputs(file, &outs)?;
     if file.extension().is_some_and(|e| e == "mcap") {
         // the thread first: a recording it cannot measure writes nothing
         let measured = match thread {
@@ -759,7 +815,8 @@ fn cmd_bag(cmd: BagCmd) -> Result<ExitCode, String> {
                 namespace,
                 sim_namespace,
                 domain: domain(d),
-                duration: duration.map(|s| std::time::Duration::from_secs_f64(s.clamp(0.0, 1e9))),
+                // (finite and > 0: the argument's parser)
+                duration: duration.map(|s| std::time::Duration::from_secs_f64(s.min(1e9))),
             };
             let s = cnc_node::live::record_live(&opts, &out)?;
             println!(
@@ -790,6 +847,7 @@ fn cmd_bag(cmd: BagCmd) -> Result<ExitCode, String> {
             Ok(ExitCode::SUCCESS)
         }
         BagCmd::Rerun { file, out } => {
+            distinct_outputs(&file, &[("-o", &out)])?;
             let s = cnc_node::bag::rerun(&file, &out)?;
             println!(
                 "{}: rerun recorded to {} ({} messages)",
@@ -803,6 +861,7 @@ fn cmd_bag(cmd: BagCmd) -> Result<ExitCode, String> {
             let python = python
                 .or_else(|| std::env::var("CNC_PYTHON").ok())
                 .unwrap_or_else(|| "python3".into());
+            distinct_outputs(&file, &[("-o", &out)])?;
             let printed = cnc_node::bag::write_rrd(&file, &out, &python)?;
             print!("{printed}");
             Ok(ExitCode::SUCCESS)
@@ -810,6 +869,15 @@ fn cmd_bag(cmd: BagCmd) -> Result<ExitCode, String> {
         BagCmd::Recover { file, out } => {
             let r = cnc_node::recover::recover(&file, &out)?;
             println!("{r}");
+            if r.lost() {
+                // the output holds what was whole; the rest is named above
+                eprintln!(
+                    "{}: damaged records were skipped: their contents are not in {}",
+                    file.display(),
+                    out.display()
+                );
+                return Ok(ExitCode::from(1));
+            }
             Ok(ExitCode::SUCCESS)
         }
     }
