@@ -5,6 +5,7 @@
 pub mod action;
 pub mod admit;
 pub mod bag;
+pub mod chunks;
 pub mod client;
 pub mod controller;
 pub mod convert;

@@ -719,7 +719,7 @@ fn a_chunk_header_that_claims_2_to_the_60_bytes_is_damage() {
 /// variants and a record inside a chunk that claims more than the chunk.
 #[test]
 fn chunk_records_checks_every_size_of_a_chunk() {
-    use cnc_node::recover::chunk_records;
+    use cnc_node::chunks::chunk_records;
     use mcap::records::{ChunkHeader, Record};
     let golden = std::fs::read(root().join("bags/mill_pocket.mcap")).unwrap();
     // the first chunk: at byte 207, 3549 bytes of zstd, 15948 uncompressed

@@ -237,7 +237,7 @@ impl Bag {
 }
 
 /// Every whole chunk of the data section, decompressed and checked with
-/// [`crate::recover::chunk_records`] (sizes, CRC, whole records); Err
+/// [`crate::chunks::chunk_records`] (sizes, CRC, whole records); Err
 /// names the first damaged one. What is not a whole record (a file cut
 /// short) and a chunk compressed otherwise are left to the mcap reader,
 /// which reports them.
@@ -258,7 +258,7 @@ fn check_chunks(bytes: &[u8]) -> Result<(), String> {
                     mcap::read::parse_record(op::CHUNK, body)
                 {
                     if header.compression.is_empty() || header.compression == "zstd" {
-                        crate::recover::chunk_records(&header, &data)
+                        crate::chunks::chunk_records(&header, &data)
                             .map_err(|e| format!("a damaged chunk at byte {at} ({e})"))?;
                     }
                 }
