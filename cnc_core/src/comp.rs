@@ -234,6 +234,9 @@ pub(crate) struct Comp {
     /// a new geometry offset is in force and no move has taken it up yet:
     /// the next move starts with a line from where the tool stands
     offset_due: bool,
+    /// the element before the next was refused (an arc not larger than the
+    /// tool): the next joins the one before it without a second error
+    after_refused: bool,
 }
 
 /// A block's name in messages: its N number, else its line.
@@ -255,6 +258,7 @@ impl Comp {
             queue: Vec::new(),
             last: home,
             offset_due: false,
+            after_refused: false,
         }
     }
 
@@ -508,9 +512,11 @@ impl Comp {
                     crate::diag::num(r),
                     crate::diag::num(rt)
                 ));
+                self.after_refused = true;
                 return;
             }
         }
+        let after_refused = std::mem::take(&mut self.after_refused);
         let Some(h) = self.held.take() else {
             // (compensation already on and nothing held: after a G40-less
             // program end) start from where the tool is
@@ -564,6 +570,12 @@ impl Comp {
                     Some(j) if norm(sub(j, corner)) <= 1000.0 * rt.max(1e-3) => {
                         self.emit_held(&h, m, j, out, errs);
                         next_from = j;
+                    }
+                    // (across a refused element the two were never meant
+                    // to meet: that element's error says what is wrong)
+                    _ if after_refused => {
+                        self.emit_held(&h, m, pa, out, errs);
+                        next_from = pb;
                     }
                     _ => {
                         errs.push(format!(

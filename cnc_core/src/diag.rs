@@ -34,6 +34,14 @@ impl Diagnostic {
     pub fn render(&self, origin: Option<&str>) -> String {
         use annotate_snippets::{Level, Renderer, Snippet};
         let title = self.to_string();
+        if self.source.is_empty() {
+            // no text to show (a line too long to read): where it is, as
+            // the snippet's header gives it (an empty snippet said line 1)
+            return match origin {
+                Some(o) => format!("error: {title}\n --> {o}:{}:{}", self.line, self.col),
+                None => format!("error: {title}"),
+            };
+        }
         // control characters (CR, VT, NUL, ...) shown as '?', byte for
         // byte so the columns stay: annotate-snippets splits lines at a CR
         // and then slices the text inside a character (a panic)
@@ -121,6 +129,17 @@ mod tests {
         assert!(d.render(None).contains("^ here"));
         assert_eq!(num(100.0), "100");
         assert_eq!(num(-0.00001), "0");
+        // no text (a line too long to read): its place, not line 1's
+        let d = Diagnostic::new(
+            4,
+            1,
+            1,
+            "cannot read the program: line 4 is longer than 4096 bytes",
+        );
+        assert_eq!(
+            d.render(Some("p.nc")),
+            "error: line 4, column 1: cannot read the program: line 4 is longer than 4096 bytes\n --> p.nc:4:1"
+        );
     }
 
     proptest::proptest! {

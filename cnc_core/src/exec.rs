@@ -687,14 +687,29 @@ impl<S: ProgramSource> Executor<S> {
                         }
                         let limit = m.rpm.abs() / self.spindle_ramp.max(1.0) + settle + 1.0;
                         if run.waited as f64 * self.dt > limit {
-                            self.fault =
-                                Some(format!(
-                                "line {}: G33 needs the spindle at S{} but it turns at {:.0} rpm{}",
-                                m.src.line,
-                                m.rpm.abs(),
-                                rev_s.abs() * 60.0,
-                                if index.is_none() { " and no index pulse was seen" } else { "" }
-                            ));
+                            let no_index = if index.is_none() {
+                                " and no index pulse was seen"
+                            } else {
+                                ""
+                            };
+                            let (line, rpm, now) = (m.src.line, m.rpm.abs(), rev_s.abs() * 60.0);
+                            // (at speed now, yet never long enough: a
+                            // spindle, or an encoder too coarse, whose
+                            // measured speed wanders)
+                            self.fault = Some(
+                                if (rev_s - want).abs() <= AT_SPEED_TOLERANCE * want {
+                                    format!(
+                                        "line {line}: G33 needs the spindle steady at S{rpm}: its measured speed \
+                                         (now {now:.0} rpm) did not stay within {:.0} % of it for {:.0} ms{no_index}",
+                                        AT_SPEED_TOLERANCE * 100.0,
+                                        settle * 1000.0
+                                    )
+                                } else {
+                                    format!(
+                                        "line {line}: G33 needs the spindle at S{rpm} but it turns at {now:.0} rpm{no_index}"
+                                    )
+                                },
+                            );
                             self.src = m.src;
                             return self.end_at(m.seg.start);
                         }

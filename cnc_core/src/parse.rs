@@ -379,24 +379,30 @@ fn exact_decimal(mantissa: u64, digits: u32, frac_digits: u32) -> Option<f64> {
 }
 
 fn char_len(text: &[u8], i: usize) -> usize {
-    let c = text[i];
-    let l = if c < 0x80 {
-        1
-    } else if c >= 0xF0 {
-        4
-    } else if c >= 0xE0 {
-        3
-    } else {
-        2
+    // (a whole UTF-8 character, else the one byte: 0xFF is no character's
+    // start, and a cut-off sequence is not a character)
+    let rest = &text[i..];
+    let l = match rest[0] {
+        0x00..=0x7F => 1,
+        0xC2..=0xDF => 2,
+        0xE0..=0xEF => 3,
+        0xF0..=0xF4 => 4,
+        _ => return 1,
     };
-    l.min(text.len() - i)
+    match rest.get(..l).map(std::str::from_utf8) {
+        Some(Ok(_)) => l,
+        _ => 1,
+    }
 }
 
 fn char_at(text: &[u8], i: usize) -> String {
     let l = char_len(text, i);
-    let s = String::from_utf8_lossy(&text[i..i + l]);
+    let Ok(s) = std::str::from_utf8(&text[i..i + l]) else {
+        // a byte that is no character: its value
+        return format!("\\x{:02X}", text[i]);
+    };
     if s.chars().all(|c| !c.is_control()) {
-        s.into_owned()
+        s.to_string()
     } else {
         s.escape_debug().to_string()
     }
@@ -498,6 +504,29 @@ mod tests {
         let long = "X1 ".repeat(40);
         let e = p(Dialect::Cnc836, &long).unwrap_err();
         assert!(e.message.starts_with("too many words"));
+    }
+
+    /// A byte that is no UTF-8 character is named by its value, one byte
+    /// long (0xFF once took the next two characters with it: '�Y2').
+    #[test]
+    fn a_byte_that_is_no_character_is_named_by_its_value() {
+        let mut b = Block::default();
+        let e = parse_line(Dialect::Cnc836, 1, b"G00 X1\xffY2", &mut b).unwrap_err();
+        assert_eq!((e.col, e.len), (7, 1));
+        assert!(
+            e.message
+                .starts_with("unexpected character '\\xFF': expected an address letter"),
+            "{}",
+            e.message
+        );
+        // a whole UTF-8 character is one, however many bytes
+        let e = p(Dialect::Cnc836, "G00 X1 é").unwrap_err();
+        assert_eq!((e.col, e.len), (8, 2));
+        assert!(
+            e.message.starts_with("unexpected character 'é'"),
+            "{}",
+            e.message
+        );
     }
 
     /// A CR inside a line (CR-only line ends, an old Mac file) is an error:

@@ -228,6 +228,13 @@ fn every_compensation_error_names_its_blocks() {
         5,
         "radius compensation: the arc of block N50 (radius 3) is not larger than the tool radius 5",
     );
+    // the same arc between two lines on one line: only the arc's error
+    // (the lines beside it were once reported too, as not intersecting)
+    refused(
+        &format!("{MILL_PRE}N30 G41 G01 X10 Y50 F600\nN40 X40\nN50 G03 X46 Y50 I3\nN60 G01 X80\nN70 G40 X90 Y0\n"),
+        5,
+        "radius compensation: the arc of block N50 (radius 3) is not larger than the tool radius 5",
+    );
     // a step narrower than the tool: its offset runs backwards
     refused(
         &format!("{MILL_PRE}N30 G41 G01 X40 Y30 F600\nN40 X100\nN50 Y34\nN60 X40\nN70 G40 X0 Y0\n"),

@@ -232,6 +232,11 @@ fn polar_rule_errors() {
         errors("N1 I+50 J+50 *\nN2 G11 R+10 H+0 F100 *\nN3 G91 G12 H+90 *\n"),
         ["line 3, column 12: block N3: incremental H90 turns counter-clockwise but G12 turns clockwise: the sign must match the direction (+ for G13, - for G12)"]
     );
+    // H0 has no direction: it turns nothing
+    assert_eq!(
+        errors("N1 I+50 J+50 *\nN2 G11 R+10 H+0 F100 *\nN3 G91 G13 H+0 *\n"),
+        ["line 3, column 12: block N3: incremental H0 turns nothing: G13 needs the angle it turns, + for G13, - for G12 (a whole circle is H+360 or H-360)"]
+    );
     assert_eq!(
         errors("N1 I+50 J+50 *\nN2 G11 R+10 H+0 F100 *\nN3 G15 H+90 *\n"),
         ["line 3, column 4: block N3: G15 (polar arc, last direction) needs a G12 or G13 before it"]

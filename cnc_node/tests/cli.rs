@@ -182,6 +182,26 @@ fn simulate_fails_a_run_that_stopped_and_says_why() {
         ),
         "{err}"
     );
+    // an encoder too coarse for the speed to settle: at speed, never for
+    // long enough (it once read "needs S800 but it turns at 802 rpm")
+    let coarse = machine.replace(
+        "encoder_counts_per_rev = 4096",
+        "encoder_counts_per_rev = 64",
+    );
+    assert_ne!(coarse, machine);
+    let m = tmp("coarse_lathe.toml", &coarse);
+    let (code, _, err) = cnc(&[
+        "simulate",
+        "examples/lathe_thread.nc",
+        "--machine",
+        m.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("the run stopped: line 7: G33 needs the spindle steady at S800: its measured speed (now ")
+            && err.contains(" rpm) did not stay within 5 % of it for 90 ms"),
+        "{err}"
+    );
 }
 
 /// `--mcap` and `--csv` together: one run feeds both; the recording is the

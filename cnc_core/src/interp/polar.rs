@@ -248,7 +248,17 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
             }
             d
         } else {
-            if h.value == 0.0 || (h.value > 0.0) != ccw {
+            if h.value == 0.0 {
+                self.error(
+                    Some(&h),
+                    format!(
+                        "incremental H0 turns nothing: {} needs the angle it turns, + for G13, - for G12 (a whole circle is H+360 or H-360)",
+                        motion.gcode()
+                    ),
+                );
+                return;
+            }
+            if (h.value > 0.0) != ccw {
                 self.error(
                     Some(&h),
                     format!(
