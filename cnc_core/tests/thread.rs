@@ -218,6 +218,19 @@ fn speed_run_in_and_deceleration_that_do_not_fit_say_what_they_need() {
         3,
         "runout J0.5 is too short to leave the thread at S3000",
     );
+    // a runout as tiny as J0.000001 is named as written (it read "J0")
+    refused(
+        "N5 G00 X20 Z5\nN10 M03 S300\nN20 G33 Z-40 F1.5 J0.000001\nN30\nN40 X30 Z5\n",
+        3,
+        "runout J0.000001 is too short to leave the thread at S300",
+    );
+    // a runout as long as the whole travel leaves none for the run-in (it
+    // read "the block has -0.0594 mm before the runout")
+    refused(
+        "N5 G00 X20 Z5\nN10 M03 S300\nN20 G33 Z-40 F1.5 J45\nN30\nN40 X30 Z5\n",
+        3,
+        "the block has 0 mm before the runout: start the thread 0.119 mm earlier or lower S",
+    );
     // the same programs at a lower speed are fine
     assert!(errors("N5 G00 X20 Z5\nN10 M03 S500\nN20 G33 Z-5 F4\n").is_empty());
 }

@@ -170,7 +170,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
             } else if j.value > len {
                 Some(format!(
                     "runout J{} is longer than the thread's {lead_name} travel of {} mm",
-                    num(j.value),
+                    j.value,
                     num(len)
                 ))
             } else {
@@ -187,7 +187,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                     Some(&j),
                     format!(
                         "runout J{} is too short to leave the thread at S{}: axis {} needs at least {} mm of {lead_name} travel to pick up speed (or lower S)",
-                        num(j.value),
+                        j.value,
                         num(rpm.abs()),
                         AXIS_LETTERS[ax] as char,
                         round_up(0.5 * blend)
@@ -236,7 +236,9 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                         round_up(ramp),
                         num(rpm.abs()),
                         num(pitch),
-                        num(room),
+                        // (a runout as long as the travel leaves none,
+                        // not less than none)
+                        num(room.max(0.0)),
                         if runout.is_some() { " before the runout" } else { "" },
                         round_up(ramp - room)
                     ),
