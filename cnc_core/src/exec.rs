@@ -617,11 +617,7 @@ impl<S: ProgramSource> Executor<S> {
                 // the encoder's first reading is still to come: wait at the
                 // start (as for a spindle not at speed yet)
                 run.waited += 1;
-                self.src = m.src;
-                let s = self.sample(m.seg.start, 0.0, false);
-                self.cur = Some(Cur::Thread(run));
-                self.advance(1.0);
-                return Some(s);
+                return self.wait_at_start(run);
             }
             r => {
                 let why = r
@@ -713,11 +709,7 @@ impl<S: ProgramSource> Executor<S> {
                             self.src = m.src;
                             return self.end_at(m.seg.start);
                         }
-                        self.src = m.src;
-                        let s = self.sample(m.seg.start, 0.0, false);
-                        self.cur = Some(Cur::Thread(run));
-                        self.advance(1.0);
-                        return Some(s);
+                        return self.wait_at_start(run);
                     }
                 }
             }
@@ -779,6 +771,16 @@ impl<S: ProgramSource> Executor<S> {
             lead_sign: (m.seg.prog_end[m.seg.lead] - m.seg.start[m.seg.lead]).signum(),
             on_line,
         });
+        self.cur = Some(Cur::Thread(run));
+        self.advance(1.0);
+        Some(s)
+    }
+
+    /// A sample of a thread that has not started (waiting for the spindle
+    /// or its encoder): at its start point, the same block next tick.
+    fn wait_at_start(&mut self, run: ThreadRun) -> Option<Sample> {
+        self.src = run.m.src;
+        let s = self.sample(run.m.seg.start, 0.0, false);
         self.cur = Some(Cur::Thread(run));
         self.advance(1.0);
         Some(s)

@@ -82,9 +82,10 @@ pub fn chunk_records(header: &mcap::records::ChunkHeader, data: &[u8]) -> Result
             ));
         }
     }
-    let mut at = 0usize;
-    while at < records.len() {
-        let left = records.len() - at;
+    let mut walk = Records::new(&records);
+    for _ in walk.by_ref() {}
+    let (at, left) = (walk.at(), records.len() - walk.at());
+    if left > 0 {
         let Some(head) = records.get(at..at + 9) else {
             return Err(format!(
                 "its records end in {left} bytes at byte {at} of {}, too few for a record's opcode and length",
@@ -92,17 +93,49 @@ pub fn chunk_records(header: &mcap::records::ChunkHeader, data: &[u8]) -> Result
             ));
         };
         let len = u64::from_le_bytes(head[1..].try_into().unwrap_or_default());
-        if len > (left - 9) as u64 {
-            return Err(format!(
-                "a {} at byte {at} of its {} bytes of records claims {len} bytes, more than the {} left",
-                record_name(head[0]),
-                records.len(),
-                left - 9
-            ));
-        }
-        at += 9 + len as usize;
+        return Err(format!(
+            "a {} at byte {at} of its {} bytes of records claims {len} bytes, more than the {} left",
+            record_name(head[0]),
+            records.len(),
+            left - 9
+        ));
     }
     Ok(records)
+}
+
+/// The whole records (opcode, u64 length, body) of MCAP bytes, in order,
+/// each with its offset: the walk stops before the first that is not whole
+/// (its length past the end), where [`Records::at`] then stands.
+pub struct Records<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Records<'a> {
+    pub fn new(bytes: &'a [u8]) -> Self {
+        Records { bytes, at: 0 }
+    }
+
+    /// Where the walk stands: after the last whole record given.
+    pub fn at(&self) -> usize {
+        self.at
+    }
+}
+
+impl<'a> Iterator for Records<'a> {
+    /// (offset, opcode, body)
+    type Item = (usize, u8, &'a [u8]);
+
+    fn next(&mut self) -> Option<Self::Item> {
+        let at = self.at;
+        let head = self.bytes.get(at..at.checked_add(9)?)?;
+        let len = u64::from_le_bytes(head[1..].try_into().unwrap_or_default());
+        let body = usize::try_from(len)
+            .ok()
+            .and_then(|n| self.bytes.get(at + 9..(at + 9).checked_add(n)?))?;
+        self.at = at + 9 + body.len();
+        Some((at, head[0], body))
+    }
 }
 
 /// What a record with opcode `op` is, for the reports.

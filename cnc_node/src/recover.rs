@@ -28,7 +28,7 @@
 //! written) and otherwise written anew from the recovered channels, so
 //! `ros2 bag info`, `cnc bag rerun` and any MCAP reader accept the file.
 
-use crate::chunks::{chunk_records, record_name};
+use crate::chunks::{chunk_records, record_name, Records};
 use crate::record::{self, BagTopic};
 use mcap::records::{op, Record};
 use std::collections::BTreeMap;
@@ -40,16 +40,10 @@ use std::path::{Path, PathBuf};
 /// The records of [`chunk_records`]' output, parsed: the whole chunk or
 /// nothing of it.
 fn parse_chunk_records(records: &[u8]) -> Result<Vec<Record<'_>>, mcap::McapError> {
-    let mut out = Vec::new();
-    let mut at = 0usize;
-    while let Some(head) = records.get(at..at + 9) {
-        let len = u64::from_le_bytes(head[1..].try_into().unwrap_or_default()) as usize;
-        // chunk_records checked that every record is whole
-        let body = records.get(at + 9..at + 9 + len).unwrap_or_default();
-        out.push(mcap::read::parse_record(head[0], body)?);
-        at += 9 + len;
-    }
-    Ok(out)
+    // (chunk_records checked that every record is whole)
+    Records::new(records)
+        .map(|(_, op, body)| mcap::read::parse_record(op, body))
+        .collect()
 }
 
 /// What [`recover`] found and wrote.
@@ -349,16 +343,8 @@ fn summary_defs<R: Read + Seek>(r: &mut R, len: u64) -> Result<SummaryDefs, Stri
         let mut summary = vec![0u8; (footer_at - start) as usize];
         r.seek(SeekFrom::Start(start)).map_err(io)?;
         r.read_exact(&mut summary).map_err(io)?;
-        let mut at = 0usize;
-        while let Some(head) = summary.get(at..at + 9) {
-            let len = u64::from_le_bytes(head[1..].try_into().unwrap_or_default());
-            let Some(body) = usize::try_from(len)
-                .ok()
-                .and_then(|n| summary.get(at + 9..(at + 9).checked_add(n)?))
-            else {
-                break;
-            };
-            match mcap::read::parse_record(head[0], body) {
+        for (_, op, body) in Records::new(&summary) {
+            match mcap::read::parse_record(op, body) {
                 Ok(Record::Schema { header, data }) => {
                     defs.schemas
                         .insert(header.id, (header.name, header.encoding, data.into_owned()));
@@ -369,7 +355,6 @@ fn summary_defs<R: Read + Seek>(r: &mut R, len: u64) -> Result<SummaryDefs, Stri
                 Ok(Record::Statistics(s)) => defs.messages = Some(s.message_count),
                 _ => {}
             }
-            at += 9 + body.len();
         }
     }
     r.seek(SeekFrom::Start(back)).map_err(io)?;

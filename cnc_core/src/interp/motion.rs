@@ -157,11 +157,11 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
     }
 
     pub(super) fn feed_for(&mut self, anchor: Option<&Word>, w: &Words) -> Option<Feed> {
-        let fw = w.f();
+        // (where a feed error points: the F word, else the motion's word)
+        let at = w.f().or(anchor.copied());
         let f = match self.modal.feed {
             Some(f) if f > 0.0 => f,
             _ => {
-                let at = fw.or(anchor.copied());
                 let unit = if self.modal.per_rev {
                     "mm/rev"
                 } else {
@@ -174,7 +174,6 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                 return None;
             }
         };
-        let at = fw.or(anchor.copied());
         if self.modal.per_rev {
             let rpm = self.modal.spindle_rpm();
             if rpm == 0.0 {

@@ -243,16 +243,10 @@ impl Bag {
 /// which reports them.
 fn check_chunks(bytes: &[u8]) -> Result<(), String> {
     use mcap::records::{op, Record};
-    let mut at = mcap::MAGIC.len();
-    while let Some(head) = bytes.get(at..at + 9) {
-        let len = u64::from_le_bytes(head[1..].try_into().unwrap_or_default());
-        let Some(body) = usize::try_from(len)
-            .ok()
-            .and_then(|n| bytes.get(at + 9..(at + 9).checked_add(n)?))
-        else {
-            break;
-        };
-        match head[0] {
+    let magic = mcap::MAGIC.len();
+    for (at, opcode, body) in crate::chunks::Records::new(bytes.get(magic..).unwrap_or_default()) {
+        let at = magic + at;
+        match opcode {
             op::CHUNK => {
                 if let Ok(Record::Chunk { header, data }) =
                     mcap::read::parse_record(op::CHUNK, body)
@@ -266,7 +260,6 @@ fn check_chunks(bytes: &[u8]) -> Result<(), String> {
             op::DATA_END | op::FOOTER => break,
             _ => {}
         }
-        at += 9 + body.len();
     }
     Ok(())
 }
