@@ -14,7 +14,7 @@ setpoints (finite differences at the 1 ms sample period), the 99.9th
 percentile of |j|, and the samples whose |j| is over the limit.
 
     python3 bench/motion/thread_jerk.py --cnc before=/tmp/cnc_before \
-        --cnc after=target/release/cnc [--jerks 20,50,200] [--out DIR]
+        --cnc after=target/release/cnc [--jerks 20,50,200] [--ripple 0,0.02] [--out DIR]
 """
 
 import argparse
@@ -28,8 +28,12 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 FINE = 1 << 30
 
 
-def machine(out, jerk_m_s3, counts):
+def machine(out, jerk_m_s3, counts, ripple=0.0):
     text = (ROOT / "config" / "lathe.toml").read_text()
+    text, n = re.subn(
+        r"(?m)^sim_ripple_fraction = .*$", f"sim_ripple_fraction = {ripple}", text
+    )
+    assert n == 1
     text, n = re.subn(
         r"(?m)^max_jerk_mm_s3 = .*$", f"max_jerk_mm_s3 = {jerk_m_s3 * 1000.0}", text
     )
@@ -38,7 +42,7 @@ def machine(out, jerk_m_s3, counts):
         r"(?m)^encoder_counts_per_rev = .*$", f"encoder_counts_per_rev = {counts}", text
     )
     assert n == 1
-    path = out / f"lathe_j{jerk_m_s3:g}_c{counts}.toml"
+    path = out / f"lathe_j{jerk_m_s3:g}_c{counts}_r{ripple:g}.toml"
     path.write_text(text)
     return path
 
@@ -81,20 +85,24 @@ def main():
     ap.add_argument("--cnc", action="append", required=True,
                     help="NAME=PATH of a cnc binary (repeat)")
     ap.add_argument("--jerks", default="20,50,200", help="m/s³, comma-separated")
+    ap.add_argument("--ripple", default="0",
+                    help="the simulated spindle's speed ripple at 5 Hz, fractions, comma-separated")
     ap.add_argument("--out", help="directory for the machine files and CSVs")
     args = ap.parse_args()
     out = pathlib.Path(args.out or tempfile.mkdtemp(prefix="thread_jerk_"))
     out.mkdir(parents=True, exist_ok=True)
     bins = [c.split("=", 1) for c in args.cnc]
-    print("| encoder counts/rev | jerk m/s³ | build | cycle time s "
+    print("| encoder counts/rev | ripple | jerk m/s³ | build | cycle time s "
           "| X max \\|a\\| mm/s² | X max \\|j\\| (p99.9) m/s³ | X samples over "
           "| Z max \\|a\\| mm/s² | Z max \\|j\\| (p99.9) m/s³ | Z samples over |")
-    print("|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|")
+    print("|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|")
     for counts in (4096, FINE):
+      for ripple in (float(r) for r in args.ripple.split(",")):
         for jerk in (float(j) for j in args.jerks.split(",")):
-            mfile = machine(out, jerk, counts)
+            mfile = machine(out, jerk, counts, ripple)
             for name, cnc in bins:
-                line, head, data = run(cnc, mfile, out / f"{name}_j{jerk:g}_c{counts}.csv")
+                csv_out = out / f"{name}_j{jerk:g}_c{counts}_r{ripple:g}.csv"
+                line, head, data = run(cnc, mfile, csv_out)
                 t = re.search(r"cycle time ([0-9.]+)s", line).group(1)
                 s = stats(head, data, jerk * 1000.0)
                 cells = []
@@ -102,7 +110,7 @@ def main():
                     a, jm, jp, over = s[ax]
                     cells += [f"{a:.0f}", f"{jm:.1f} ({jp:.1f})", f"{over}"]
                 c = "2^30" if counts == FINE else str(counts)
-                print(f"| {c} | {jerk:g} | {name} | {t} | " + " | ".join(cells) + " |")
+                print(f"| {c} | {ripple:g} | {jerk:g} | {name} | {t} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

@@ -93,7 +93,9 @@ pub struct Sync {
     /// how far the setpoint leads the line to take up the lead axis's
     /// servo lag under the spindle's acceleration, mm of lead travel
     /// ([`Machine::servo_accel_lag_s2`] × pitch × the spindle's
-    /// acceleration; 0 off the line)
+    /// acceleration × [`ThreadMove::accel_lead_weight`]: eased in over the
+    /// line's first 20 ms after a run-in and out over its last 20 ms before
+    /// a deceleration; 0 off the line)
     pub accel_lead: f64,
     /// the lead axis's coordinate at the block's start, and the sign of its travel
     pub lead_start: f64,
@@ -748,9 +750,12 @@ impl<S: ProgramSource> Executor<S> {
         self.src = m.src;
         let on_line = du == m.seg.pitch;
         // on the line the lead axis accelerates with the spindle: lead it
-        // by its servo's lag under acceleration too
+        // by its servo's lag under acceleration too, eased in after the
+        // run-in and out before the deceleration (switched on where the
+        // line began, it stepped the setpoints: 2045 m/s³ at S2000 on the
+        // 200 m/s³ lathe with a spindle rippling by ±2 %)
         let accel_lead = if on_line {
-            self.accel_lag[m.seg.lead] * m.seg.pitch * rev_s2
+            self.accel_lag[m.seg.lead] * m.seg.pitch * rev_s2 * m.accel_lead_weight(x)
         } else {
             0.0
         };

@@ -455,7 +455,7 @@ fn plot_thread_and_compare_of_a_recording() {
         "{out}"
     );
     assert!(
-        out.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0286° worst 4.1027° (2225 samples)"),
+        out.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0286° worst 4.1006° (2225 samples)"),
         "{out}"
     );
     assert!(

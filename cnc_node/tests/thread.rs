@@ -423,27 +423,41 @@ fn setpoints_never_exceed_an_axis_acceleration() {
 
 /// The bundled lathe with its 4096-count encoder: every setpoint of a
 /// thread, the thread line included, within the axes' jerk limit (200
-/// m/s³). The lead follows the tracker's predicted angle, whose
-/// quantization noise was 368 m/s³ of sampled jerk on a 1.5 mm lead with
-/// equal weights in the fit (`cnc_core::tracker`'s `weight`); now at most
-/// about 80.
+/// m/s³), with a steady spindle and with one that ripples by ±2 % at 5
+/// Hz, on a thread with and without a runout. The lead follows the
+/// tracker's predicted angle, whose quantization noise was 368 m/s³ of
+/// sampled jerk on a 1.5 mm lead with equal weights in the fit
+/// (`cnc_core::tracker`'s `weight`); now at most about 80. The lead for
+/// the servo's lag under the spindle's acceleration comes in with the
+/// run-in and goes out with the deceleration: switched on where the line
+/// began, it stepped the setpoints of a rippling spindle there (S800:
+/// 1094 m/s³ on Z, 396 on X at the runout).
 #[test]
 fn thread_setpoints_keep_the_jerk_limit_with_the_bundled_encoder() {
-    for rpm in SPEEDS {
-        let m = lathe(0.0);
-        let p = format!("N5 G00 X20 Z5\nN10 M03 S{rpm}\nN20 G33 Z-40 F1.5\nN30 G00 X30\nN40 Z5\n");
-        let r = run(&p, &m);
-        assert_eq!(r.fault, None);
-        assert!(r.on_line(3).len() > 500, "{rpm} rpm");
-        let jerk = r.max_jerk(m.dt());
-        for (j, got) in jerk.iter().enumerate() {
-            let lim = m.axes[j].max_jerk_mm_s3.unwrap();
-            assert!(
-                *got <= lim * (1.0 + 1e-6),
-                "{rpm} rpm: joint {j} at {:.1} m/s³ (limit {})",
-                got / 1000.0,
-                lim / 1000.0
-            );
+    for ripple in [0.0, 0.02] {
+        for rpm in SPEEDS {
+            let m = lathe(ripple);
+            for (what, g33) in [
+                ("no runout", "G33 Z-40 F1.5"),
+                ("runout", "G33 Z-40 F1.5 J3"),
+            ] {
+                let p = format!(
+                    "N5 G00 X20 Z5\nN10 M03 S{rpm}\nN20 {g33}\nN25\nN30 G00 X30 Z-40\nN40 Z5\n"
+                );
+                let r = run(&p, &m);
+                assert_eq!(r.fault, None);
+                assert!(r.on_line(3).len() > 500, "{rpm} rpm");
+                let jerk = r.max_jerk(m.dt());
+                for (j, got) in jerk.iter().enumerate() {
+                    let lim = m.axes[j].max_jerk_mm_s3.unwrap();
+                    assert!(
+                        *got <= lim * (1.0 + 1e-6),
+                        "S{rpm}, ripple {ripple}, {what}: joint {j} at {:.1} m/s³ (limit {})",
+                        got / 1000.0,
+                        lim / 1000.0
+                    );
+                }
+            }
         }
     }
 }
@@ -826,7 +840,12 @@ fn with_a_servo_lag_the_simulated_groove_stays_on_the_programmed_angle() {
 /// the bundled lathe's `interpolation.thread_accel_lead = 1`):
 /// spreads measured 0.25° (1 kHz) and 0.10° (10 kHz) at S2000, 0.16° and
 /// 0.07° at S800. The setpoints then stand off the line by that lead
-/// (up to ±0.25° at S2000 with this ripple), by design.
+/// (up to ±0.25° at S2000 with this ripple), by design. The lead eases in
+/// over the line's first 20 ms and out over its last 20 ms before the
+/// deceleration (`ThreadMove::accel_lead_weight`: switched at once it
+/// stepped the setpoints, 2045 m/s³ at S2000), where the axis trails as
+/// without it: at S2000 the spread went from 0.290° to 0.337° (1 kHz)
+/// and from 0.102° to 0.271° (10 kHz).
 #[test]
 fn g33_leads_the_servo_lag_under_the_spindle_s_acceleration() {
     let m = lathe(0.02);
@@ -834,9 +853,9 @@ fn g33_leads_the_servo_lag_under_the_spindle_s_acceleration() {
     assert!((c - 0.002 / 60.0).abs() < 1e-12, "{c}");
     for (rate, rpm, spread) in [
         (1000.0, 800.0, 0.22),
-        (1000.0, 2000.0, 0.32),
+        (1000.0, 2000.0, 0.36),
         (10_000.0, 800.0, 0.12),
-        (10_000.0, 2000.0, 0.16),
+        (10_000.0, 2000.0, 0.3),
     ] {
         let [(s_mean, s_worst, _), (a_mean, _, a_spread)] = groove_stats(rate, rpm, 1.0);
         assert!(s_mean.abs() <= 0.05, "{rate} Hz S{rpm}: {s_mean}");
