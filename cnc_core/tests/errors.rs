@@ -203,3 +203,28 @@ fn good_program_summary() {
     assert_eq!(Machine::builtin_mill().jerk_budget().hold_ticks(), 44);
     assert!((r.duration_s - 6.882).abs() < 0.0005, "{}", r.duration_s);
 }
+
+/// A code written with a point is named as written (its point is why it
+/// is not a whole number), and coolant and tool change are one meaning
+/// each: once per block, like the spindle's M03-M05.
+#[test]
+fn codes_are_named_as_written_and_coolant_is_one_meaning() {
+    let e = mill_errors("N10 G1. X1 F100\nN20 M3.\nN30 T1.\nN40 G1.5 X2\n");
+    assert_eq!(
+        e,
+        vec![
+            "line 1, column 5: block N10: G code must be a whole number, found G1.",
+            "line 2, column 5: block N20: M code must be a whole number, found M3.",
+            "line 3, column 5: block N30: tool T must be a whole number 0..9999, found T1.",
+            "line 4, column 5: block N40: G code must be a whole number, found G1.5",
+        ]
+    );
+    let e = mill_errors("N10 M08 M09\nN20 M06 M06\nN30 M03 M08 S100\n");
+    assert_eq!(
+        e,
+        vec![
+            "line 1, column 9: block N10: a coolant M code (M08/M09) programmed twice in one block",
+            "line 2, column 9: block N20: a tool change (M06) programmed twice in one block",
+        ]
+    );
+}

@@ -178,7 +178,7 @@ fn speed_run_in_and_deceleration_that_do_not_fit_say_what_they_need() {
     refused(
         "N5 G00 X20 Z5\nN10 M03 S4000\nN20 G33 Z-40 F5\n",
         3,
-        "G33 at S4000 with pitch F5: axis Z would move at 350 mm/s in the thread, over its 300 mm/s; lower S to at most 3428",
+        "G33 at S4000 with pitch F5: axis Z would move at 350 mm/s in the thread with the spindle 5 % over S (as the at-speed check allows), over its 300 mm/s; lower S to at most 3428",
     );
     // 4 mm/rev at 4000 rpm = 280 mm/s: the run-in at 80 % of 2500 mm/s²
     // and of 200 m/s³ is an S-curve of 280/2000 + 2000/160000 = 0.1525 s,

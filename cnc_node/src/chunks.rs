@@ -14,6 +14,34 @@ pub const MAX_CHUNK_BYTES: u64 = 1 << 30;
 /// takes at least 4 bytes (a 3-byte block header and one byte repeated).
 const ZSTD_MAX_EXPANSION: u64 = 128 * 1024 / 4;
 
+/// Whether `head`, a file's first bytes (up to 8; fewer: the whole
+/// file), is MCAP's magic; else what a reader tells the user, with what
+/// the file starts with instead.
+pub fn check_magic(head: &[u8]) -> Result<(), String> {
+    let not_mcap = |why: &str| {
+        format!(
+            "not an MCAP file: {why} (an MCAP file starts with the 8 bytes 89 4D 43 41 50 30 0D 0A, \"\\x89MCAP0\\r\\n\")"
+        )
+    };
+    let head = &head[..head.len().min(8)];
+    if head.is_empty() {
+        return Err(not_mcap("the file is empty"));
+    }
+    if head != mcap::MAGIC {
+        let shown: Vec<String> = head.iter().map(|b| format!("{b:02X}")).collect();
+        return Err(not_mcap(&format!(
+            "it starts with {}{}",
+            shown.join(" "),
+            if head.len() < 8 {
+                " and ends there"
+            } else {
+                ""
+            }
+        )));
+    }
+    Ok(())
+}
+
 /// The records of a chunk (its `records` field), decompressed and checked,
 /// taking no size from the file on trust: the uncompressed size its header
 /// gives must be at most [`MAX_CHUNK_BYTES`] and no more than its compressed

@@ -275,27 +275,11 @@ pub fn recover_bytes<W: Write + Seek>(
 }
 
 fn check_magic(r: &mut impl Read, len: u64) -> Result<(), String> {
-    let not_mcap = |why: &str| {
-        format!(
-            "not an MCAP file: {why} (an MCAP file starts with the 8 bytes 89 4D 43 41 50 30 0D 0A, \"\\x89MCAP0\\r\\n\")"
-        )
-    };
-    if len == 0 {
-        return Err(not_mcap("the file is empty"));
-    }
     let mut magic = [0u8; 8];
     let n = (len.min(8)) as usize;
     r.read_exact(&mut magic[..n])
         .map_err(|e| format!("reading the file: {e}"))?;
-    if n < 8 || magic != mcap::MAGIC {
-        let shown: Vec<String> = magic[..n].iter().map(|b| format!("{b:02X}")).collect();
-        return Err(not_mcap(&format!(
-            "it starts with {}{}",
-            shown.join(" "),
-            if n < 8 { " and ends there" } else { "" }
-        )));
-    }
-    Ok(())
+    crate::chunks::check_magic(&magic[..n])
 }
 
 /// A schema and a channel as read, for the output and the report.

@@ -6,7 +6,7 @@
 use super::state::{Interpreter, LoopScan};
 use super::words::{slot, Words};
 use crate::canon::Canon;
-use crate::diag::{num, Diagnostic};
+use crate::diag::Diagnostic;
 use crate::parse::{block_no, parse_line, Block, Word};
 use crate::source::{ProgramSource, SourceError, SourcePos};
 
@@ -35,7 +35,10 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
         let Some(n) = jump_target(&l) else {
             self.error(
                 Some(&l),
-                format!("L must be a block number, found L{}", num(l.value)),
+                format!(
+                    "L must be a block number, found {}",
+                    super::words::written(&l)
+                ),
             );
             return;
         };
@@ -46,7 +49,10 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                 None => {
                     self.error(
                         Some(&q),
-                        format!("Q must be a whole number 0..9999, found Q{}", num(q.value)),
+                        format!(
+                            "Q must be a whole number 0..9999, found {}",
+                            super::words::written(&q)
+                        ),
                     );
                     return;
                 }

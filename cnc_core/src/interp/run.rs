@@ -197,8 +197,8 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                 None => self.error(
                     Some(&t),
                     format!(
-                        "tool T must be a whole number 0..9999, found T{}",
-                        num(t.value)
+                        "tool T must be a whole number 0..9999, found {}",
+                        super::words::written(&t)
                     ),
                 ),
             }

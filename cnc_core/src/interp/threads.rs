@@ -223,7 +223,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                         vmax,
                         s_max,
                     } => format!(
-                        "G33 at S{} with pitch F{}: axis {} would move at {} mm/s in the thread, over its {} mm/s; lower S to at most {}",
+                        "G33 at S{} with pitch F{}: axis {} would move at {} mm/s in the thread with the spindle 5 % over S (as the at-speed check allows), over its {} mm/s; lower S to at most {}",
                         num(rpm.abs()),
                         num(pitch),
                         AXIS_LETTERS[axis] as char,

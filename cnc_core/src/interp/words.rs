@@ -49,7 +49,10 @@ pub(super) mod slot {
     pub const COMP: usize = 28;
     /// G61/G64: exact path / path tolerance
     pub const PATH: usize = 29;
-    pub const COUNT: usize = 30;
+    /// M06, and M08/M09 (accepted, nothing to simulate)
+    pub const TOOL_CHANGE: usize = 30;
+    pub const COOLANT: usize = 31;
+    pub const COUNT: usize = 32;
 
     /// The slot of a word with a dialect's meaning.
     pub fn of(m: crate::dialect::Meaning) -> usize {
@@ -161,6 +164,17 @@ impl<'b> Words<'b> {
     }
 }
 
+/// A word as written, for messages: `G1.` stays `G1.` (its point is
+/// why it is not a whole number), `G1.5` is `G1.5`.
+pub(super) fn written(word: &Word) -> String {
+    let point = if !word.integer && word.value.fract() == 0.0 {
+        "."
+    } else {
+        ""
+    };
+    format!("{}{}{point}", word.letter as char, num(word.value))
+}
+
 impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
     /// Sorts the words of a block, reporting unknown and duplicate words.
     pub(super) fn classify(&mut self, w: &mut Words) {
@@ -200,7 +214,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                     let Some(code) = word.as_int().filter(|_| word.integer) else {
                         self.error(
                             Some(word),
-                            format!("G code must be a whole number, found G{}", num(word.value)),
+                            format!("G code must be a whole number, found {}", written(word)),
                         );
                         continue;
                     };
@@ -244,7 +258,7 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                     let Some(code) = word.as_int().filter(|_| word.integer) else {
                         self.error(
                             Some(word),
-                            format!("M code must be a whole number, found M{}", num(word.value)),
+                            format!("M code must be a whole number, found {}", written(word)),
                         );
                         continue;
                     };
@@ -254,7 +268,8 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                         5 => once!(slot::SPINDLE, w.spindle = SpindleDir::Off, "a spindle M code (M03-M05)"),
                         2 | 30 => once!(slot::END, "a program end (M02/M30)"),
                         // tool change and coolant: accepted, nothing to simulate
-                        6 | 8 | 9 => {}
+                        6 => once!(slot::TOOL_CHANGE, "a tool change (M06)"),
+                        8 | 9 => once!(slot::COOLANT, "a coolant M code (M08/M09)"),
                         _ => self.error(
                             Some(word),
                             format!("unsupported M code M{code:02}: expected M02, M03, M04, M05, M06, M08, M09 or M30"),

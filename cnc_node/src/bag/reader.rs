@@ -98,9 +98,7 @@ impl Bag {
         extent: Extent,
         keep: &mut dyn FnMut(&MessageView) -> Result<bool, String>,
     ) -> Result<Bag, String> {
-        if !bytes.starts_with(mcap::MAGIC) {
-            return Err("not an MCAP recording (no MCAP magic at the start)".into());
-        }
+        crate::chunks::check_magic(bytes)?;
         // every chunk is checked before the mcap reader, which allocates
         // what a chunk claims, sees it
         check_chunks(bytes).map_err(|e| {
@@ -355,8 +353,9 @@ mod tests {
         let bag = Bag::scan_bytes(path, cut, Extent::AsFarAsItGoes, &mut |_| Ok(true)).unwrap();
         // (everything but the summary: the same bag)
         assert_eq!(bag, Bag::from_bytes(path, &bytes).unwrap_or_default());
-        assert!(Bag::from_bytes(path, b"junk")
-            .unwrap_err()
-            .contains("not an MCAP recording"));
+        assert_eq!(
+            Bag::from_bytes(path, b"junk").unwrap_err(),
+            "not an MCAP file: it starts with 6A 75 6E 6B and ends there (an MCAP file starts with the 8 bytes 89 4D 43 41 50 30 0D 0A, \"\\x89MCAP0\\r\\n\")"
+        );
     }
 }
