@@ -284,7 +284,10 @@ fn lex_word_slowly(text: &[u8], start: usize) -> Result<(Word, usize), (usize, u
     let (end, mantissa, digits, frac_digits, dot) = lex_number(text, i);
     i = end;
     if digits == 0 {
-        let what = if i < n {
+        let what = if i > digits_start {
+            // (a point alone: the caret is on it)
+            "'.' without a digit".to_string()
+        } else if i < n {
             format!("'{}'", char_at(text, i))
         } else {
             "the end of the line".to_string()
@@ -490,6 +493,17 @@ mod tests {
             (e.col, e.message.as_str()),
             (7, "expected a number after address 'X', found ' '")
         );
+        for line in ["N10 X. F100", "N10 X.", "N10 X-. 5"] {
+            let e = p(Dialect::Cnc836, line).unwrap_err();
+            assert_eq!(
+                (e.col, e.message.as_str()),
+                (
+                    if line.contains('-') { 7 } else { 6 },
+                    "expected a number after address 'X', found '.' without a digit"
+                ),
+                "{line}"
+            );
+        }
         let e = p(Dialect::Cnc836, "G01 X1 #5").unwrap_err();
         assert_eq!((e.col, e.len), (8, 1));
         assert!(e.message.starts_with("unexpected character '#'"));
