@@ -85,6 +85,13 @@ pub struct Recovery {
     pub from_summary: usize,
     /// the messages the input's summary counts (a complete input)
     pub summary_messages: Option<u64>,
+    /// the log time of the first message the input's summary counts, ns
+    /// (a complete input): where its job's time starts
+    pub summary_start_ns: Option<u64>,
+    /// a chunk was damaged before the first message recovered (what came
+    /// before that message is lost, and the summary may not say when it
+    /// began)
+    pub lost_at_start: bool,
     /// size of the output, bytes
     pub bytes: u64,
 }
@@ -114,13 +121,26 @@ impl fmt::Display for Recovery {
             if self.chunks == 1 { "" } else { "s" }
         )?;
         if let (Some(s), Some(e)) = (self.start_ns, self.end_ns) {
+            // (t counts from the input's first message where its summary
+            // says when that was, else from the first one recovered)
+            let t0 = self.summary_start_ns.map_or(s, |z| z.min(s));
+            let t = |ns: u64| ns.saturating_sub(t0) as f64 * 1e-9;
+            if s > t0 {
+                write!(f, ", from t = {:.3} s", t(s))?;
+            }
             write!(
                 f,
                 ", up to t = {:.3} s (last log time {}.{:09} s)",
-                e.saturating_sub(s) as f64 * 1e-9,
+                t(e),
                 e / 1_000_000_000,
                 e % 1_000_000_000
             )?;
+            if self.lost_at_start && self.summary_start_ns.is_none() {
+                write!(
+                    f,
+                    " counted from the first message recovered: a damaged chunk came before it"
+                )?;
+            }
         }
         let clean = self.damaged.is_empty() && !self.lost();
         match (&self.dropped, self.complete, clean) {
@@ -297,6 +317,8 @@ struct SummaryDefs {
     schemas: BTreeMap<u16, (String, String, Vec<u8>)>,
     channels: BTreeMap<u16, mcap::records::Channel>,
     messages: Option<u64>,
+    /// the first message's log time, ns (of a summary that counts any)
+    start_ns: Option<u64>,
 }
 
 /// [`SummaryDefs`] of an input of `len` bytes that ends with a footer
@@ -336,7 +358,10 @@ fn summary_defs<R: Read + Seek>(r: &mut R, len: u64) -> Result<SummaryDefs, Stri
                 Ok(Record::Channel(c)) => {
                     defs.channels.insert(c.id, c);
                 }
-                Ok(Record::Statistics(s)) => defs.messages = Some(s.message_count),
+                Ok(Record::Statistics(s)) => {
+                    defs.messages = Some(s.message_count);
+                    defs.start_ns = (s.message_count > 0).then_some(s.message_start_time);
+                }
                 _ => {}
             }
         }
@@ -450,6 +475,7 @@ impl<W: Write + Seek> State<W> {
                 self.rec.damaged.push(damaged(e));
                 if opcode == op::CHUNK {
                     self.rec.damaged_chunks += 1;
+                    self.rec.lost_at_start |= self.rec.start_ns.is_none();
                 }
                 return Ok(true);
             }
@@ -470,6 +496,7 @@ impl<W: Write + Seek> State<W> {
                             .damaged
                             .push(format!("a damaged chunk at byte {at} ({e})"));
                         self.rec.damaged_chunks += 1;
+                        self.rec.lost_at_start |= self.rec.start_ns.is_none();
                         return Ok(true);
                     }
                 };
@@ -478,6 +505,7 @@ impl<W: Write + Seek> State<W> {
                     Err(e) => {
                         self.rec.damaged.push(damaged(e));
                         self.rec.damaged_chunks += 1;
+                        self.rec.lost_at_start |= self.rec.start_ns.is_none();
                         return Ok(true);
                     }
                 };
@@ -642,6 +670,7 @@ fn recover_records<R: Read + Seek, W: Write + Seek>(
     } = st;
     if rec.complete {
         rec.summary_messages = summary.messages;
+        rec.summary_start_ns = summary.start_ns;
     }
     let rosbag2 = match rosbag2 {
         Some(m) => {

@@ -659,6 +659,42 @@ fn a_flipped_bit_in_a_chunk_is_named_and_the_rest_recovered() {
     assert!(got == want);
 }
 
+/// A flipped bit in the first chunk that holds messages: what the report
+/// counts as t starts at the file's first message (from its summary), so
+/// the report says from when on it recovered messages, not t = 0 at the
+/// first message it kept (it said "up to t = 2.6 s" of a 5.6 s job whose
+/// first seconds were lost).
+#[test]
+fn a_damaged_first_chunk_of_messages_shows_from_when_on_they_were_recovered() {
+    let dir = tmp("flipped_first");
+    let golden = std::fs::read(root().join("bags/mill_pocket.mcap")).unwrap();
+    let all = chunks(&golden);
+    let (i, first) = all
+        .iter()
+        .enumerate()
+        .find(|(_, c)| !c.2.is_empty())
+        .expect("a chunk with messages");
+    let (at, end) = (first.0 as usize, first.1 as usize);
+    let p = damaged_pocket(&dir, "flipped_first.mcap", |b| b[(at + end) / 2] ^= 64);
+    let out = dir.join("recovered.mcap");
+    let o = cnc_recover(&p, &out);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(1), "{stdout}");
+    let t0 = first.2.iter().map(|m| m.2).min().unwrap();
+    let kept = all[i + 1..].iter().flat_map(|c| c.2.iter().map(|m| m.2));
+    let (from, to) = (kept.clone().min().unwrap(), kept.max().unwrap());
+    let line = stdout.lines().next().unwrap();
+    let want = format!(
+        ", from t = {:.3} s, up to t = {:.3} s (last log time {}.{:09} s); ",
+        (from - t0) as f64 * 1e-9,
+        (to - t0) as f64 * 1e-9,
+        to / 1_000_000_000,
+        to % 1_000_000_000
+    );
+    assert!(line.contains(&want), "{line}\nwanted {want}");
+    assert!(from - t0 > 1_000_000, "{}", from - t0);
+}
+
 /// The first chunk's `uncompressed_size` set to 2^60: refused by every
 /// reader before anything is allocated. `recover` skips the chunk (it
 /// holds the schemas and channels); with the file's summary it takes
