@@ -13,7 +13,7 @@ scripts/main_job.sh (sim_axes and cnc_node, the bundled lathe, its
 The offline figures of the same program are `thread_jerk.py`'s.
 
     . .venv-ros/env.sh
-    python3 bench/motion/thread_jerk_dds.py [--bin target/release] [--domain 58]
+    python3 bench/motion/thread_jerk_dds.py [--bin target/release] [--domain 58] [--ripple 0.02]
 """
 
 import argparse
@@ -73,12 +73,15 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--bin", default=str(ROOT / "target" / "release"))
     ap.add_argument("--domain", default=os.environ.get("ROS_DOMAIN_ID", "58"))
+    ap.add_argument("--ripple", type=float, default=None,
+                    help="the simulated spindle's speed ripple at 5 Hz, a fraction (default: the machine file's)")
     a = ap.parse_args()
     env = dict(os.environ, ROS_DOMAIN_ID=str(a.domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     out = pathlib.Path(tempfile.mkdtemp(prefix="thread_jerk_dds_"))
     rec_dir = out / "recordings"
     binp = pathlib.Path(a.bin)
-    sim = subprocess.Popen([binp / "sim_axes", "--machine", "lathe"], env=env,
+    ripple = [] if a.ripple is None else ["--ripple", str(a.ripple)]
+    sim = subprocess.Popen([binp / "sim_axes", "--machine", "lathe", *ripple], env=env,
                            stderr=open(out / "sim_axes.log", "w"))
     node = subprocess.Popen([binp / "cnc_node", "--machine", "lathe", "--record-dir", str(rec_dir)],
                             env=env, stderr=open(out / "cnc_node.log", "w"))
