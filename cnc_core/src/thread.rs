@@ -634,4 +634,42 @@ mod tests {
         }
         assert!((r.offset(40.2) - 0.2 * tan).abs() < 1e-12);
     }
+
+    /// The acceleration lead's weight: 0 where the run-in meets the line,
+    /// 1 from 20 ms of the programmed speed after it (at S800, 0.2667 rev)
+    /// to as long before the deceleration, 0 where that begins, half-way
+    /// at the middle of each ease; an inner block of a chain (no run-in,
+    /// no deceleration) takes the whole lead everywhere.
+    #[test]
+    fn the_acceleration_lead_eases_in_after_the_run_in_and_out_before_the_deceleration() {
+        let m = ThreadMove {
+            seg: seg(20.0, 1.5),
+            src: Src::default(),
+            rpm: -800.0,
+            runin: Some((0.5, 0.8)),
+            decel: Some(0.6),
+            accel: 1000.0,
+            jerk: f64::INFINITY,
+        };
+        // the line runs from x = 0.4 to 20/1.5 - 0.3 = 13.0333 rev
+        let (a, b, ease) = (0.4, 20.0 / 1.5 - 0.3, 800.0 / 60.0 * 0.02);
+        assert_eq!(m.accel_lead_weight(a), 0.0);
+        assert_eq!(m.accel_lead_weight(a - 0.1), 0.0);
+        assert!((m.accel_lead_weight(a + 0.5 * ease) - 0.5).abs() < 1e-12);
+        assert_eq!(m.accel_lead_weight(a + ease), 1.0);
+        assert_eq!(m.accel_lead_weight(6.0), 1.0);
+        assert_eq!(m.accel_lead_weight(b - ease), 1.0);
+        assert!((m.accel_lead_weight(b - 0.5 * ease) - 0.5).abs() < 1e-12);
+        assert_eq!(m.accel_lead_weight(b), 0.0);
+        // (no slope at the ends: a tenth of the ease in, 0.0086)
+        assert!((m.accel_lead_weight(a + 0.1 * ease) - 0.00856).abs() < 1e-12);
+        let inner = ThreadMove {
+            runin: None,
+            decel: None,
+            ..m
+        };
+        for x in [-1.0, 0.0, 0.4, 6.0, 13.3] {
+            assert_eq!(inner.accel_lead_weight(x), 1.0);
+        }
+    }
 }
