@@ -272,16 +272,18 @@ fn replay_rate(s: &str) -> Result<f64, String> {
 
 /// Refuses, before anything is written, an output that is the input
 /// (`recover`'s wording) or the same file as another output.
-fn distinct_outputs(input: &Path, outs: &[(&str, &Path)]) -> Result<(), String> {
+fn distinct_outputs(input: &Path, outs: &[(&str, Option<&Path>)]) -> Result<(), String> {
     use cnc_node::files::same_file;
-    for (i, (name, out)) in outs.iter().enumerate() {
+    // (the outputs asked for, by their option's name)
+    let given: Vec<(&str, &Path)> = outs.iter().filter_map(|&(n, p)| Some((n, p?))).collect();
+    for (i, &(name, out)) in given.iter().enumerate() {
         if same_file(input, out) {
             return Err(format!(
                 "{}: the output must be another file than the input",
                 out.display()
             ));
         }
-        if let Some((other, _)) = outs[..i].iter().find(|(_, o)| same_file(o, out)) {
+        if let Some((other, _)) = given[..i].iter().find(|(_, o)| same_file(o, out)) {
             return Err(format!(
                 "{}: the outputs of {other} and {name} must be different files",
                 out.display()
@@ -520,11 +522,7 @@ fn cmd_simulate(
     csv: Option<&Path>,
     mcap: Option<&Path>,
 ) -> Result<ExitCode, String> {
-    let outs: Vec<(&str, &Path)> = [("--csv", csv), ("--mcap", mcap)]
-        .into_iter()
-        .filter_map(|(n, p)| Some((n, p?)))
-        .collect();
-    distinct_outputs(file, &outs)?;
+    distinct_outputs(file, &[("--csv", csv), ("--mcap", mcap)])?;
     let m = load(machine, rate)?;
     let d = dialect_for(Some(file), dialect, &m);
     // checked once; every output is a sink of the one run
@@ -734,11 +732,7 @@ fn cmd_plot(
     for o in out.iter().copied().chain(thread.map(|t| t.0)) {
         cnc_node::plot::Format::from_path(o)?;
     }
-    let outs: Vec<(&str, &Path)> = [("-o", out), ("--thread", thread.map(|t| t.0))]
-        .into_iter()
-        .filter_map(|(n, p)| Some((n, p?)))
-        .collect();
-    distinct_outputs(file, &outs)?;
+    distinct_outputs(file, &[("-o", out), ("--thread", thread.map(|t| t.0))])?;
     if file.extension().is_some_and(|e| e == "mcap") {
         // the thread first: a recording it cannot measure writes nothing
         let measured = match thread {
@@ -847,7 +841,7 @@ fn cmd_bag(cmd: BagCmd) -> Result<ExitCode, String> {
             Ok(ExitCode::SUCCESS)
         }
         BagCmd::Rerun { file, out } => {
-            distinct_outputs(&file, &[("-o", &out)])?;
+            distinct_outputs(&file, &[("-o", Some(&out))])?;
             let s = cnc_node::bag::rerun(&file, &out)?;
             println!(
                 "{}: rerun recorded to {} ({} messages)",
@@ -861,7 +855,7 @@ fn cmd_bag(cmd: BagCmd) -> Result<ExitCode, String> {
             let python = python
                 .or_else(|| std::env::var("CNC_PYTHON").ok())
                 .unwrap_or_else(|| "python3".into());
-            distinct_outputs(&file, &[("-o", &out)])?;
+            distinct_outputs(&file, &[("-o", Some(&out))])?;
             let printed = cnc_node::bag::write_rrd(&file, &out, &python)?;
             print!("{printed}");
             Ok(ExitCode::SUCCESS)
