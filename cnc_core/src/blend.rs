@@ -28,10 +28,18 @@
 //! filter holds that cap over a stretch of the lines on either side
 //! ([`crate::jerk`]); an exact stop there costs the filters' hold instead.
 //! A corner whose blend [`StopCost`] reckons slower than a stop is left
-//! unblended, which keeps its path exact.
+//! unblended, which keeps its path exact. A stop costs less where the
+//! corner before it stops too: the line between two stops runs from rest
+//! to rest with a path filter of its own, whose hold is shorter than the
+//! machine filters'. So the corners of a chain of lines are decided
+//! together ([`Blender::decide`]): the choices whose times, added over
+//! the chain ([`StopCost`]), are least, where a corner may be blended only
+//! if its blend pays against a stop on its own
+//! ([`StopCost::blend_pays`]).
 //!
-//! The stage holds the run and the last line back until the next event
-//! says whether its end is a corner to blend.
+//! The stage holds the run and the chain of lines back until an event
+//! that is no line to blend ends the chain (or it is [`MAX_CHAIN`] lines
+//! long).
 
 use crate::canon::{Event, Feed, Src};
 use crate::geom::V3;
@@ -126,7 +134,17 @@ impl Run {
 pub(crate) struct Blender {
     /// the lines being merged (empty: none)
     run: Run,
-    held: Option<Held>,
+    /// the lines held back, each with the tolerance it came with: a chain
+    /// whose corners are decided together ([`Blender::decide`])
+    chain: Vec<(Held, f64)>,
+    /// whether the chain's first line starts from an exact stop: after a
+    /// dwell, an exact stop of the tolerance, a turn past the exact-stop
+    /// angle, or a corner of the chain before it left unblended
+    from_stop: bool,
+    /// how the last event passed on ended
+    before: Before,
+    /// the choices per corner ([`Blender::decide`]), reused
+    best: Vec<[Choice; 2]>,
     /// what the XYZ jerk filter may add to a blend's deviation, mm
     /// ([`crate::Machine::smoothing_error_mm`]): blends keep within the
     /// tolerance less this
@@ -135,21 +153,21 @@ pub(crate) struct Blender {
     stops: Option<StopCost>,
 }
 
-/// What a corner costs blended and what it costs as an exact stop, under
-/// a jerk limit, in time lost against passing at the lines' speed `v`
-/// (mm/s):
+/// How long the lines of a chain take with a corner blended or left as
+/// an exact stop, under a jerk limit ([`Blender::decide`] adds them up):
 ///
-/// - **stop**: v/a for slowing down to rest and speeding up again, and
-///   the hold while both filters settle;
-/// - **blend**: (v − v_b)²/(a·v) for slowing down to the arc's speed cap
-///   v_b and back, and the stretch held at v_b: the arc, and on either
-///   side the path filter's reach of the cap, lag·v_b, which the
-///   planner's pieces of the lines (halving towards the corner, each
-///   capped whole) stretch to up to twice that.
+/// - each line runs a trapezoid of its own acceleration and speed limits
+///   (along its direction) between the speeds at its ends: 0 at a stop,
+///   a blend's speed cap v_b at a blend, which the path filter holds over
+///   its reach into the line, lag·v_b;
+/// - a blend adds its arc at v_b;
+/// - a stop adds its hold while the filters settle: the machine filters'
+///   hold, or, where the line before it also starts from an exact stop,
+///   the shorter hold of that line's own path filter (a line from rest to
+///   rest runs with that filter alone, `limits.rs`).
 ///
-/// A blend pays when it loses less. With no jerk caps (no limit, or the
-/// single moving average) there is no hold beyond the filter and no
-/// stretch held: every blend pays.
+/// With no jerk caps (no limit, or the single moving average) there is no
+/// hold beyond the filter and no stretch held: every blend pays.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct StopCost {
     pub(crate) jerk: JerkBudget,
@@ -157,26 +175,56 @@ pub(crate) struct StopCost {
     pub(crate) accel: f64,
     /// the least speed limit of the axes, mm/s
     pub(crate) vmax: f64,
+    /// each axis's acceleration and speed limits, mm/s² and mm/s (a
+    /// line's, and its own path filter)
+    pub(crate) amax: V3,
+    pub(crate) vmax_axes: V3,
+    /// the cosine of the machine's exact-stop angle: a corner that turns
+    /// more is a stop when it is not blended
+    pub(crate) exact_stop_cos: f64,
 }
 
 impl StopCost {
-    /// Whether `arc` loses less time than a stop, where it joins a line
-    /// of `len[0]` mm (what is left of it) at feed `feed[0]` mm/s and one
-    /// of `len[1]` mm at `feed[1]`.
-    pub(crate) fn blend_pays(&self, arc: &Arc, len: [f64; 2], feed: [f64; 2]) -> bool {
-        let jb = &self.jerk;
-        if !(jb.limited() && self.accel > 0.0 && self.accel.is_finite()) {
-            return true;
-        }
-        let a = self.accel;
-        let vb = jb
+    /// Whether the blend and the stop are reckoned at all (else every
+    /// blend pays).
+    fn reckons(&self) -> bool {
+        self.jerk.limited() && self.accel > 0.0 && self.accel.is_finite()
+    }
+
+    /// The speed cap of the blend `arc` between lines at `feed` mm/s
+    /// (None: it cannot be passed).
+    fn blend_speed(&self, arc: &Arc, feed: [f64; 2]) -> Option<f64> {
+        let vb = self
+            .jerk
             .arc_caps(curvature(&Geom::Arc(*arc)), ArcPart::End)
             .0
             .min(feed[0].min(feed[1]))
             .min(self.vmax);
-        if vb.is_nan() || vb <= 0.0 {
+        (vb > 0.0).then_some(vb)
+    }
+
+    /// Whether `arc` loses less time than a stop with the machine filters'
+    /// hold, corner by corner, where it joins a line of `len[0]` mm (what
+    /// is left of it) at feed `feed[0]` mm/s and one of `len[1]` mm at
+    /// `feed[1]`, each reckoned against passing the corner at the lines'
+    /// speed v (mm/s):
+    ///
+    /// - **stop**: v/a for slowing down to rest and speeding up again, and
+    ///   the hold while both filters settle;
+    /// - **blend**: (v − v_b)²/(a·v) for slowing down to the arc's speed
+    ///   cap v_b and back, and the stretch held at v_b: the arc, and on
+    ///   either side the path filter's reach of the cap, lag·v_b, which
+    ///   the planner's pieces of the lines (halving towards the corner,
+    ///   each capped whole) stretch to up to twice that.
+    ///
+    /// Only a corner whose blend pays may be blended ([`Blender::decide`]
+    /// may still leave it a stop).
+    pub(crate) fn blend_pays(&self, arc: &Arc, len: [f64; 2], feed: [f64; 2]) -> bool {
+        let jb = &self.jerk;
+        let a = self.accel;
+        let Some(vb) = self.blend_speed(arc, feed) else {
             return false;
-        }
+        };
         // (against passing the corner at the lines' speeds: half the arc
         // at either)
         let (mut blend, mut stop) = (arc.length / vb, 0.0);
@@ -195,6 +243,105 @@ impl StopCost {
         }
         blend < stop + jb.hold_ticks() as f64 * jb.dt
     }
+
+    /// A line's acceleration and top speed along `u` (|component| per
+    /// axis), mm/s² and mm/s.
+    fn line_limits(&self, u: &V3) -> (f64, f64) {
+        let (mut a, mut v) = (f64::INFINITY, f64::INFINITY);
+        for i in 0..3 {
+            if u[i] > 0.0 {
+                a = a.min(self.amax[i] / u[i]);
+                v = v.min(self.vmax_axes[i] / u[i]);
+            }
+        }
+        if a.is_finite() {
+            (a, v)
+        } else {
+            (self.accel, self.vmax)
+        }
+    }
+
+    /// How long (s) a line of `len` mm takes at up to `f` mm/s, with
+    /// acceleration `a`, from the speed `v0` at its start to `v1` at its
+    /// end (0: a stop; else a blend's cap, which the path filter holds
+    /// over its reach into the line, lag·v): held at either end, and
+    /// between them a trapezoid (or a triangle) of `a`.
+    fn line_time(&self, len: f64, a: f64, f: f64, v0: f64, v1: f64) -> f64 {
+        let lag = self.jerk.lag_s();
+        let (mut h0, mut h1) = (lag * v0, lag * v1);
+        if h0 + h1 > len {
+            let s = len / (h0 + h1);
+            (h0, h1) = (h0 * s, h1 * s);
+        }
+        let held = |h: f64, v: f64| if h > 0.0 { h / v } else { 0.0 };
+        let mut t = held(h0, v0) + held(h1, v1);
+        let l = (len - h0 - h1).max(0.0);
+        let f = f.max(v0).max(v1);
+        let peak2 = (2.0 * a * l + v0 * v0 + v1 * v1) / 2.0;
+        if peak2 >= f * f {
+            t += (2.0 * f - v0 - v1) / a + (l - (2.0 * f * f - v0 * v0 - v1 * v1) / (2.0 * a)) / f;
+        } else if peak2 >= v0.max(v1).powi(2) {
+            let peak = peak2.sqrt();
+            t += (2.0 * peak - v0 - v1) / a;
+        } else if v0 + v1 > 0.0 {
+            // (too short to change speed that much: at their mean)
+            t += 2.0 * l / (v0 + v1);
+        }
+        t
+    }
+
+    /// The hold (s) after a stop at the end of a line of directions `u`
+    /// (|component| per axis): the machine filters' (both settle), or,
+    /// with `rest` (the line also starts from a stop), the line's own
+    /// path filter's: M = ⌈2·a·max|u_i| / (j·dt)⌉ samples, never more
+    /// than the path filter's, as the planner sizes it.
+    fn hold(&self, u: &V3, rest: bool) -> f64 {
+        let jb = &self.jerk;
+        let machine = jb.hold_ticks() as f64 * jb.dt;
+        if !(rest && jb.m_s > 1) {
+            return machine;
+        }
+        let mut a = f64::INFINITY;
+        for i in 0..3 {
+            if u[i] > 0.0 {
+                a = a.min(self.amax[i] / u[i]);
+            }
+        }
+        let m = (2.0 * a * u.max() / (jb.j * jb.dt) - 1e-9).ceil();
+        if !m.is_finite() {
+            return machine;
+        }
+        (m.clamp(1.0, jb.m_s as f64) - 1.0) * jb.dt
+    }
+}
+
+/// Longest chain of lines whose corners are decided together; a longer
+/// one is decided in parts (its last line starts the next).
+const MAX_CHAIN: usize = 32;
+
+/// How the last event the stage passed on ended: at rest (the program's
+/// start, a dwell, an exact stop of the tolerance), moving along a
+/// direction, or not known here (the planner decides).
+#[derive(Clone, Copy, Debug, Default)]
+enum Before {
+    #[default]
+    Rest,
+    Moving(V3),
+    Unknown,
+}
+
+/// One choice at a corner of a chain, on the best way to it: the time
+/// up to the corner, s (the chain's lines before it, the blends and the
+/// stops' holds), the choice at the corner before (0: unblended, 1:
+/// blended), the blend (if blended), the speed the corner is passed at
+/// (0: a stop) and where the line after it starts.
+#[derive(Clone, Copy, Debug)]
+struct Choice {
+    time: f64,
+    before: usize,
+    blend: Option<(V3, Arc, V3)>,
+    speed: f64,
+    start: V3,
 }
 
 /// The principal plane holding both directions, if any.
@@ -209,7 +356,10 @@ impl Blender {
     pub(crate) fn new(shrink: f64, stops: Option<StopCost>) -> Self {
         Blender {
             run: Run::default(),
-            held: None,
+            chain: Vec::new(),
+            from_stop: false,
+            before: Before::Rest,
+            best: Vec::new(),
             shrink,
             stops,
         }
@@ -228,7 +378,7 @@ impl Blender {
     /// A line is held back.
     #[inline]
     pub(crate) fn holds(&self) -> bool {
-        self.held.is_some() || !self.run.points.is_empty()
+        !self.chain.is_empty() || !self.run.points.is_empty()
     }
 
     /// Passes `ev` on to `out`, blending the corner between the held line
@@ -287,9 +437,9 @@ impl Blender {
         self.blend(ev, tol, dev, out);
     }
 
-    /// Blends the corner between the held line and `ev` (a line whose
-    /// points are `dev` from those it replaces) within `tol` less the
-    /// larger deviation of the two.
+    /// Adds `ev` to the chain if it is a line to blend (whose points are
+    /// `dev` from those it replaces) within `tol`, else decides the chain
+    /// and passes `ev` on.
     fn blend(&mut self, ev: Event, tol: f64, dev: f64, out: &mut VecDeque<Event>) {
         let line = match ev {
             Event::Move {
@@ -308,52 +458,216 @@ impl Blender {
         };
         let Some(next) = line else {
             self.flush(out);
+            self.before = match ev {
+                Event::Move { geom, .. } => Before::Moving(geom.end_tangent()),
+                Event::Dwell { .. } | Event::Tolerance { .. } => Before::Rest,
+                _ => Before::Unknown,
+            };
             out.push_back(ev);
             return;
         };
-        let Some(h) = self.held.take() else {
-            self.held = Some(next);
-            return;
-        };
-        let blend = corner(&h, &next, tol - h.dev.max(next.dev)).filter(|(t1, arc, t2)| {
-            self.stops.is_none_or(|c| {
-                let len = [(t1 - h.start).norm(), (next.end - t2).norm()];
-                c.blend_pays(arc, len, [h.feed.speed_mm_s(), next.feed.speed_mm_s()])
-            })
-        });
-        match blend {
-            Some((t1, arc, t2)) => {
-                if t1 != h.start {
-                    out.push_back(Event::Move {
-                        geom: Geom::Line {
-                            start: h.start,
-                            end: t1,
-                        },
-                        feed: h.feed,
-                        src: h.src,
-                    });
+        if self.chain.is_empty() {
+            self.from_stop = match (self.before, &self.stops) {
+                (Before::Rest, _) => true,
+                (Before::Moving(t), Some(c)) => {
+                    t.dot(&(next.end - next.start).normalize()) < c.exact_stop_cos
                 }
-                out.push_back(Event::Move {
-                    geom: Geom::Arc(arc),
-                    feed: next.feed,
-                    src: next.src,
-                });
-                self.held = Some(Held { start: t2, ..next });
-            }
-            None => {
-                out.push_back(line_event(&h));
-                self.held = Some(next);
-            }
+                _ => false,
+            };
+        }
+        self.chain.push((next, tol));
+        if self.chain.len() > MAX_CHAIN {
+            self.decide(true, out);
         }
     }
 
-    /// Passes the held line on unchanged (after the run, if any, merged,
-    /// its corner with the held line unblended).
+    /// Decides the chain's corners and passes its lines and blends on
+    /// (with `keep_last`, all but the last line, which then starts the
+    /// chain). A corner between lines k − 1 and k is blended within the
+    /// tolerance line k came with, less the larger deviation of the two,
+    /// or left as it is; its blend depends on what the corner before left
+    /// of line k − 1, and it is a choice only where it pays on its own
+    /// ([`StopCost::blend_pays`]: the reckoning of whole lines below turns
+    /// blends into stops, never stops into blends). The time of line k − 1
+    /// up to the corner, and of the blend or the stop's hold
+    /// ([`StopCost`]), is added along the chain,
+    /// and the least total (with the last line's time) is taken: dynamic
+    /// programming over the two choices per corner, each keeping its best
+    /// way there (and the blend that way gives). Without jerk caps every
+    /// corner that can be is blended.
+    fn decide(&mut self, keep_last: bool, out: &mut VecDeque<Event>) {
+        let n = self.chain.len();
+        if n == 0 {
+            return;
+        }
+        let mut lines = std::mem::take(&mut self.chain);
+        let first = Choice {
+            time: 0.0,
+            before: 0,
+            blend: None,
+            speed: 0.0,
+            start: lines[0].0.start,
+        };
+        let none = Choice {
+            time: f64::INFINITY,
+            ..first
+        };
+        let stops = self.stops.filter(StopCost::reckons);
+        // whether each line's unblended end is an exact stop
+        let dir = |h: &Held| (h.end - h.origin).normalize();
+        let stop_at = |k: usize| match (&stops, k) {
+            (Some(c), 1..) if k < n => {
+                dir(&lines[k - 1].0).dot(&dir(&lines[k].0)) < c.exact_stop_cos
+            }
+            _ => false,
+        };
+        // the time a line takes from a corner passed at `v0` (its start
+        // `start`) to its end `end` passed at `v1`
+        let line_time = |c: &StopCost, h: &Held, start: V3, end: V3, v0: f64, v1: f64| {
+            let (a, vmax) = c.line_limits(&dir(h).abs());
+            c.line_time(
+                (end - start).norm(),
+                a,
+                h.feed.speed_mm_s().min(vmax),
+                v0,
+                v1,
+            )
+        };
+        let mut best = std::mem::take(&mut self.best);
+        best.clear();
+        best.push([first, none]);
+        for k in 1..n {
+            let (b, tol) = &lines[k];
+            let mut here = [none; 2];
+            for (before, prev) in best[k - 1].into_iter().enumerate() {
+                if !prev.time.is_finite() {
+                    continue;
+                }
+                let a = Held {
+                    start: prev.start,
+                    ..lines[k - 1].0
+                };
+                let cand = corner(&a, b, tol - a.dev.max(b.dev));
+                let options = match &stops {
+                    // without reckoning: blend where it can
+                    None => [
+                        (1.0, 0.0),
+                        (if cand.is_some() { 0.0 } else { f64::INFINITY }, 0.0),
+                    ],
+                    Some(c) => {
+                        // line k − 1 from rest to rest: its start an exact
+                        // stop left unblended, and its end
+                        let rest = before == 0
+                            && stop_at(k)
+                            && (if k == 1 {
+                                self.from_stop
+                            } else {
+                                stop_at(k - 1)
+                            });
+                        let stop = line_time(c, &a, a.start, a.end, prev.speed, 0.0)
+                            + c.hold(&dir(&a).abs(), rest);
+                        let feed = [a.feed.speed_mm_s(), b.feed.speed_mm_s()];
+                        let blend = cand.and_then(|(t1, arc, t2)| {
+                            let len = [(t1 - a.start).norm(), (b.end - t2).norm()];
+                            if !c.blend_pays(&arc, len, feed) {
+                                return None;
+                            }
+                            let vb = c.blend_speed(&arc, feed)?;
+                            Some((
+                                line_time(c, &a, a.start, t1, prev.speed, vb) + arc.length / vb,
+                                vb,
+                            ))
+                        });
+                        [(stop, 0.0), blend.unwrap_or((f64::INFINITY, 0.0))]
+                    }
+                };
+                let starts = [b.start, cand.map_or(b.start, |c| c.2)];
+                for (choice, (time, speed)) in options.into_iter().enumerate() {
+                    let total = prev.time + time;
+                    if total < here[choice].time {
+                        here[choice] = Choice {
+                            time: total,
+                            before,
+                            blend: if choice == 1 { cand } else { None },
+                            speed,
+                            start: starts[choice],
+                        };
+                    }
+                }
+            }
+            if stops.is_none() {
+                // (the greedy choice: one way on)
+                let blended = here[1].time.is_finite();
+                here[usize::from(!blended)] = none;
+            }
+            best.push(here);
+        }
+        // the choices on the best way, back from the last corner
+        let mut choice = vec![0usize; n];
+        // (and the last line's time after the last corner, to a stop)
+        let end_time = |c: usize| {
+            let ch = &best[n - 1][c];
+            let last = &lines[n - 1].0;
+            ch.time
+                + stops.as_ref().map_or(0.0, |s| {
+                    line_time(s, last, ch.start, last.end, ch.speed, 0.0)
+                })
+        };
+        let mut c = usize::from(end_time(1) < end_time(0));
+        for k in (1..n).rev() {
+            choice[k] = c;
+            c = best[k][c].before;
+        }
+        let last = if keep_last { n - 1 } else { n };
+        for (k, (line, _)) in lines.iter().enumerate().take(last) {
+            let start = best[k][choice[k]].start;
+            let next = (k + 1 < n)
+                .then(|| best[k + 1][choice[k + 1]].blend)
+                .flatten();
+            match next {
+                Some((t1, arc, _)) => {
+                    if t1 != start {
+                        out.push_back(line_event(&Held {
+                            start,
+                            end: t1,
+                            ..*line
+                        }));
+                    }
+                    let after = &lines[k + 1].0;
+                    out.push_back(Event::Move {
+                        geom: Geom::Arc(arc),
+                        feed: after.feed,
+                        src: after.src,
+                    });
+                }
+                None => out.push_back(line_event(&Held { start, ..*line })),
+            }
+        }
+        let k = n - 1;
+        let from_stop = choice[k] == 0 && stop_at(k);
+        let (line, tol) = lines[k];
+        lines.clear();
+        self.chain = lines;
+        self.from_stop = false;
+        self.before = Before::Moving(dir(&line));
+        if keep_last {
+            self.from_stop = from_stop;
+            self.chain.push((
+                Held {
+                    start: best[k][choice[k]].start,
+                    ..line
+                },
+                tol,
+            ));
+        }
+        self.best = best;
+    }
+
+    /// Passes the run (if any, merged) and the chain on, the chain's last
+    /// line unblended at its end.
     pub(crate) fn flush(&mut self, out: &mut VecDeque<Event>) {
         self.end_run(out);
-        if let Some(h) = self.held.take() {
-            out.push_back(line_event(&h));
-        }
+        self.decide(false, out);
     }
 }
 

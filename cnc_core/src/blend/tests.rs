@@ -105,6 +105,9 @@ fn a_corner_whose_blend_is_slower_than_a_stop_is_left_exact() {
         jerk: JerkBudget::new(0.001, 80, Some(5e4)),
         accel: 1000.0,
         vmax: 100.0,
+        amax: V3::repeat(1000.0),
+        vmax_axes: V3::repeat(100.0),
+        exact_stop_cos: 2f64.to_radians().cos(),
     };
     let corner = |turn_deg: f64, f: f64, tol: f64, stops: Option<StopCost>| {
         let mut b = Blender::new(0.0, stops);
