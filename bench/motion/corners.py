@@ -8,6 +8,10 @@ programs where the rule is slower than the better of the other two and the
 total cycle time of all programs each way.
 
     python3 bench/motion/corners.py --blended OLD/cnc --rule target/release/cnc MACHINE.toml ...
+
+`--rule-before BIN` also checks each program with another build of the rule
+(the build before a change to it) and prints its total beside the rule's, and
+the programs where the two differ.
 """
 import argparse
 import itertools
@@ -46,17 +50,25 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--blended", required=True, help="cnc built before the rule")
     ap.add_argument("--rule", required=True, help="cnc under test")
+    ap.add_argument("--rule-before", help="another build of the rule, to compare with")
     ap.add_argument("machines", nargs="+")
     a = ap.parse_args()
     path = os.path.join(tempfile.mkdtemp(), "zigzag.nc")
     for machine in a.machines:
         worse, n, tot = 0, 0, [0.0, 0.0, 0.0, 0.0]
+        before_tot, differ = 0.0, []
         for turn, p, f, length in itertools.product([10, 30, 60, 90, 120, 150], [0.001, 0.01, 0.05, 0.2],
                                                     [600, 3000, 6000], [2, 20]):
             b = cycle(a.blended, prog(turn, p, f, length), machine, path)
             s = cycle(a.blended, prog(turn, 0, f, length), machine, path)
             r = cycle(a.rule, prog(turn, p, f, length), machine, path)
             best = min(b, s)
+            if a.rule_before:
+                rb = cycle(a.rule_before, prog(turn, p, f, length), machine, path)
+                before_tot += rb
+                if abs(rb - r) > 0.0005:
+                    differ.append("turn %d° P %g F%d lines %g mm: before %.3f s, after %.3f s (%+.3f)"
+                                  % (turn, p, f, length, rb, r, r - rb))
             n += 1
             for i, v in enumerate((b, s, r, best)):
                 tot[i] += v
@@ -67,6 +79,11 @@ def main():
         print("%s: %d programs, the rule slower than the better of the two in %d; totals: blended %.2f s, "
               "stopped %.2f s, rule %.2f s, the better per program %.2f s"
               % (os.path.basename(machine), n, worse, *tot))
+        if a.rule_before:
+            for d in differ:
+                print("  %s: %s" % (os.path.basename(machine), d))
+            print("%s: the rule before %.2f s, after %.2f s; %d programs differ"
+                  % (os.path.basename(machine), before_tot, tot[2], len(differ)))
 
 
 if __name__ == "__main__":
