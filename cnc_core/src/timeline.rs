@@ -160,8 +160,12 @@ impl Timeline {
 
     /// Advances past thread block `m`, run with the ideal spindle.
     pub fn finish_thread(&mut self, m: &ThreadMove) {
+        // (the ideal spindle's index pulses come at whole revolutions: the
+        // last one passed, counted in the direction of rotation; after a
+        // reversal the angle so counted is below 0, and an index at 0
+        // would be that many revolutions ahead)
         let now = m.dir() * self.ideal_rev(self.group_k0 as f64);
-        self.thread_begin(m, now, 0.0);
+        self.thread_begin(m, now, now.floor());
         if m.decel.is_some() {
             let k = self.ideal_thread_end(m);
             self.finish_group_at(k);

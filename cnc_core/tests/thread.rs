@@ -281,6 +281,33 @@ fn with_the_ideal_spindle_a_chain_stays_on_one_thread_line_and_the_estimate_is_e
 }
 
 #[test]
+fn after_a_spindle_reversal_a_thread_waits_for_the_next_index_only() {
+    // with the ideal spindle (index pulses at whole revolutions) a pass
+    // at M04, then M03 and a pass the other way round: counted in the new
+    // direction the angle is below 0, and the thread used to wait for the
+    // index at angle 0 (the estimate 4.3 s long per reversal), while the
+    // run stopped at N70 with "the spindle encoder's last index pulse is
+    // 16 revolutions ahead of its count"
+    let m = lathe();
+    let p = "N5 G00 X100 Z5\nN10 M04 S180\nN20 G33 Z-50 F9\nN30 G00 X120\nN40 Z5\nN50 X100\nN60 M03\nN70 G33 Z-50\nN80 G00 X120\n";
+    let s = run(p, &m);
+    // the second pass's run-in begins within a revolution (1/3 s at
+    // S180) after the spindle command
+    // (N60 is line 7, N70 line 8)
+    let ready = s.iter().rposition(|x| x.src.line <= 7).unwrap();
+    let moving = s
+        .iter()
+        .position(|x| x.src.line == 8 && x.pos[2] < 5.0)
+        .unwrap();
+    let wait = (moving - ready) as f64 * m.dt();
+    assert!(wait < 1.0 / 3.0, "{wait} s");
+    // (76 ms here; the whole run 5.814 s)
+    assert_eq!(s.len(), 5814 + 1);
+    // and it reaches its end point
+    assert!(s.iter().any(|x| x.src.line == 8 && x.pos[2] == -50.0));
+}
+
+#[test]
 fn a_loop_of_thread_passes_checks_and_runs_as_estimated() {
     let m = lathe();
     // five passes of a G73 loop (G91 infeed from X22 each time)
