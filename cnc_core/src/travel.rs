@@ -42,10 +42,28 @@ impl Travel {
     /// Where a move from `start` with extent `lo`..`hi` on axis `i` leaves
     /// its travel, with the text "X (diameter) -3, outside the axis range
     /// 0..500"; `None` inside it, or when only the start is outside (that
-    /// was reported with the move before).
+    /// was reported with the move before). An axis the machine does not
+    /// have has no travel at all: a move that goes along it anyway (a
+    /// polar block, an arc or a compensated path in a plane with that
+    /// axis; its words are refused by themselves) leaves it, "Y 12.071,
+    /// an axis this machine does not have".
     pub fn exceeded(&self, i: usize, start: f64, lo: f64, hi: f64) -> Option<(f64, String)> {
         if !self.present[i] {
-            return None;
+            let v = if lo < start - EPS {
+                lo
+            } else if hi > start + EPS {
+                hi
+            } else {
+                return None;
+            };
+            return Some((
+                v,
+                format!(
+                    "{} {}, an axis this machine does not have",
+                    AXIS_LETTERS[i] as char,
+                    num(v)
+                ),
+            ));
         }
         let v = if lo < self.lo[i] - EPS {
             lo

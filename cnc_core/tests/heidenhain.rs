@@ -215,6 +215,36 @@ fn polar_in_g18_and_g19_and_on_the_lathe() {
 }
 
 #[test]
+fn a_polar_move_along_an_axis_the_lathe_does_not_have_is_refused() {
+    // G17 and G19 name the lathe's missing Y; a Y word is refused by
+    // itself, and so now is a polar block (or its compensated path) that
+    // moves along Y. Before, the check passed them and reckoned the Y
+    // travel at no cost (0.054 s for the second program), while a run
+    // moved the missing axis for 0.265 s.
+    let l = Machine::builtin_lathe();
+    let errs = |text: &str| -> Vec<String> {
+        check(StrSource::new(text), Dialect::Heidenhain, &l)
+            .errors
+            .iter()
+            .map(|e| e.to_string())
+            .collect()
+    };
+    assert_eq!(
+        errs("N10 G17 *\nN20 I5 J5 *\nN30 G10 R10 H45 *\n"),
+        ["line 3, column 5: block N30: travel limit: the move ends at Y 12.0711, an axis this machine does not have"]
+    );
+    assert_eq!(
+        errs("N10 T2 G41 G19 *\nN30 J-255.55 G00 *\nN40 G10 R166.2 *\nN50 R26 *\n"),
+        [
+            "line 4, column 1: block N50: travel limit: with radius compensation the path of block N40 reaches Y -89.35, an axis this machine does not have",
+            "line 4, column 1: block N50: travel limit: with radius compensation the path of block N50 reaches Y -229.55, an axis this machine does not have",
+        ]
+    );
+    // in G18 a polar move stays on the lathe's axes
+    assert!(errs("N1 I+40 K-10 *\nN2 G11 R+5 H+180 F300 *\n").is_empty());
+}
+
+#[test]
 fn polar_rule_errors() {
     assert_eq!(
         errors("N1 G11 R+10 H+0 F100 *\n"),
