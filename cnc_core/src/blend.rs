@@ -293,25 +293,19 @@ impl StopCost {
     /// The hold (s) after a stop at the end of a line of directions `u`
     /// (|component| per axis): the machine filters' (both settle), or,
     /// with `rest` (the line also starts from a stop), the line's own
-    /// path filter's: M = ⌈2·a·max|u_i| / (j·dt)⌉ samples, never more
-    /// than the path filter's, as the planner sizes it.
+    /// path filter's ([`JerkBudget::own_filter_samples`], as the planner
+    /// sizes it).
     fn hold(&self, u: &V3, rest: bool) -> f64 {
         let jb = &self.jerk;
-        let machine = jb.hold_ticks() as f64 * jb.dt;
-        if !(rest && jb.m_s > 1) {
-            return machine;
+        let own = if rest {
+            jb.own_filter_samples(u, self.line_limits(u).0)
+        } else {
+            0
+        };
+        match own {
+            0 => jb.hold_ticks() as f64 * jb.dt,
+            m => f64::from(m - 1) * jb.dt,
         }
-        let mut a = f64::INFINITY;
-        for i in 0..3 {
-            if u[i] > 0.0 {
-                a = a.min(self.amax[i] / u[i]);
-            }
-        }
-        let m = (2.0 * a * u.max() / (jb.j * jb.dt) - 1e-9).ceil();
-        if !m.is_finite() {
-            return machine;
-        }
-        (m.clamp(1.0, jb.m_s as f64) - 1.0) * jb.dt
     }
 }
 
@@ -643,15 +637,13 @@ impl Blender {
                 None => out.push_back(line_event(&Held { start, ..*line })),
             }
         }
+        // (after all of the chain, the event that ended it sets `before`)
         let k = n - 1;
-        let from_stop = choice[k] == 0 && stop_at(k);
+        self.from_stop = keep_last && choice[k] == 0 && stop_at(k);
         let (line, tol) = lines[k];
         lines.clear();
         self.chain = lines;
-        self.from_stop = false;
-        self.before = Before::Moving(dir(&line));
         if keep_last {
-            self.from_stop = from_stop;
             self.chain.push((
                 Held {
                     start: best[k][choice[k]].start,

@@ -544,13 +544,10 @@ impl<S: ProgramSource> Executor<S> {
     /// timeout (a run that starts with G33 or G95 waits for the first).
     fn spindle_angle(&mut self, dir: f64, ahead: f64) -> Result<Option<SpindleNow>, String> {
         let Some(tr) = self.tracker.as_mut() else {
-            // (its index pulses at whole revolutions: the last one passed,
-            // in the direction of rotation, which after a reversal is
-            // below 0)
-            let theta = dir * self.pipe.timeline.ideal_rev(self.vk);
+            let (theta, index) = self.pipe.timeline.ideal_angle(dir, self.vk);
             return Ok(Some(SpindleNow {
                 theta,
-                index: Some(theta.floor()),
+                index: Some(index),
                 rev_s: dir * self.pipe.timeline.spin_rpm / 60.0,
                 rev_s2: 0.0,
             }));

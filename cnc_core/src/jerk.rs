@@ -213,6 +213,28 @@ impl JerkBudget {
         (self.m_s - 1 + self.m_f - 1) as u64
     }
 
+    /// A line's own path filter, for a run from rest to rest: a moving
+    /// average of M samples keeps the tangential jerk of a profile whose
+    /// acceleration steps by up to 2·a (a feed hold's deceleration right
+    /// after speeding up) within 2·a/(M·dt); on axis i that is |u_i| times
+    /// as much (`u`: |direction| per axis), and a line needs no share for
+    /// normal accelerations or their turn, so M = ⌈2·a·max|u_i| / (j·dt)⌉,
+    /// never longer than the path filter itself. 0 without the path
+    /// filter. (The planner sizes the filter with it, `limits.rs`, and the
+    /// blender reckons its hold, `blend.rs`.)
+    #[inline]
+    pub(crate) fn own_filter_samples(&self, u: &V3, a: f64) -> u32 {
+        if !(self.limited() && self.m_s > 1) {
+            return 0;
+        }
+        let m = (2.0 * a * u.max() / (self.j * self.dt) - 1e-9).ceil();
+        if m.is_finite() {
+            m.clamp(1.0, self.m_s as f64) as u32
+        } else {
+            self.m_s as u32
+        }
+    }
+
     /// The largest distance by which the XYZ filter moves a setpoint off
     /// the path, mm: on smooth stretches v²κ·(M_f²−1)·dt²/24 with the arcs'
     /// `a_dev`; near kinks the sagitta of a curve with the normal

@@ -255,7 +255,7 @@ impl PlanLimits {
             }
         }
         let own_m = if own {
-            self.own_filter_samples(u, a[2])
+            self.jerk.own_filter_samples(u, a[2])
         } else {
             0
         };
@@ -266,27 +266,6 @@ impl PlanLimits {
             own_m,
         };
         a.map(limits)
-    }
-
-    /// A line's own path filter, for a run from rest to rest: a moving
-    /// average of M samples keeps the tangential jerk of a profile whose
-    /// acceleration steps by up to 2·a (a feed hold's deceleration right
-    /// after speeding up) within 2·a/(M·dt); on axis i that is |u_i| times
-    /// as much, and a line needs no share for normal accelerations or
-    /// their turn, so M = ⌈2·a·max|u_i| / (j·dt)⌉, never longer than the
-    /// path filter itself. 0 without the path filter.
-    #[inline]
-    fn own_filter_samples(&self, u: &V3, a: f64) -> u32 {
-        let jb = &self.jerk;
-        if !(jb.limited() && jb.m_s > 1) {
-            return 0;
-        }
-        let m = (2.0 * a * u.max() / (jb.j * self.dt) - 1e-9).ceil();
-        if m.is_finite() {
-            m.clamp(1.0, jb.m_s as f64) as u32
-        } else {
-            jb.m_s as u32
-        }
     }
 
     /// An arc's limits with [`LINE_SHARE`], [`FINE_SHARE`] and the whole acceleration, `f`

@@ -114,6 +114,16 @@ impl Timeline {
         self.spin_rev + self.spin_rpm / 60.0 * (k - self.spin_k) * self.dt
     }
 
+    /// The ideal spindle at (virtual) tick `k`, counted in direction `dir`
+    /// (±1): its angle and the last index pulse it passed, revolutions. Its
+    /// index pulses come at whole revolutions; after a reversal the angle
+    /// so counted is below 0, where an index taken at 0 would be that many
+    /// revolutions ahead.
+    pub fn ideal_angle(&self, dir: f64, k: f64) -> (f64, f64) {
+        let theta = dir * self.ideal_rev(k);
+        (theta, theta.floor())
+    }
+
     /// A spindle command at the current group tick (everything stopped).
     pub fn set_spindle(&mut self, rpm: f64) {
         let k = self.group_k0 as f64;
@@ -160,12 +170,8 @@ impl Timeline {
 
     /// Advances past thread block `m`, run with the ideal spindle.
     pub fn finish_thread(&mut self, m: &ThreadMove) {
-        // (the ideal spindle's index pulses come at whole revolutions: the
-        // last one passed, counted in the direction of rotation; after a
-        // reversal the angle so counted is below 0, and an index at 0
-        // would be that many revolutions ahead)
-        let now = m.dir() * self.ideal_rev(self.group_k0 as f64);
-        self.thread_begin(m, now, now.floor());
+        let (now, index) = self.ideal_angle(m.dir(), self.group_k0 as f64);
+        self.thread_begin(m, now, index);
         if m.decel.is_some() {
             let k = self.ideal_thread_end(m);
             self.finish_group_at(k);

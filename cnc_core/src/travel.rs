@@ -48,14 +48,23 @@ impl Travel {
     /// axis; its words are refused by themselves) leaves it, "Y 12.071,
     /// an axis this machine does not have".
     pub fn exceeded(&self, i: usize, start: f64, lo: f64, hi: f64) -> Option<(f64, String)> {
+        // (a missing axis's range is where it stands)
+        let (min, max) = if self.present[i] {
+            (self.lo[i], self.hi[i])
+        } else {
+            (start, start)
+        };
+        let v = if lo < min - EPS {
+            lo
+        } else if hi > max + EPS {
+            hi
+        } else {
+            return None;
+        };
+        if v == start {
+            return None;
+        }
         if !self.present[i] {
-            let v = if lo < start - EPS {
-                lo
-            } else if hi > start + EPS {
-                hi
-            } else {
-                return None;
-            };
             return Some((
                 v,
                 format!(
@@ -64,16 +73,6 @@ impl Travel {
                     num(v)
                 ),
             ));
-        }
-        let v = if lo < self.lo[i] - EPS {
-            lo
-        } else if hi > self.hi[i] + EPS {
-            hi
-        } else {
-            return None;
-        };
-        if v == start {
-            return None;
         }
         let (k, what) = if i == 0 && self.diameter {
             (2.0, " (diameter)")
