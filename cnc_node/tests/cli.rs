@@ -385,7 +385,7 @@ fn plot_thread_and_compare_of_a_recording() {
         "{out}"
     );
     assert!(
-        out.contains("    groove phase there (0 = the programmed start angle): setpoint mean +0.0000°, worst 0.0585°, spread 0.1159° (2226 samples); actual mean -0.0286°"),
+        out.contains("    groove phase there (0 = the programmed start angle): setpoint mean +0.0000°, worst 0.0585°, spread 0.1159° (2226 samples); actual mean -0.0364°"),
         "{out}"
     );
     let text = std::fs::read_to_string(&svg).unwrap();
@@ -455,7 +455,7 @@ fn plot_thread_and_compare_of_a_recording() {
         "{out}"
     );
     assert!(
-        out.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0286° worst 4.1006° (2225 samples)"),
+        out.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0364° worst 5.4108° (2225 samples)"),
         "{out}"
     );
     assert!(

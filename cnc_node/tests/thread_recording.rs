@@ -76,13 +76,15 @@ fn an_offline_recording_measures_as_its_program_does() {
     eprintln!("recording: setpoints {gs:?}\n           actual {ga:?}");
     assert!(gs.mean_deg.abs() <= 0.1, "{gs:?}");
     assert!(gs.worst_deg <= 0.1 && gs.spread_deg <= 0.15, "{gs:?}");
-    // the simulated axis: mean −0.029°; its spread (4.15°) is the servo's
-    // lag of 47 counts (17 µm, 4.1°) as the run-in's acceleration ends,
+    // the simulated axis: mean −0.036°; its spread (5.47°) is the servo's
+    // lag of 62 counts (22.5 µm, 5.4°) as the run-in's acceleration ends,
     // settled within one count in the first revolution (the program's
-    // offline run has the same 4.15°; with the run-in a parabola, its
-    // acceleration stepping to 0 where it met the line: 5.35°)
+    // offline run has the same). (4.15° while the simulated axis stepped
+    // its position by the cycle's end velocity: its lag under acceleration
+    // was 1.54 ms/kp at 1 kHz instead of the 2 ms/kp its machine file
+    // declares and G33 leads by.)
     assert!(ga.mean_deg.abs() <= 0.1, "{ga:?}");
-    assert!(ga.spread_deg > 3.5 && ga.spread_deg <= 4.8, "{ga:?}");
+    assert!(ga.spread_deg > 5.0 && ga.spread_deg <= 6.0, "{ga:?}");
     let settled = p.act_within_count_from_deg.unwrap();
     assert!(settled > 30.0 && settled < 30.0 + 360.0, "{settled}");
 
@@ -241,7 +243,7 @@ fn a_shifted_index_moves_the_groove_by_90_degrees() {
         "{text}"
     );
     assert!(
-        text.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0286°"),
+        text.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0364°"),
         "{text}"
     );
     // the encoder payloads differ: not within, as before

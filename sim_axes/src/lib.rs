@@ -15,12 +15,17 @@
 //! of the cycle), previous setpoint `s_{k-1}`, actual position `p` and velocity `v`:
 //!
 //! ```text
-//! v_cmd = ff * (s_k - s_{k-1}) / dt  +  kp * (s_{k-1} - p)
-//! v_f   = v + alpha * (v_cmd - v)           alpha = 1 - exp(-dt / lag), 1 if lag = 0
-//! v'    = v + clamp(v_f - v, ±a_max*dt),    then |v'| <= v_max
-//! p'    = p + v' * dt
+//! v_cmd = ff * (s_k - s_{k-1}) / dt  +  kp * (s_{k-1} - p)     held over the cycle
+//! v(t)  = v_cmd + (v - v_cmd) * exp(-t / lag)                  the velocity loop, a lag
+//! p'    = p + ∫ v(t) dt over the cycle,  v' = v(dt)
 //! following_error = s_k - p'
 //! ```
+//!
+//! The position loop is sampled, the velocity loop is not: the axis moves during the cycle
+//! as a first-order lag does, so its behaviour does not depend on the cycle time beyond the
+//! position loop's own sampling. Where the drive's limits cut in (`|v' - v| > a_max*dt` or
+//! `|v'| > v_max`) the velocity ramps at the limit instead. Acceleration feed-forward `aff`
+//! passes that share of the feed-forward term without the lag ([`Axis`]).
 //!
 //! The P-term compares the position with the *previous* setpoint, i.e. with where the axis
 //! should be at the start of the cycle, while the feed-forward term supplies the motion
@@ -28,11 +33,11 @@
 //! error `kp * (s_k - p)` feed-forward and P-term would count the same increment twice and a
 //! ramp would run one cycle *ahead* (error `-v*dt`) instead of being tracked exactly.
 //!
-//! Resulting steady following errors (exact in the discrete model, all `dt`):
+//! Resulting steady following errors (exact in the model, at every `dt`):
 //! * constant velocity `v`: `(1 - ff) * v / kp` — independent of the lag, so 0 with full
 //!   feed-forward (`ff = 1`), `v / kp` without (the classic Kv relation);
-//! * constant acceleration `a` with `ff = 1`: `a * dt / (kp * (exp(dt/lag) - 1))`
-//!   (→ `a * lag / kp` for small `dt`); this is where the velocity lag shows;
+//! * constant acceleration `a` with `ff = 1`: `(1 - aff) * a * lag / kp`; this is where the
+//!   velocity lag shows;
 //! * a setpoint step without feed-forward decays as `(1 - kp*dt)^n` ≈ `exp(-kp*t)`.
 //!
 //! The drive limits are hard: the velocity never exceeds `max_velocity` and never changes by
