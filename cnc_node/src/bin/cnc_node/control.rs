@@ -208,6 +208,8 @@ struct Loop {
     /// with loop_stats)
     enc_age: Option<ros::Lateness>,
     newest_enc: i64,
+    /// how the readings reached the running job's cycles (logged at its end)
+    job_readings: JobReadings,
     /// at rest: the phase against the readings ([`phase_of`]) at the first
     /// of the readings in a row that kept to it, and how many, and a move
     /// of the grid asked for ([`phase_delay`])
@@ -264,6 +266,7 @@ pub(super) fn control_loop(
         pending_rec: None,
         enc_age: Some(ros::Lateness::new()),
         newest_enc: 0,
+        job_readings: JobReadings::default(),
         phase_run: None,
         rephase: None,
     };
@@ -347,6 +350,46 @@ pub(super) fn control_loop(
                 }
             }
         }
+    }
+}
+
+/// How the spindle encoder's readings reached a job's cycles: how many
+/// cycles there were, how many ran without their period's reading (the
+/// newest they had was older than a period: the cycles come half a period
+/// after the sampling, so their period's had not come yet), and the newest reading's largest age, ns. Logged at the job's
+/// end, so that a thread's measurement can tell a transport that held the
+/// readings back (the tracker then predicts from older readings, further
+/// ahead) from the controller's own error.
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
+struct JobReadings {
+    job: u32,
+    cycles: u64,
+    without: u64,
+    oldest_ns: i64,
+}
+
+impl JobReadings {
+    fn record(&mut self, age_ns: i64, period_ns: i64) {
+        self.cycles += 1;
+        if age_ns > period_ns {
+            self.without += 1;
+        }
+        self.oldest_ns = self.oldest_ns.max(age_ns);
+    }
+
+    /// The log line (None: no job, or no readings in it).
+    fn summary(&self, period_ns: i64) -> Option<String> {
+        (self.job != 0 && self.cycles > 0).then(|| {
+            format!(
+                "job {}: encoder readings at its {} cycles: {} without their period's reading, \
+                 the newest up to {:.1} ms old (period {:.1} ms)",
+                self.job,
+                self.cycles,
+                self.without,
+                self.oldest_ns as f64 * 1e-6,
+                period_ns as f64 * 1e-6
+            )
+        })
     }
 }
 
@@ -449,6 +492,19 @@ impl Loop {
                 ));
             }
         }
+        if self.job_readings.job != self.ctl.job_id() {
+            if let Some(line) = self.job_readings.summary(self.period_ns) {
+                ros_info!("{line}");
+            }
+            self.job_readings = JobReadings {
+                job: self.ctl.job_id(),
+                ..JobReadings::default()
+            };
+        }
+        if in_job && self.newest_enc > 0 {
+            self.job_readings
+                .record(now_ns - self.newest_enc, self.period_ns);
+        }
         let prev_state = self.ctl.state();
         let tick = self.ctl.tick(now_ns);
         for j in 0..tick.n {
@@ -502,6 +558,25 @@ impl Loop {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_job_s_readings_count_the_cycles_without_their_period_s_reading() {
+        let mut r = JobReadings {
+            job: 7,
+            ..JobReadings::default()
+        };
+        assert_eq!(JobReadings::default().summary(1_000_000), None);
+        assert_eq!(r.summary(1_000_000), None);
+        // on time (half a period), a cycle late, then 8 ms held back
+        for age in [500_000, 500_000, 1_500_000, 8_500_000, 500_000] {
+            r.record(age, 1_000_000);
+        }
+        assert_eq!(
+            r.summary(1_000_000).unwrap(),
+            "job 7: encoder readings at its 5 cycles: 2 without their period's reading, \
+             the newest up to 8.5 ms old (period 1.0 ms)"
+        );
+    }
 
     const MS: i64 = 1_000_000;
 
