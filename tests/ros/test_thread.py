@@ -230,6 +230,21 @@ class Peer(SpinningPeer):
         assert found, "no encoder reading age in the node's log"
         return tuple(float(x) for x in found[-1])
 
+    def job_readings(self, job_id, wait=2.0):
+        """How the encoder's readings reached job `job_id`'s cycles, from the
+        node's log line at the job's end: (cycles, cycles without their
+        period's reading, the newest reading's largest age in ms), or None
+        when no such line came within `wait` s."""
+        pat = re.compile(r"job %d: encoder readings at its (\d+) cycles: (\d+) without their period's reading, "
+                         r"the newest up to (\d+\.\d) ms old" % job_id)
+        t0 = time.monotonic()
+        while True:
+            with open(self.node_log, "rb") as f:
+                m = pat.search(f.read().decode(errors="replace"))
+            if m or time.monotonic() - t0 >= wait:
+                return (int(m.group(1)), int(m.group(2)), float(m.group(3))) if m else None
+            time.sleep(0.1)
+
     def run_to_end(self, text):
         r = self.run_program(text)
         assert r.accepted, r.message
@@ -317,13 +332,51 @@ class Peer(SpinningPeer):
                   % (what, spread, stalls[-1]))
 
 
-def pairs_at(setpoints, encoder, axis, start, lo, hi, max_gap=0.004, ahead=AHEAD_S):
+def fitted_count(encoder, ts, i, t, half=0.012):
+    """The spindle's angle at `t` in counts (the count's centre, as a
+    count + 0.5 is), from a least-squares cubic through the recorded
+    readings within `half` s either side (`ts`: their stamps; `i`: the
+    first reading after `t`). A reading is the angle rounded down to a
+    whole count (0.088 deg at 4096 a revolution): a straight line between
+    the two readings around `t` carries that into the measurement, up to
+    half a count either way, where the fit through some 25 readings
+    leaves a tenth of a count (a cubic follows ±2 % of ripple at 5 Hz
+    within 0.01 deg over 24 ms). None with fewer than 8 readings there."""
+    lo, hi = bisect.bisect_left(ts, t - half), bisect.bisect_right(ts, t + half)
+    if hi - lo < 8:
+        return None
+    c0 = encoder[i][1]
+    n = 4
+    # normal equations of y = sum c_k x^k (x in ms), solved by elimination
+    a = [[0.0] * (n + 1) for _ in range(n)]
+    for e in encoder[lo:hi]:
+        x = (e[0] - t) * 1000.0
+        p = [1.0, x, x * x, x * x * x]
+        for r in range(n):
+            for q in range(n):
+                a[r][q] += p[r] * p[q]
+            a[r][n] += p[r] * (e[1] - c0)
+    for col in range(n):
+        piv = max(range(col, n), key=lambda r: abs(a[r][col]))
+        if a[piv][col] == 0.0:
+            return None
+        a[col], a[piv] = a[piv], a[col]
+        for r in range(n):
+            if r != col:
+                f = a[r][col] / a[col][col]
+                for q in range(col, n + 1):
+                    a[r][q] -= f * a[col][q]
+    return c0 + a[0][n] / a[0][0] + 0.5
+
+
+def pairs_at(setpoints, encoder, axis, start, lo, hi, max_gap=0.004, ahead=AHEAD_S, fit=False):
     """(stamp, position mm, revolutions from the index) of the setpoints of
     a pass in -`axis` from `start` whose `axis` is within lo..hi mm, with the encoder count interpolated at
     the setpoint's stamp plus `ahead` (the angle a G33 setpoint is for;
     0 for the simulator's joint states) between the two readings around it (the count's
-    centre: count + 0.5). Setpoints without readings within `max_gap` on
-    both sides are left out."""
+    centre: count + 0.5), or with `fit` fitted through the readings
+    around it (`fitted_count`). Setpoints without readings within
+    `max_gap` on both sides are left out."""
     ts = [e[0] for e in encoder]
     out = []
     # the pass: from the thread's start (`start`, mm) to where the lead axis
@@ -345,6 +398,10 @@ def pairs_at(setpoints, encoder, axis, start, lo, hi, max_gap=0.004, ahead=AHEAD
             continue
         f = 0.0 if b[0] == a[0] else (t - a[0]) / (b[0] - a[0])
         count = a[1] + f * (b[1] - a[1]) + 0.5
+        if fit:
+            count = fitted_count(encoder, ts, i, t)
+            if count is None:
+                continue
         # revolutions from the index (an index mark is at count_at_index)
         revs = (count - a[3]) / a[2]
         out.append((t, p, revs))
@@ -701,7 +758,8 @@ def test_thread_the_cut_groove_stays_put_at_s200_s800_s2000_with_ripple(machine,
     for rpm in (200, 800, 2000):
         # a job measured while the simulator reported a stall or late
         # setpoints (a busy VM holding up its real-time loop: the axes
-        # then really ran behind) and out of the bounds below is measured
+        # then really ran behind), or while the node's readings were held
+        # back over three periods, and out of the bounds below is measured
         # again, up to five times in all (three were once just enough at
         # S800: a setpoints' worst of 0.339 deg, then an actual spread of
         # 0.749, each after the host held the test up 60-75 ms); out of
@@ -719,9 +777,15 @@ def test_thread_the_cut_groove_stays_put_at_s200_s800_s2000_with_ripple(machine,
             sps, enc, _, act = peer.recording(r, actual=True)
             assert enc, "the recording holds the encoder"
             span = 33.0 / 1.5 / (rpm / 60.0)
-            sp = pairs_at(sps, enc, 1, 5.0, -35.0, -2.0)
-            ac = pairs_at(act, enc, 1, 5.0, -35.0, -2.0, ahead=0.0)
+            # against the spindle's angle fitted through the readings around
+            # each instant (`fitted_count`: a count is the angle rounded
+            # down, and a line between two readings put up to half a count,
+            # 0.044 deg, of the encoder's own rounding into the groove)
+            sp = pairs_at(sps, enc, 1, 5.0, -35.0, -2.0, fit=True)
+            ac = pairs_at(act, enc, 1, 5.0, -35.0, -2.0, ahead=0.0, fit=True)
             assert len(sp) > 0.9 * span * 1000 and len(ac) > 0.9 * span * 1000, (len(sp), len(ac), span)
+            # (and, for comparison, against the counts between two readings)
+            a_spread_counts = groove(pairs_at(act, enc, 1, 5.0, -35.0, -2.0, ahead=0.0), 5.0, 1.5, 90.0)[2]
             # the setpoints' lead for the servo's lag under the spindle's
             # acceleration at the instant each is for, degrees
             ts = [e[0] for e in enc]
@@ -729,12 +793,14 @@ def test_thread_the_cut_groove_stays_put_at_s200_s800_s2000_with_ripple(machine,
             s_mean, s_worst, s_spread, _ = groove(sp, 5.0, 1.5, 90.0, lead)
             r_mean, r_worst, _, _ = groove(sp, 5.0, 1.5, 90.0)
             a_mean, a_worst, a_spread, _ = groove(ac, 5.0, 1.5, 90.0)
-            rows.append((rpm, s_mean, s_worst, r_worst, max(abs(x) for x in lead), a_mean, a_worst, a_spread))
+            rows.append((rpm, s_mean, s_worst, r_worst, max(abs(x) for x in lead), a_mean, a_worst, a_spread,
+                         a_spread_counts))
             print("S%d: setpoints (at stamp + %.1f ms, less their acceleration lead) mean %+.3f deg, worst %.3f deg "
                   "(as published: worst %.3f deg, lead up to %.3f deg); actual mean %+.3f deg, "
-                  "worst %.3f deg, spread %.3f deg (%d / %d points)"
+                  "worst %.3f deg, spread %.3f deg (against the counts between two readings: %.3f deg) "
+                  "(%d / %d points)"
                   % (rpm, AHEAD_S * 1000, s_mean, s_worst, r_worst, rows[-1][4], a_mean, a_worst, a_spread,
-                     len(sp), len(ac)))
+                     a_spread_counts, len(sp), len(ac)))
             # the controller's own measurement of the recording (`cnc plot
             # --thread`, the same pairing in Rust: setpoints as published, at
             # their stamp + the setpoint delay + the servo lag; joint states at
@@ -757,26 +823,38 @@ def test_thread_the_cut_groove_stays_put_at_s200_s800_s2000_with_ripple(machine,
             within = (abs(s_mean) <= b["s_mean"] and s_worst <= b["s_worst"]
                       and abs(a_mean) <= b["a_mean"] and a_spread <= b["a_spread"])
             stalls = peer.stalls(since)
+            # readings the transport held back three periods and more: the
+            # tracker then predicts from older readings, further ahead (at
+            # S2000 with this ripple 3, 5 and 8 held back move the
+            # setpoints by 0.04, 0.07 and 0.10 deg), as a stalled simulator
+            # moves the axis
+            readings = peer.job_readings(r.job_id)
+            print("S%d: the job's %s" % (rpm, "cycles: %d, %d without their period's reading, the newest up to %.1f ms old"
+                                         % readings if readings else "readings: no line in the node's log"))
+            if readings and readings[2] > 3.0:
+                stalls.append("cnc_node: encoder readings up to %.1f ms old at the job's cycles" % readings[2])
             if within or not stalls or measure == 4:
                 break
             print("groove S%d: measurement %d out of bounds after the simulator %s; again"
                   % (rpm, measure + 1, stalls[-1]))
             rows.pop()
     print("| S | setpoints mean | setpoints worst | as published: worst | acceleration lead | actual mean "
-          "| actual worst | actual spread |")
+          "| actual worst | actual spread | against the counts: actual spread |")
     for row in rows:
-        print("| %d | %+.3f° | %.3f° | %.3f° | %.3f° | %+.3f° | %.3f° | %.3f° |" % row)
-    # measured on the 2-core VM (quiet), with the acceleration lead: actual
-    # means within 0.01 deg (they were -1.04, -4.27, -10.74 deg when the
-    # setpoints were applied on arrival), spreads 0.16, 0.26, 0.39 deg
-    # (0.22, 0.30, 0.61 without the lead: the servo's lag under the
-    # ripple's acceleration, tau/kp = 33 us^2, +-0.23 deg at S2000);
-    # setpoints less their lead worst 0.12, 0.15, 0.33 deg (the issue asks
-    # 0.1: the tracker predicts the angle 3 ms ahead from counts of
-    # 0.088 deg; its acceleration, fitted over 24 ms, is some 12 ms late
-    # against this measurement's two-sided fit; the encoder interpolation
-    # itself is +-0.04 deg)
-    for rpm, s_mean, s_worst, _, lead_max, a_mean, a_worst, a_spread in rows:
+        print("| %d | %+.3f° | %.3f° | %.3f° | %.3f° | %+.3f° | %.3f° | %.3f° | %.3f° |" % row)
+    # measured on the 2-core VM (5-10 % steal), with the acceleration lead
+    # and the simulated axis's lag integrated over each cycle: actual means
+    # within 0.01 deg (they were -1.04, -4.27, -10.74 deg when the
+    # setpoints were applied on arrival), spreads 0.15-0.25, 0.20-0.48,
+    # 0.32-0.49 deg (against the counts between two readings 0.19-0.31,
+    # 0.28-0.53, 0.38-0.52); setpoints less their lead worst 0.10-0.12,
+    # 0.14-0.19, 0.28-0.33 deg (the issue asks 0.1: the tracker predicts
+    # the angle 3 ms ahead from counts of 0.088 deg; its acceleration,
+    # fitted over 24 ms, is some 12 ms late against this measurement's
+    # two-sided fit). At S2000 about 0.2 deg of the spread is the
+    # ripple's, the tracker's parabola predicting through its jerk; the
+    # rest comes in bursts where readings were held back (above)
+    for rpm, s_mean, s_worst, _, lead_max, a_mean, a_worst, a_spread, _ in rows:
         b = groove_bounds(rpm)
         assert abs(s_mean) <= b["s_mean"], (rpm, s_mean)
         assert s_worst <= b["s_worst"], (rpm, s_worst)
