@@ -325,8 +325,9 @@ class Peer(SpinningPeer):
         three of Example 2 in a row, 7.9-13.1 counts, while the node's jobs
         there had up to 30 % of their cycles without their period's reading
         and readings up to 28.5 ms old). A spread
-        over the bound with none of these fails the test. The last run's
-        (status, setpoints, readings)."""
+        over the bound with none of these fails the test; over it in all
+        `n` runs, each disturbed so, skips it (nothing was measured of the
+        controller). The last run's (status, setpoints, readings)."""
         for m in range(n):
             if m > 0:
                 self.to_thread_start(start)
@@ -341,8 +342,14 @@ class Peer(SpinningPeer):
             if readings and readings[2] > 3.0:
                 stalls.append("cnc_node: encoder readings up to %.1f ms old at the job's cycles (%d of %d without "
                               "their period's reading)" % (readings[2], readings[1], readings[0]))
-            if spread <= SPREAD_COUNTS or not stalls or m == n - 1:
+            if spread <= SPREAD_COUNTS or not stalls:
                 return st, sps, enc
+            if m == n - 1:
+                # no run the host left alone: no measurement of the
+                # controller (one over the bound without any of these fails)
+                pytest.skip("%s: the lead error's spread was over %d counts in all %d runs, each while the host "
+                            "held up the simulator or the readings (the last: %.2f counts; %s)"
+                            % (what, SPREAD_COUNTS, n, spread, stalls[-1]))
             print("%s: lead error spread %.2f counts after the simulator %s; measured again"
                   % (what, spread, stalls[-1]))
 
@@ -778,7 +785,8 @@ def test_thread_the_cut_groove_stays_put_at_s200_s800_s2000_with_ripple(machine,
         # again, up to five times in all (three were once just enough at
         # S800: a setpoints' worst of 0.339 deg, then an actual spread of
         # 0.749, each after the host held the test up 60-75 ms); out of
-        # them without a stall fails
+        # them without a stall fails; out of them in all five, each
+        # disturbed, skips (nothing was measured of the controller)
         for measure in range(5):
             since = peer.mark()
             # (six runs: the S200 pass is 13.5 s long, and on a VM whose
@@ -848,8 +856,11 @@ def test_thread_the_cut_groove_stays_put_at_s200_s800_s2000_with_ripple(machine,
                                          % readings if readings else "readings: no line in the node's log"))
             if readings and readings[2] > 3.0:
                 stalls.append("cnc_node: encoder readings up to %.1f ms old at the job's cycles" % readings[2])
-            if within or not stalls or measure == 4:
+            if within or not stalls:
                 break
+            if measure == 4:
+                pytest.skip("groove S%d: out of the bounds in all five measurements, each while the host held up "
+                            "the simulator or the readings (the last: %s)" % (rpm, stalls[-1]))
             print("groove S%d: measurement %d out of bounds after the simulator %s; again"
                   % (rpm, measure + 1, stalls[-1]))
             rows.pop()
