@@ -129,6 +129,11 @@ def read_recording(path, actual=False):
     return sps, enc, spin
 
 
+# A job whose newest encoder reading at some cycle was older than this
+# (ms: three readings held back at 1 kHz) counts as disturbed by the host
+# (`Peer.stalls`)
+HELD_BACK_MS = 3.0
+
 # The lathe threads' start (the first block of their programs)
 START = "N5 G00 X20 Z5\n"
 
@@ -262,12 +267,21 @@ class Peer(SpinningPeer):
         monotonic time)."""
         return self.log_size(), time.monotonic()
 
-    def stalls(self, mark):
+    def stalls(self, mark, readings=None):
         """Stalls since `mark`: the simulator's reports, then the host's
-        hold-ups this process saw itself (`HostWatch`)."""
+        hold-ups this process saw itself (`HostWatch`), then, given a job's
+        `readings` (`job_readings`), the node's readings held back over
+        HELD_BACK_MS: the tracker then predicts from older readings,
+        further ahead (at S2000 with ±2 % ripple 3, 5 and 8 held back move
+        the setpoints by 0.04, 0.07 and 0.10 deg), as a stalled simulator
+        moves the axis."""
         size, t = mark
-        return sim_stall_reports(self.sim_log, size) + ["the host held this test up for %.0f ms" % (g * 1000.0)
-                                        for g in self.watch.since(t)]
+        out = sim_stall_reports(self.sim_log, size) + ["the host held this test up for %.0f ms" % (g * 1000.0)
+                                                       for g in self.watch.since(t)]
+        if readings and readings[2] > HELD_BACK_MS:
+            out.append("cnc_node: encoder readings up to %.1f ms old at the job's cycles (%d of %d without their "
+                       "period's reading)" % (readings[2], readings[1], readings[0]))
+        return out
 
     def to_thread_start(self, block=START):
         """The axes back at a thread's start (`block`, by default the lathe
@@ -337,11 +351,7 @@ class Peer(SpinningPeer):
             if st.state != IDLE:
                 return st, sps, enc
             spread = spread_of(sps, enc)
-            stalls = self.stalls(since)
-            readings = self.job_readings(self.last_job)
-            if readings and readings[2] > 3.0:
-                stalls.append("cnc_node: encoder readings up to %.1f ms old at the job's cycles (%d of %d without "
-                              "their period's reading)" % (readings[2], readings[1], readings[0]))
+            stalls = self.stalls(since, self.job_readings(self.last_job))
             if spread <= SPREAD_COUNTS or not stalls:
                 return st, sps, enc
             if m == n - 1:
@@ -352,6 +362,31 @@ class Peer(SpinningPeer):
                             % (what, SPREAD_COUNTS, n, spread, stalls[-1]))
             print("%s: lead error spread %.2f counts after the simulator %s; measured again"
                   % (what, spread, stalls[-1]))
+
+
+def lsq_poly(points, terms):
+    """Coefficients c_0 .. c_{terms-1} of the least-squares polynomial
+    y = sum c_k x^k through `points` [(x, y)], from the normal equations
+    solved by elimination with partial pivoting; None when they are
+    singular."""
+    a = [[0.0] * (terms + 1) for _ in range(terms)]
+    for x, y in points:
+        p = [x ** k for k in range(terms)]
+        for r in range(terms):
+            for q in range(terms):
+                a[r][q] += p[r] * p[q]
+            a[r][terms] += p[r] * y
+    for col in range(terms):
+        piv = max(range(col, terms), key=lambda r: abs(a[r][col]))
+        if a[piv][col] == 0.0:
+            return None
+        a[col], a[piv] = a[piv], a[col]
+        for r in range(terms):
+            if r != col:
+                f = a[r][col] / a[col][col]
+                for q in range(col, terms + 1):
+                    a[r][q] -= f * a[col][q]
+    return [a[k][terms] / a[k][k] for k in range(terms)]
 
 
 def fitted_count(encoder, ts, i, t, half=0.012):
@@ -368,27 +403,8 @@ def fitted_count(encoder, ts, i, t, half=0.012):
     if hi - lo < 8:
         return None
     c0 = encoder[i][1]
-    n = 4
-    # normal equations of y = sum c_k x^k (x in ms), solved by elimination
-    a = [[0.0] * (n + 1) for _ in range(n)]
-    for e in encoder[lo:hi]:
-        x = (e[0] - t) * 1000.0
-        p = [1.0, x, x * x, x * x * x]
-        for r in range(n):
-            for q in range(n):
-                a[r][q] += p[r] * p[q]
-            a[r][n] += p[r] * (e[1] - c0)
-    for col in range(n):
-        piv = max(range(col, n), key=lambda r: abs(a[r][col]))
-        if a[piv][col] == 0.0:
-            return None
-        a[col], a[piv] = a[piv], a[col]
-        for r in range(n):
-            if r != col:
-                f = a[r][col] / a[col][col]
-                for q in range(col, n + 1):
-                    a[r][q] -= f * a[col][q]
-    return c0 + a[0][n] / a[0][0] + 0.5
+    c = lsq_poly([((e[0] - t) * 1000.0, e[1] - c0) for e in encoder[lo:hi]], 4)
+    return None if c is None else c0 + c[0] + 0.5
 
 
 def pairs_at(setpoints, encoder, axis, start, lo, hi, max_gap=0.004, ahead=AHEAD_S, fit=False):
@@ -418,12 +434,13 @@ def pairs_at(setpoints, encoder, axis, start, lo, hi, max_gap=0.004, ahead=AHEAD
             a = b
         if t - a[0] > max_gap or b[0] - t > max_gap:
             continue
-        f = 0.0 if b[0] == a[0] else (t - a[0]) / (b[0] - a[0])
-        count = a[1] + f * (b[1] - a[1]) + 0.5
         if fit:
             count = fitted_count(encoder, ts, i, t)
             if count is None:
                 continue
+        else:
+            f = 0.0 if b[0] == a[0] else (t - a[0]) / (b[0] - a[0])
+            count = a[1] + f * (b[1] - a[1]) + 0.5
         # revolutions from the index (an index mark is at count_at_index)
         revs = (count - a[3]) / a[2]
         out.append((t, p, revs))
@@ -715,20 +732,9 @@ def spindle_accel(encoder, ts, t, half=0.012):
     if hi - lo < 5:
         return 0.0
     c0 = encoder[lo][1]
-    pts = [((e[0] - t), (e[1] - c0) / e[2]) for e in encoder[lo:hi]]
-    # normal equations of y = c0 + c1 x + c2 x^2 (x in ms)
-    sx = [sum((x * 1000.0) ** k for x, _ in pts) for k in range(5)]
-    sy = [sum(y * (x * 1000.0) ** k for x, y in pts) for k in range(3)]
-    a = [[sx[0], sx[1], sx[2]], [sx[1], sx[2], sx[3]], [sx[2], sx[3], sx[4]]]
-
-    def det(m):
-        return (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
-    d = det(a)
-    if d == 0.0:
-        return 0.0
-    c2 = det([[a[0][0], a[0][1], sy[0]], [a[1][0], a[1][1], sy[1]], [a[2][0], a[2][1], sy[2]]]) / d
-    return 2.0 * c2 * 1.0e6
+    # y = c0 + c1 x + c2 x^2 (x in ms, y in revolutions)
+    c = lsq_poly([((e[0] - t) * 1000.0, (e[1] - c0) / e[2]) for e in encoder[lo:hi]], 3)
+    return 0.0 if c is None else 2.0 * c[2] * 1.0e6
 
 
 def groove(pairs, start, pitch, start_angle, lead_deg=None):
@@ -845,17 +851,10 @@ def test_thread_the_cut_groove_stays_put_at_s200_s800_s2000_with_ripple(machine,
             b = groove_bounds(rpm)
             within = (abs(s_mean) <= b["s_mean"] and s_worst <= b["s_worst"]
                       and abs(a_mean) <= b["a_mean"] and a_spread <= b["a_spread"])
-            stalls = peer.stalls(since)
-            # readings the transport held back three periods and more: the
-            # tracker then predicts from older readings, further ahead (at
-            # S2000 with this ripple 3, 5 and 8 held back move the
-            # setpoints by 0.04, 0.07 and 0.10 deg), as a stalled simulator
-            # moves the axis
             readings = peer.job_readings(r.job_id)
             print("S%d: the job's %s" % (rpm, "cycles: %d, %d without their period's reading, the newest up to %.1f ms old"
                                          % readings if readings else "readings: no line in the node's log"))
-            if readings and readings[2] > 3.0:
-                stalls.append("cnc_node: encoder readings up to %.1f ms old at the job's cycles" % readings[2])
+            stalls = peer.stalls(since, readings)
             if within or not stalls:
                 break
             if measure == 4:

@@ -356,10 +356,11 @@ pub(super) fn control_loop(
 /// How the spindle encoder's readings reached a job's cycles: how many
 /// cycles there were, how many ran without their period's reading (the
 /// newest they had was older than a period: the cycles come half a period
-/// after the sampling, so their period's had not come yet), and the newest reading's largest age, ns. Logged at the job's
-/// end, so that a thread's measurement can tell a transport that held the
-/// readings back (the tracker then predicts from older readings, further
-/// ahead) from the controller's own error.
+/// after the sampling, so their period's had not come yet), and the
+/// newest reading's largest age, ns. Logged at the job's end, so that a
+/// thread's measurement can tell a transport that held the readings back
+/// (the tracker then predicts from older readings, further ahead) from
+/// the controller's own error.
 #[derive(Debug, Default, Clone, Copy, PartialEq)]
 struct JobReadings {
     job: u32,
@@ -485,13 +486,6 @@ impl Loop {
             }
         }
         let in_job = self.ctl.job_id() != 0;
-        if let Some(a) = self.enc_age.as_mut().filter(|_| in_job) {
-            if self.newest_enc > 0 {
-                a.record(Duration::from_nanos(
-                    (now_ns - self.newest_enc).max(0) as u64
-                ));
-            }
-        }
         if self.job_readings.job != self.ctl.job_id() {
             if let Some(line) = self.job_readings.summary(self.period_ns) {
                 ros_info!("{line}");
@@ -501,9 +495,14 @@ impl Loop {
                 ..JobReadings::default()
             };
         }
+        // the newest reading's age at a job's cycle: for loop_stats and
+        // for the job's own line
         if in_job && self.newest_enc > 0 {
-            self.job_readings
-                .record(now_ns - self.newest_enc, self.period_ns);
+            let age = now_ns - self.newest_enc;
+            if let Some(a) = self.enc_age.as_mut() {
+                a.record(Duration::from_nanos(age.max(0) as u64));
+            }
+            self.job_readings.record(age, self.period_ns);
         }
         let prev_state = self.ctl.state();
         let tick = self.ctl.tick(now_ns);
