@@ -28,8 +28,8 @@ from std_srvs.srv import Trigger
 
 from cnc_msgs.msg import ControllerStatus, SpindleEncoder
 from cnc_msgs.srv import RunProgram
-from ros_nodes import (ROOT, TARGET, build, deep_qos, domain, hearing_peer, read_mcap, sim_stall_reports, SpinningPeer,
-                       start, start_node, start_sim, stop)
+from ros_nodes import (ROOT, TARGET, build, cpu_ticks, deep_qos, domain, hearing_peer, host_stolen, read_mcap,
+                       sim_stall_reports, SpinningPeer, start, start_node, start_sim, stop)
 
 DOMAIN = domain(0)
 NS, SIM = "/cnc", "/sim"
@@ -520,7 +520,8 @@ def test_a_burst_of_1000_calls_while_a_job_runs(rig):
     grid, on the programmed line at the programmed speed during the burst;
     the loop's wake-ups as before."""
     peer = rig.peer
-    for attempt in range(2):
+    held = []
+    for attempt in range(3):
         # 490 mm at 1200 mm/min (24.5 s, longer than the burst takes on a
         # busy machine), recorded; aborted after the burst
         r = peer.run_program("N10 G00 X10 Y10 Z5\nN20 G01 X500 F1200\nN30 M30\n", record=True)
@@ -528,6 +529,7 @@ def test_a_burst_of_1000_calls_while_a_job_runs(rig):
         job = r.job_id
         peer.wait_for("line 2", lambda: any(m.job_id == job and m.source_line == 2 for _, m in peer.status))
         late0 = late_wakeups(rig)
+        ticks, sim_since = cpu_ticks(), os.path.getsize(rig.sim_log)
         env = dict(os.environ, ROS_DOMAIN_ID=DOMAIN)
         # 4 clients, 8 calls in flight each; every reply reaches every
         # client (DDS request/reply), so they keep 100 (rclpy's 10 lost some)
@@ -536,18 +538,34 @@ def test_a_burst_of_1000_calls_while_a_job_runs(rig):
         assert p.returncode == 0, p.stderr
         res = json.loads(p.stdout.strip().splitlines()[-1])
         late, cycles = late_during(rig, late0)
+        stolen = host_stolen(ticks)
         print("burst: %d calls answered in %.2f s, %s" % (res["answered"], res["t1"] - res["t0"], res["messages"]))
         a = peer.call(peer.abort, Trigger.Request(), timeout=60.0)
         assert a.success, a.message
         st = peer.final_status(job, timeout=30)
-        if attempt == 0 and "the control loop fell" in st.last_error:
-            # the loop, at SCHED_FIFO, held up 200 ms: once in a CI run on
-            # a VM with 5-14 % steal time (its p99.9 lateness was 2.5 ms
-            # over the whole module); a second stall fails
-            print("attempt 1 ended with %r; again" % st.last_error)
-            rig.log_start = len(rig.node_stderr())
-            continue
-        break
+        # the loop's own wake-ups (--loop-stats) over the burst and a
+        # second either side: a stalled loop would be late at every one;
+        # this VM's kernel (PREEMPT_NONE) holds up even a SCHED_FIFO thread
+        # now and then while others work (measured: 0-1 in 4000 when the
+        # machine is idle, 35 in 6000 while another test suite ran), so
+        # up to 5 % pass. The loop kept time unless the host held the
+        # whole VM up: the loop fell 200 ms and 969 ms behind, and 721 of
+        # 5611 wake-ups came late, in CI runs on VMs with 5-14 % steal
+        # time; such a run goes again, three at most, and when each was
+        # held up so, the test skips (it measured the host). One off
+        # without the host's hold-up fails.
+        off = ("ended with %r" % st.last_error if "the control loop fell" in st.last_error
+               else "%d of %d wake-ups later than 1 ms" % (late, cycles) if late > 0.05 * cycles else "")
+        print("control loop: %d of %d wake-ups later than 1 ms over the burst" % (late, cycles))
+        if not off:
+            break
+        evidence = ([stolen] if stolen else []) + sim_stall_reports(rig.sim_log, sim_since, wait=1.5)
+        print("attempt %d: %s; the host: %s" % (attempt + 1, off, evidence))
+        assert evidence, "%s, and neither the hypervisor nor the simulator held the nodes up" % off
+        held.append("%s (%s)" % (off, evidence[0]))
+        rig.log_start = len(rig.node_stderr())
+    else:
+        pytest.skip("three runs, each while the host held the nodes up: %s" % "; ".join(held))
     assert "aborted" in st.last_error, st.last_error
     assert res["sent"] == 1000 and res["answered"] == 1000, res
     assert res["messages"] == {BUSY % job: 1000}, res["messages"]
@@ -588,13 +606,6 @@ def test_a_burst_of_1000_calls_while_a_job_runs(rig):
     print("recording: %d samples on the grid; %d during the burst, X steps %s mm"
           % (len(ns), len(xs), sorted(set(steps))))
     assert len(xs) > 300 and set(steps) == {0.02}, sorted(set(steps))[:5]
-    # the loop's own wake-ups (--loop-stats) over the burst and a second
-    # either side: a stalled loop would be late at every one; this VM's
-    # kernel (PREEMPT_NONE) holds up even a SCHED_FIFO thread now and then
-    # while others work (measured: 0-1 in 4000 when the machine is idle,
-    # 35 in 6000 while another test suite ran)
-    print("control loop: %d of %d wake-ups later than 1 ms over the burst" % (late, cycles))
-    assert late <= 0.05 * cycles, (late, cycles)
     rig.assert_node_healthy()
 
 
