@@ -642,7 +642,8 @@ def dds_against_offline(peer, tmp_path, delay_ms):
     assert len(diffs) > len(job) - delay_ms - 5, (len(diffs), len(job))
     assert len(diffs) > 2000, len(diffs)
     p90 = diffs[int(0.9 * (len(diffs) - 1))]
-    print("DDS actual against offline: %d samples (%d lost on the way), p50 %.4f p90 %.4f p99 %.4f p99.9 %.4f µm, max %.4f µm" % (
+    print("DDS actual against offline: %d samples (%d lost on the way), "
+          "p50 %.4f p90 %.4f p99 %.4f p99.9 %.4f µm, max %.4f µm" % (
         (len(diffs), missing) + tuple(diffs[int(q * (len(diffs) - 1))] * 1000 for q in (0.5, 0.9, 0.99, 0.999, 1.0))))
     # (debug builds in this suite: p90 0.007-0.01 µm, p99 0.02-0.09 µm,
     # max 0.7-3.5 µm where setpoints came late; a simulator that applied

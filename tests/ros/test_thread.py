@@ -30,8 +30,8 @@ from std_srvs.srv import SetBool
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram, SetDelay
-from ros_nodes import (ROOT, TARGET, build, domain, hearing_peer, host_watch, read_mcap, sim_stall_reports,
-                       SpinningPeer, stamp_s, start, stop)
+from ros_nodes import (ROOT, TARGET, build, cpu_ticks, domain, hearing_peer, host_stolen, host_watch, read_mcap,
+                       sim_stall_reports, SpinningPeer, stamp_s, start, stop)
 
 DOMAIN = domain(3)
 NS, SIM = "/cnc", "/sim"
@@ -264,20 +264,24 @@ class Peer(SpinningPeer):
 
     def mark(self):
         """Where the evidence of stalls starts: (the simulator's log size,
-        monotonic time)."""
-        return self.log_size(), time.monotonic()
+        monotonic time, the host's CPU ticks)."""
+        return self.log_size(), time.monotonic(), cpu_ticks()
 
     def stalls(self, mark, readings=None):
         """Stalls since `mark`: the simulator's reports, then the host's
-        hold-ups this process saw itself (`HostWatch`), then, given a job's
+        hold-ups this process saw itself (`HostWatch`), then the
+        hypervisor's stolen time over 1 % (`host_stolen`), then, given a job's
         `readings` (`job_readings`), the node's readings held back over
         HELD_BACK_MS: the tracker then predicts from older readings,
         further ahead (at S2000 with ±2 % ripple 3, 5 and 8 held back move
         the setpoints by 0.04, 0.07 and 0.10 deg), as a stalled simulator
         moves the axis."""
-        size, t = mark
+        size, t, ticks = mark
         out = sim_stall_reports(self.sim_log, size) + ["the host held this test up for %.0f ms" % (g * 1000.0)
                                                        for g in self.watch.since(t)]
+        stolen = host_stolen(ticks)
+        if stolen:
+            out.append(stolen)
         if readings and readings[2] > HELD_BACK_MS:
             out.append("cnc_node: encoder readings up to %.1f ms old at the job's cycles (%d of %d without their "
                        "period's reading)" % (readings[2], readings[1], readings[0]))
