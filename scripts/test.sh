@@ -28,4 +28,4 @@ bash scripts/ros_peer/setup.sh
 cargo test --workspace --locked --no-run
 # (one line a failure, with what the test printed: all of them fit in a
 # CI log that is cut)
-CNC_SKIP_BUILD=1 python3 -m pytest tests/ros tests/mcap -q -p no:cacheprovider --tb=line -rfE
+CNC_SKIP_BUILD=1 python3 -m pytest tests/ros tests/mcap -q -p no:cacheprovider --tb=line -rfEs
