@@ -913,8 +913,10 @@ def test_thread_setpoint_delay_raised_mid_job_stops_the_thread_with_a_clear_erro
     setpoints within the axis's speed and acceleration) and ends the job
     in error saying so."""
     peer = machine
+    held = []
     for attempt in range(3):
         peer.to_thread_start()
+        since = peer.mark()
         r = peer.run_program(GROOVE % 800)
         assert r.accepted, r.message
         z = wait_lead_past(peer, r.job_id, 1, -0.010)
@@ -930,10 +932,26 @@ def test_thread_setpoint_delay_raised_mid_job_stops_the_thread_with_a_clear_erro
         if st.state == IDLE:
             print("attempt %d: the delay changed only after the thread; again" % (attempt + 1))
             continue
+        sps, enc, rec_spin, act = peer.recording(r, actual=True)
+        # before the change the actual tool was in the groove (-2.6 deg
+        # once, in a run whose host held the simulator up for 8-25 ms at a
+        # time: such a run goes again, and when every one was held up so
+        # the test skips; out without a stall fails)
+        ac = pairs_at(act, enc, 1, 5.0, -9.0, -2.0, ahead=0.0)
+        a_mean, _, _, _ = groove(ac, 5.0, 1.5, 90.0)
+        print("actual groove before the change: %+.3f deg (%d points)" % (a_mean, len(ac)))
+        if abs(a_mean) > 0.5:
+            stalls = peer.stalls(since, peer.job_readings(r.job_id))
+            print("attempt %d: the groove %+.3f deg off before the change; the host: %s"
+                  % (attempt + 1, a_mean, stalls))
+            assert stalls, a_mean
+            held.append("%+.3f deg (%s)" % (a_mean, stalls[0]))
+            continue
         break
     else:
+        if len(held) == 3:
+            pytest.skip("three runs, each off while the host held the nodes up: %s" % "; ".join(held))
         raise AssertionError("three attempts, none changed the delay during the thread")
-    sps, enc, rec_spin, act = peer.recording(r, actual=True)
     print("status: %s" % st.last_error)
     assert st.state == ERROR, (st.state, st.last_error)
     m = re.match(r"^line 3: the Z axis is (\d+\.\d)° behind the thread line: the machine follows its setpoints "
@@ -955,10 +973,5 @@ def test_thread_setpoint_delay_raised_mid_job_stops_the_thread_with_a_clear_erro
     assert acc <= 2500.0 * 1.001, acc
     z_end = zs[-1][1]
     assert -40.0 < z_end < -10.0, z_end
-    # before the change the actual tool was in the groove
-    ac = pairs_at(act, enc, 1, 5.0, -9.0, -2.0, ahead=0.0)
-    a_mean, _, _, _ = groove(ac, 5.0, 1.5, 90.0)
-    print("actual groove before the change: %+.3f deg (%d points)" % (a_mean, len(ac)))
-    assert abs(a_mean) <= 0.5, a_mean
     # the node goes on: the next thread, at the delay restored, cuts in the groove
     peer.to_thread_start()
