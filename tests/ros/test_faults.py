@@ -723,6 +723,9 @@ def test_simulator_killed_during_a_g95_move_ends_the_job_with_the_encoder_lost(r
         stalls = sim_stall_reports(rig.sim_log, since, wait=1.5)
         assert stalls, "%s, and the simulator reported no stall" % mine[-1].last_error
         print("attempt %d: %r after the simulator %s; again" % (attempt + 1, mine[-1].last_error, stalls[-1]))
+    else:
+        pytest.skip("three runs, each stopped while the host held the simulator up (the last: %r after %s)"
+                    % (mine[-1].last_error, stalls[-1]))
     rig.kill_sim()
     t_kill = time.time()
     try:

