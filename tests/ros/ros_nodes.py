@@ -104,6 +104,15 @@ def host_stolen(mark, threshold=0.01):
     return "the hypervisor took %.1f %% of the CPUs' time (steal)" % (100.0 * stolen / total)
 
 
+def host_holdups(sim_log, since, ticks, wait=0.0):
+    """Evidence that the host held the nodes up since the simulator's
+    stderr `sim_log` was `since` bytes long and the CPU ticks were `ticks`
+    (a `cpu_ticks()`): the hypervisor's stolen time (`host_stolen`), then
+    the simulator's stall reports (`sim_stall_reports`, `wait` as there)."""
+    stolen = host_stolen(ticks)
+    return ([stolen] if stolen else []) + sim_stall_reports(sim_log, since, wait=wait)
+
+
 def deep_qos():
     """Reliable, the last 1000 samples: a 1 kHz topic's samples wait in
     the reader for a peer's thread that the machine's load holds back

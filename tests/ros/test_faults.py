@@ -538,6 +538,7 @@ def test_a_burst_of_1000_calls_while_a_job_runs(rig):
         assert p.returncode == 0, p.stderr
         res = json.loads(p.stdout.strip().splitlines()[-1])
         late, cycles = late_during(rig, late0)
+        # (the stolen share over the burst itself, not the abort after it)
         stolen = host_stolen(ticks)
         print("burst: %d calls answered in %.2f s, %s" % (res["answered"], res["t1"] - res["t0"], res["messages"]))
         a = peer.call(peer.abort, Trigger.Request(), timeout=60.0)

@@ -16,8 +16,8 @@ from std_srvs.srv import SetBool, Trigger
 
 from cnc_msgs.msg import ControllerStatus
 from cnc_msgs.srv import RunProgram, SetDelay
-from ros_nodes import (ROOT, TARGET, build, cpu_ticks, deep_qos, domain, hearing_peer, host_stolen, read_mcap,
-                       sim_stall_reports, SpinningPeer, stamp_s, start, stop)
+from ros_nodes import (ROOT, TARGET, build, cpu_ticks, deep_qos, domain, hearing_peer, host_holdups, read_mcap,
+                       SpinningPeer, stamp_s, start, stop)
 
 DOMAIN = domain(1)
 NS = "/cnc"
@@ -566,8 +566,7 @@ def test_the_simulated_axes_over_dds_move_as_the_offline_simulation(peer, tmp_pa
             off = dds_against_offline(peer, tmp_path, delay_ms)
             if not off:
                 break
-            stolen = host_stolen(ticks)
-            held = ([stolen] if stolen else []) + sim_stall_reports(SIM_LOG, since, wait=1.5)
+            held = host_holdups(SIM_LOG, since, ticks, wait=1.5)
             print("run %d: %s; the host: %s" % (attempt + 1, off, held))
             assert held, "%s, and neither the hypervisor nor the simulator held the nodes up" % off
             offs.append("%s (%s)" % (off, held[0]))
