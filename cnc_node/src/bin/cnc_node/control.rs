@@ -240,7 +240,9 @@ pub(super) fn control_loop(
     let period = Duration::from_secs_f64(dt);
     let mut lateness = ros::Lateness::new();
     let mut stats_due = Instant::now() + stats.unwrap_or_default();
-    let mut grid = Grid::new(Instant::now() + period, dt);
+    // (a cycle computes from its stamp, so it may run when the sleep ends,
+    // a few tens of µs early, instead of spinning to its instant)
+    let mut grid = Grid::new(Instant::now() + period, dt).running_early();
     let mut clock = WallClock::new();
     let has_spindle = machine.spindle.is_some();
     let mut lp = Loop {
@@ -290,7 +292,8 @@ pub(super) fn control_loop(
         if stats.is_some() {
             lateness.record(now.saturating_duration_since(deadline));
         }
-        let mut due = grid.due(now);
+        // (woken early, the cycle it woke for is due)
+        let mut due = grid.due(now.max(deadline));
         if (due + 1).saturating_sub(intended) as f64 * dt > MAX_BEHIND_S {
             ros_error!(
                 "the control loop fell {:.0} ms behind; {} cycles skipped",
