@@ -21,9 +21,11 @@ pub struct Grid {
     /// the margin's bound, ns ([`MAX_SPIN`], or 0 for a grid that only
     /// sleeps)
     max_spin_ns: f64,
-    /// whether a wait spins from the sleep's end to the instant; a grid
-    /// that runs early ([`Grid::running_early`]) returns at the sleep's end
-    spin: bool,
+    /// how long before the instant a wait may return, ns: 0 (it spins
+    /// from the sleep's end to the instant), or for a grid that runs early
+    /// ([`Grid::running_early`]) up to a quarter period, spinning only what
+    /// the margin leaves beyond that
+    early_ns: f64,
     last_wake: Option<Instant>,
 }
 
@@ -49,7 +51,7 @@ impl Grid {
             next: 0,
             margin_ns: 50_000.0,
             max_spin_ns: MAX_SPIN.as_nanos() as f64,
-            spin: true,
+            early_ns: 0.0,
             last_wake: None,
         }
     }
@@ -61,13 +63,19 @@ impl Grid {
     /// controller): nine wake-ups in ten then come a few tens of µs before
     /// the instant and the rest as late as a spinning grid's, so the
     /// lateness past the instant is the same, without the spin (most of a
-    /// 1 kHz loop's CPU time). The margin stays within a quarter period, so
-    /// a cycle never runs before the one ahead of it was meant to.
+    /// 1 kHz loop's CPU time). A wait returns at most a quarter period
+    /// early, so a cycle never runs before the one ahead of it was meant
+    /// to; where the margin is larger (rates over 1.6 kHz), the rest is
+    /// spun as before.
     pub fn running_early(mut self) -> Self {
-        self.spin = false;
-        self.max_spin_ns = self.max_spin_ns.min(0.25 * self.dt * 1e9);
-        self.margin_ns = self.margin_ns.min(self.max_spin_ns);
+        self.early_ns = (0.25 * self.dt * 1e9).min(self.max_spin_ns);
         self
+    }
+
+    /// How long before an instant a wait may return at most (zero unless
+    /// the grid runs early).
+    pub fn early(&self) -> Duration {
+        Duration::from_nanos(self.early_ns as u64)
     }
 
     /// The same grid, but its waits only sleep (no spin): wake-ups end some
@@ -148,7 +156,8 @@ impl Grid {
     /// loop at rest that runs the cycles in between at once, see
     /// [`Pace::next_due`]) and returns it, as [`Grid::wait`]. A grid
     /// running early ([`Grid::running_early`]) returns when its sleep ends,
-    /// which may be up to its margin before that instant.
+    /// which may be up to its margin (at most a quarter period) before
+    /// that instant.
     pub fn wait_for(&mut self, n: u64) -> Instant {
         let deadline = self.at(n.max(self.next));
         let mut until = deadline;
@@ -168,7 +177,8 @@ impl Grid {
             }
             .clamp(0.0, self.max_spin_ns);
         }
-        while self.spin && Instant::now() < until {
+        let early = Duration::from_nanos(self.early_ns as u64);
+        while Instant::now() + early < until {
             std::hint::spin_loop();
         }
         self.last_wake = Some(Instant::now());
@@ -477,11 +487,18 @@ mod tests {
     #[test]
     fn a_grid_running_early_returns_within_its_margin_of_the_instant() {
         let o = Instant::now() + Duration::from_millis(1);
-        // at 10 kHz the margin stays within a quarter period (25 µs)
-        let g = Grid::new(o, 0.0001).running_early();
-        assert_eq!(g.margin(), Duration::from_micros(25));
+        // at most a quarter period early: at 10 kHz 25 µs (the rest of the
+        // margin is spun), at 1 kHz the whole margin (at most 150 µs)
+        let mut g = Grid::new(o, 0.0001).running_early();
+        assert_eq!(g.early(), Duration::from_micros(25));
+        for n in 0..100 {
+            assert_eq!(g.wait(), g.at(n));
+            assert!(Instant::now() + g.early() >= g.at(n));
+            g.advance();
+        }
+        assert_eq!(Grid::new(o, 0.001).early(), Duration::ZERO);
         let mut g = Grid::new(o, 0.001).running_early();
-        assert_eq!(g.margin(), Duration::from_micros(50));
+        assert_eq!(g.early(), MAX_SPIN);
         // woken before its instant, the cycle is not due yet by the clock:
         // the loop asks at the instant it woke for
         let at = g.at(0);
