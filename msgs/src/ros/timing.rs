@@ -29,8 +29,9 @@ pub struct Grid {
     last_wake: Option<Instant>,
 }
 
-/// The longest a [`Grid`] wakes before an instant (its margin's bound):
-/// it spins that long at most, or runs its cycle that early.
+/// The longest a [`Grid`] wakes before an instant (its margin's bound,
+/// and at most half a period): it spins that long at most, or runs its
+/// cycle that early.
 pub const MAX_SPIN: Duration = Duration::from_micros(150);
 /// The share of a [`Grid`]'s sleeps that end before the instant they wake
 /// for: its margin follows this quantile of the sleep's lateness.
@@ -49,8 +50,10 @@ impl Grid {
             origin,
             dt,
             next: 0,
-            margin_ns: 50_000.0,
-            max_spin_ns: MAX_SPIN.as_nanos() as f64,
+            margin_ns: (50_000.0f64).min(0.5 * dt * 1e9),
+            // (at most half a period: a loop at several kHz spun all the
+            // time, its margin a whole period)
+            max_spin_ns: (MAX_SPIN.as_nanos() as f64).min(0.5 * dt * 1e9),
             early_ns: 0.0,
             last_wake: None,
         }
@@ -495,6 +498,8 @@ mod tests {
             assert_eq!(g.wait(), g.at(n));
             assert!(Instant::now() + g.early() >= g.at(n));
             g.advance();
+            // (the margin within half a period)
+            assert!(g.margin() <= Duration::from_micros(50));
         }
         assert_eq!(Grid::new(o, 0.001).early(), Duration::ZERO);
         let mut g = Grid::new(o, 0.001).running_early();
