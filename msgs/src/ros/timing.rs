@@ -21,11 +21,11 @@ pub struct Grid {
     /// the margin's bound, ns ([`MAX_SPIN`], or 0 for a grid that only
     /// sleeps)
     max_spin_ns: f64,
-    /// how long before the instant a wait may return, ns: 0 (it spins
+    /// how long before the instant a wait may return: zero (it spins
     /// from the sleep's end to the instant), or for a grid that runs early
     /// ([`Grid::running_early`]) up to a quarter period, spinning only what
     /// the margin leaves beyond that
-    early_ns: f64,
+    early: Duration,
     last_wake: Option<Instant>,
 }
 
@@ -46,15 +46,16 @@ impl Grid {
         unsafe {
             libc::prctl(libc::PR_SET_TIMERSLACK, 1 as libc::c_ulong, 0, 0, 0);
         }
+        // (at most half a period: a loop at several kHz spun all the time,
+        // its margin a whole period)
+        let max_spin_ns = (MAX_SPIN.as_nanos() as f64).min(0.5 * dt * 1e9);
         Grid {
             origin,
             dt,
             next: 0,
-            margin_ns: (50_000.0f64).min(0.5 * dt * 1e9),
-            // (at most half a period: a loop at several kHz spun all the
-            // time, its margin a whole period)
-            max_spin_ns: (MAX_SPIN.as_nanos() as f64).min(0.5 * dt * 1e9),
-            early_ns: 0.0,
+            margin_ns: max_spin_ns.min(50_000.0),
+            max_spin_ns,
+            early: Duration::ZERO,
             last_wake: None,
         }
     }
@@ -71,14 +72,14 @@ impl Grid {
     /// to; where the margin is larger (rates over 1.6 kHz), the rest is
     /// spun as before.
     pub fn running_early(mut self) -> Self {
-        self.early_ns = (0.25 * self.dt * 1e9).min(self.max_spin_ns);
+        self.early = Duration::from_nanos((0.25 * self.dt * 1e9).min(self.max_spin_ns) as u64);
         self
     }
 
     /// How long before an instant a wait may return at most (zero unless
     /// the grid runs early).
     pub fn early(&self) -> Duration {
-        Duration::from_nanos(self.early_ns as u64)
+        self.early
     }
 
     /// The same grid, but its waits only sleep (no spin): wake-ups end some
@@ -180,8 +181,7 @@ impl Grid {
             }
             .clamp(0.0, self.max_spin_ns);
         }
-        let early = Duration::from_nanos(self.early_ns as u64);
-        while Instant::now() + early < until {
+        while Instant::now() + self.early < until {
             std::hint::spin_loop();
         }
         self.last_wake = Some(Instant::now());
