@@ -543,6 +543,16 @@ impl Controller {
     }
 
     /// Ends the job in the error state (lost signal, fault).
+    /// Ends the running job where it stands, in the error state, for a
+    /// reason the control loop found (`why`, completed by the line and
+    /// "the job ended where it stood"); nothing without a job.
+    pub fn end_job(&mut self, why: &str) {
+        if self.job.is_some() {
+            let why = format!("line {}: {why}; the job ended where it stood", self.line);
+            self.fail(why);
+        }
+    }
+
     pub fn fail(&mut self, why: String) {
         self.job = None;
         self.state = State::Error;

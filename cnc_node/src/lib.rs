@@ -19,4 +19,5 @@ pub mod plot;
 pub mod program;
 pub mod record;
 pub mod recover;
+pub mod rt_queue;
 pub mod urdf;

@@ -14,7 +14,7 @@ mod pace;
 pub mod shutdown;
 mod timing;
 pub use pace::{Pace, LINGER_S, REST_RATE_HZ};
-pub use timing::{Grid, Lateness, WallClock, MAX_SPIN};
+pub use timing::{thread_cpu_time, Grid, Lateness, WallClock, MAX_SPIN};
 
 /// The domain from `ROS_DOMAIN_ID` (0 if unset or invalid).
 pub fn domain_from_env() -> u16 {

@@ -44,9 +44,10 @@ use cnc_node::files::load_machine;
 use cnc_node::observe::{self, Observer};
 use cnc_node::params::{self as node_params, Args, Live, Setup};
 use cnc_node::record::JobRecorder;
+use cnc_node::rt_queue::{self, CmdTx, Gone};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
-use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
+use std::sync::mpsc::{self, Receiver, Sender};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -179,20 +180,23 @@ fn run(setup: Setup) -> Result<(), String> {
     // a request is being checked: the loop publishes every cycle meanwhile
     let checking = Arc::new(AtomicBool::new(false));
 
-    let (cmd_tx, cmd_rx) = mpsc::channel::<Cmd>();
-    let (out_tx, out_rx) = mpsc::sync_channel::<Out>(8192);
+    // (between the control loop and the threads below it, queues that
+    // never make the loop wait: rt_queue.rs)
+    let (cmd_tx, cmd_rx) = rt_queue::commands::<Cmd>();
+    let (out_tx, mut out_rx) = rt_queue::spsc::<Out>(8192);
+    let out_tx = out_tx.wake(std::thread::current());
     let (chk_tx, chk_rx) = mpsc::channel();
     let (resp_tx, resp_rx) = mpsc::channel();
     // the encoder readings the control loop takes, on to this thread for
     // the observer and recordings: bounded, never blocking
-    let (enc_rec_tx, enc_rec_rx) = mpsc::sync_channel::<SpindleEncoder>(256);
+    let (enc_rec_tx, mut enc_rec_rx) = rt_queue::spsc::<SpindleEncoder>(256);
     let readings = Readings {
         sub: sub_enc,
         to_dds: enc_rec_tx,
     };
     // the machine's joint states to the control loop (a thread's phase
     // is watched against them): bounded, never blocking
-    let (act_tx, act_rx) = mpsc::sync_channel::<ActualSample>(256);
+    let (mut act_tx, act_rx) = rt_queue::spsc::<ActualSample>(256);
     let names: Vec<String> = machine.axes.iter().map(|a| a.name.clone()).collect();
     let commands = Commands::new(pub_set, pub_spin, names.clone(), machine.dt());
     {
@@ -314,7 +318,7 @@ fn run(setup: Setup) -> Result<(), String> {
                 Asker::Goal(goal) => action.checked(goal, resp),
             }
         }
-        while let Ok(m) = enc_rec_rx.try_recv() {
+        while let Ok(Some(m)) = enc_rec_rx.pop() {
             obs.encoder(&m);
             recording.send(Msg::Encoder(m));
         }
@@ -337,7 +341,7 @@ fn run(setup: Setup) -> Result<(), String> {
                 }
             }
             if all {
-                let _ = act_tx.try_send(a);
+                act_tx.push(a);
             }
             recording.send(Msg::Joints(m));
         }
@@ -346,7 +350,7 @@ fn run(setup: Setup) -> Result<(), String> {
         // REST_WAIT; while they come every cycle, it takes those of
         // SERVICE_POLL at a time (below)
         let mut streaming = false;
-        drain(&out_rx, REST_WAIT, |mut o| {
+        drain(&mut out_rx, REST_WAIT, |mut o| {
             let ns = time_ns(&o.stamp);
             streaming |= ns - last_stamp < STREAMING_GAP_NS;
             last_stamp = ns;
@@ -394,28 +398,16 @@ fn run(setup: Setup) -> Result<(), String> {
     }
 }
 
-/// The control loop's end (its sender was dropped).
-#[derive(Debug, PartialEq)]
-struct LoopGone;
-
 /// Hands `f` every sample waiting on `rx`, in order, after waiting up to
-/// `wait` for the first. The loop's end is told by the channel's answer to
-/// a receive that found nothing: a receive made only to ask would take,
-/// and lose, a sample sent just before it (the recordings lacked one
-/// sample now and then, tests/ros/test_faults.py).
-fn drain<T>(rx: &Receiver<T>, wait: Duration, mut f: impl FnMut(T)) -> Result<(), LoopGone> {
-    let mut next = match rx.recv_timeout(wait) {
-        Ok(o) => Some(o),
-        Err(RecvTimeoutError::Timeout) => None,
-        Err(RecvTimeoutError::Disconnected) => return Err(LoopGone),
-    };
+/// `wait` for the first; Err once the control loop is gone and its last
+/// sample was handed on (rt_queue.rs: the end is told only by a queue
+/// found empty, so a sample pushed just before it is never lost; the
+/// recordings lacked one sample now and then, tests/ros/test_faults.py).
+fn drain<T>(rx: &mut rt_queue::Rx<T>, wait: Duration, mut f: impl FnMut(T)) -> Result<(), Gone> {
+    let mut next = rx.wait(wait)?;
     while let Some(o) = next {
         f(o);
-        next = match rx.try_recv() {
-            Ok(o) => Some(o),
-            Err(TryRecvError::Empty) => None,
-            Err(TryRecvError::Disconnected) => return Err(LoopGone),
-        };
+        next = rx.pop()?;
     }
     Ok(())
 }
@@ -445,7 +437,7 @@ const REST_WAIT: Duration = Duration::from_micros((1e6 / ros::REST_RATE_HZ) as u
 
 /// Sends a command to the control loop and waits (briefly) for its answer.
 fn ask(
-    cmds: &Sender<Cmd>,
+    cmds: &CmdTx<Cmd>,
     make: impl FnOnce(Sender<Result<String, String>>) -> Cmd,
 ) -> (bool, String) {
     let (tx, rx) = mpsc::channel();
@@ -480,7 +472,7 @@ fn check_worker(
     live: Arc<Live>,
     reqs: Receiver<(Asker, RunProgramRequest)>,
     resps: Sender<(Asker, RunProgramResponse)>,
-    cmds: Sender<Cmd>,
+    cmds: CmdTx<Cmd>,
     here: Arc<[AtomicU64; 3]>,
     checking: Arc<AtomicBool>,
 ) {
@@ -505,7 +497,7 @@ fn handle_run(
     rec_opts: &RecordOpts,
     req: &RunProgramRequest,
     next_id: &mut u32,
-    cmds: &Sender<Cmd>,
+    cmds: &CmdTx<Cmd>,
     here: &Arc<[AtomicU64; 3]>,
 ) -> RunProgramResponse {
     // checked from where the machine stands now; the job carries that
@@ -550,24 +542,28 @@ fn handle_run(
 
 #[cfg(test)]
 mod tests {
-    use super::{drain, LoopGone};
-    use std::sync::mpsc;
+    use super::drain;
+    use cnc_node::rt_queue::{self, Gone};
     use std::time::Duration;
 
-    /// A producer as fast as it goes (the control loop catching up) and a
-    /// consumer draining as the node's DDS thread does: every sample
-    /// arrives once, in order, and the end is told after the last. (The
-    /// drain that asked for the end with one more `try_recv` lost a
-    /// sample in most runs of this test.)
+    /// A producer as fast as it goes (the control loop catching up, waiting
+    /// when the queue is full) and a consumer draining as the node's DDS
+    /// thread does: every sample arrives once, in order, and the end is
+    /// told after the last. (A drain that asked for the end with one more
+    /// receive lost a sample in most runs of this test.)
     #[test]
     fn every_sample_of_the_loop_is_handed_on_in_order() {
         for round in 0..20 {
             let n = 50_000u64;
-            let (tx, rx) = mpsc::sync_channel::<u64>(8192);
+            let (tx, mut rx) = rt_queue::spsc::<u64>(8192);
+            let mut tx = tx.wake(std::thread::current());
             let producer = std::thread::spawn(move || {
-                for k in 0..n {
-                    if tx.send(k).is_err() {
-                        return;
+                let mut k = 0;
+                while k < n {
+                    if tx.push(k) {
+                        k += 1;
+                    } else {
+                        std::thread::yield_now();
                     }
                     if k % 97 == 0 {
                         std::thread::yield_now();
@@ -576,12 +572,12 @@ mod tests {
             });
             let mut got = Vec::with_capacity(n as usize);
             let end = loop {
-                if let Err(e) = drain(&rx, Duration::from_millis(2), |k| got.push(k)) {
+                if let Err(e) = drain(&mut rx, Duration::from_millis(2), |k| got.push(k)) {
                     break e;
                 }
             };
             producer.join().expect("producer");
-            assert_eq!(end, LoopGone);
+            assert_eq!(end, Gone::Gone);
             assert_eq!(got.len() as u64, n, "round {round}");
             assert!(
                 got.iter().enumerate().all(|(i, &k)| i as u64 == k),

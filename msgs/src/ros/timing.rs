@@ -194,6 +194,27 @@ impl Grid {
     }
 }
 
+/// The CPU time the calling thread has used (`CLOCK_THREAD_CPUTIME_ID`:
+/// user and kernel, its sleeps' switches included): a real-time loop
+/// checks with it that it leaves its CPU to the threads below it. A
+/// system call, so for a check now and then, not every cycle.
+pub fn thread_cpu_time() -> Duration {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: clock_gettime writes one timespec, which `ts` is; the clock
+    // is the calling thread's own and always there on Linux.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    if rc != 0 {
+        return Duration::ZERO;
+    }
+    Duration::new(
+        ts.tv_sec.max(0) as u64,
+        ts.tv_nsec.clamp(0, 999_999_999) as u32,
+    )
+}
+
 /// Maps instants of the monotonic clock to the system (wall) clock, the
 /// clock ROS stamps are in. Loops stamp their cycles with their grid
 /// instants this way, so stamps are exactly a period apart whatever the
@@ -462,6 +483,26 @@ mod tests {
         assert_eq!(g.wait_for(n), g.at(n));
         assert!(Instant::now() >= g.at(n));
         assert!(g.due(Instant::now()) > n - g.next());
+    }
+
+    #[test]
+    fn a_thread_s_cpu_time_counts_its_work_not_its_sleep() {
+        let c0 = thread_cpu_time();
+        let t0 = Instant::now();
+        std::thread::sleep(Duration::from_millis(100));
+        let slept = thread_cpu_time() - c0;
+        // a sleep of 100 ms costs the thread its two switches, not 100 ms
+        assert!(slept < Duration::from_millis(20), "{slept:?}");
+        // spinning 50 ms of wall time: the thread ran for at least a
+        // part of it (all of it unless the host took its CPU)
+        let c1 = thread_cpu_time();
+        let t1 = Instant::now();
+        while t1.elapsed() < Duration::from_millis(50) {
+            std::hint::spin_loop();
+        }
+        let spun = thread_cpu_time() - c1;
+        assert!(spun > Duration::from_millis(5), "{spun:?}");
+        assert!(spun <= t0.elapsed(), "{spun:?}");
     }
 
     #[test]

@@ -13,8 +13,9 @@ use cnc_node::controller::{ActualSample, Controller, EncoderSample, Job, Tick};
 use cnc_node::convert::{self, time_ns};
 use cnc_node::diagnostics::LOOP;
 use cnc_node::params::Live;
+use cnc_node::rt_queue::{self, CmdRx, NoCmd};
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
-use std::sync::mpsc::{Receiver, Sender, SyncSender, TryRecvError};
+use std::sync::mpsc::Sender;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -27,6 +28,88 @@ const CATCH_UP: u64 = 2;
 /// A loop further behind than this skips the missed cycles; a running job
 /// then ends where it stands, in the error state (its time base is lost).
 const MAX_BEHIND_S: f64 = 0.2;
+/// How long a loop that fell [`MAX_BEHIND_S`] behind gives way, s: it
+/// cannot keep its rate here (a host hold-up, or cycles that cost more
+/// than their period), and at real-time priority it would otherwise hold
+/// its CPU catching up and starve the node's own threads (DDS, the check,
+/// shutdown) below it. See [`GiveWay`].
+const GIVE_WAY_S: f64 = 1.0;
+
+/// A loop must leave its CPU this share of the time at least, over each
+/// [`IDLE_WINDOW_S`] (its thread's CPU time against the wall time): one
+/// that leaves less cannot keep its rate here (its cycles and the
+/// switches of its sleeps take about their whole period, or it is behind
+/// and catching up without a sleep), and its real-time priority would
+/// starve the threads below it, so it gives way. A healthy loop leaves
+/// most of each period (at 1 kHz over 90 %).
+const MIN_IDLE_SHARE: f64 = 0.1;
+/// The window the idle share is taken over, s: twice [`MAX_BEHIND_S`], so
+/// that a host holding the loop up in one piece for that long has
+/// already made it fall behind.
+const IDLE_WINDOW_S: f64 = 2.0 * MAX_BEHIND_S;
+
+/// The share of the wall time a thread left its CPU over consecutive
+/// windows of [`IDLE_WINDOW_S`], from its CPU time
+/// (`ros::thread_cpu_time`, asked for once a window).
+#[derive(Debug, Clone, Copy)]
+struct IdleShare {
+    start: Instant,
+    cpu: Duration,
+}
+
+impl IdleShare {
+    fn new(now: Instant, cpu: Duration) -> Self {
+        IdleShare { start: now, cpu }
+    }
+
+    /// At `now`: the share of the window just ended, with the thread's
+    /// CPU time in all from `cpu` (the next window starts), or None while
+    /// it lasts.
+    fn check(&mut self, now: Instant, cpu: impl FnOnce() -> Duration) -> Option<f64> {
+        let over = now.saturating_duration_since(self.start);
+        if over.as_secs_f64() < IDLE_WINDOW_S {
+            return None;
+        }
+        let cpu = cpu();
+        let used = cpu.saturating_sub(self.cpu).as_secs_f64() / over.as_secs_f64();
+        *self = IdleShare::new(now, cpu);
+        Some((1.0 - used).max(0.0))
+    }
+}
+
+/// The control loop giving way after it fell behind or kept its CPU: for [`GIVE_WAY_S`]
+/// it wakes only for the cycles of the resting rate (`ros::Pace`), skips
+/// the ones between, and starts no job, so the threads below it get the
+/// CPU back; a job that was running has already ended (its cycles were
+/// skipped). Then the loop goes on as before: if it still cannot keep
+/// its rate, it falls behind and gives way again.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct GiveWay {
+    /// the first cycle after the give-way
+    until: u64,
+}
+
+impl GiveWay {
+    /// The loop fell behind and goes on at cycle `next`, `rate_hz`.
+    fn start(&mut self, next: u64, rate_hz: f64) {
+        self.until = next + (GIVE_WAY_S * rate_hz).round() as u64;
+    }
+
+    /// Whether cycle `n` falls in the give-way.
+    fn active(&self, n: u64) -> bool {
+        n < self.until
+    }
+
+    /// The cycle a loop at cycle `next` waits for: the next one at the
+    /// resting rate (`every` cycles apart) while giving way, else `wanted`.
+    fn target(&self, next: u64, every: u64, wanted: u64) -> u64 {
+        if self.active(next) {
+            next.div_ceil(every) * every
+        } else {
+            wanted
+        }
+    }
+}
 /// An encoder reading at most this many periods old is fresh: a job on a
 /// machine with a spindle starts once the newest one is.
 const FRESH_PERIODS: i64 = 3;
@@ -78,16 +161,16 @@ fn phase_of(now_ns: i64, reading_ns: i64, period_ns: i64) -> i64 {
 /// holds the cache's lock only while it copies a sample out, as the
 /// simulator's loop does with its setpoints; DDS's threads run below the
 /// loop's priority. Each reading goes on to the DDS thread for the
-/// observer and recordings (`try_send`: a full queue drops).
+/// observer and recordings (a full queue drops).
 pub(super) struct Readings {
     pub(super) sub: ros2_client::Subscription<SpindleEncoder>,
-    pub(super) to_dds: SyncSender<SpindleEncoder>,
+    pub(super) to_dds: rt_queue::Tx<SpindleEncoder>,
 }
 
 impl Readings {
     /// The next reading taken, if any (one that cannot be read is passed
     /// over).
-    fn next(&self) -> Option<EncoderSample> {
+    fn next(&mut self) -> Option<EncoderSample> {
         // (at most the cache's depth, so a stream of unreadable samples
         // cannot hold the loop)
         for _ in 0..=ros::STREAM_DEPTH {
@@ -100,7 +183,7 @@ impl Readings {
                         index_count: m.index_count,
                         count_at_index: m.count_at_index,
                     };
-                    let _ = self.to_dds.try_send(m);
+                    self.to_dds.push(m);
                     return Some(e);
                 }
                 Ok(None) => return None,
@@ -189,10 +272,10 @@ struct Pending {
 /// What the control loop owns besides the controller.
 struct Loop {
     ctl: Controller,
-    cmds: Receiver<Cmd>,
+    cmds: CmdRx<Cmd>,
     encoder: Readings,
-    actual: Receiver<ActualSample>,
-    out: SyncSender<Out>,
+    actual: rt_queue::Rx<ActualSample>,
+    out: rt_queue::Tx<Out>,
     commands: Commands,
     here: Arc<[AtomicU64; 3]>,
     state: Arc<AtomicU32>,
@@ -219,6 +302,11 @@ struct Loop {
     /// second after), else at the resting rate
     pace: ros::Pace,
     pending: Option<Pending>,
+    /// after the loop fell behind: no job starts, and it wakes at the
+    /// resting rate, until this ends
+    give_way: GiveWay,
+    /// why the running job ends at the next cycle (the loop gave way)
+    end_job: Option<String>,
     /// a request is being checked (a job may follow)
     checking: Arc<AtomicBool>,
     has_spindle: bool,
@@ -228,9 +316,9 @@ struct Loop {
 
 pub(super) fn control_loop(
     machine: Machine,
-    cmds: Receiver<Cmd>,
-    (encoder, actual): (Readings, Receiver<ActualSample>),
-    (out, commands): (SyncSender<Out>, Commands),
+    cmds: CmdRx<Cmd>,
+    (encoder, actual): (Readings, rt_queue::Rx<ActualSample>),
+    (out, commands): (rt_queue::Tx<Out>, Commands),
     here: Arc<[AtomicU64; 3]>,
     (state, checking): (Arc<AtomicU32>, Arc<AtomicBool>),
     live: Arc<Live>,
@@ -271,7 +359,11 @@ pub(super) fn control_loop(
         job_readings: JobReadings::default(),
         phase_run: None,
         rephase: None,
+        give_way: GiveWay::default(),
+        end_job: None,
     };
+    let mut idle = IdleShare::new(Instant::now(), ros::thread_cpu_time());
+    let mut last_idle = None;
     loop {
         // cycles are meant for the instants of a fixed grid and stamped
         // with them (in the wall clock, as the simulator stamps the
@@ -280,12 +372,13 @@ pub(super) fn control_loop(
         // a second) the loop wakes only for the cycles that publish and
         // skips the ones between (an idle cycle computes and publishes
         // nothing); a command waits at most a resting period
-        let resting = lp.resting(grid.next());
+        let resting = lp.resting(grid.next()) || lp.give_way.active(grid.next());
         let target = if resting {
             lp.pace.next_due(grid.next())
         } else {
             grid.next()
         };
+        let target = lp.give_way.target(grid.next(), lp.pace.every(), target);
         let intended = target + 1 - grid.next();
         let deadline = grid.wait_for(target);
         let now = Instant::now();
@@ -296,13 +389,15 @@ pub(super) fn control_loop(
         let mut due = grid.due(now.max(deadline));
         if (due + 1).saturating_sub(intended) as f64 * dt > MAX_BEHIND_S {
             ros_error!(
-                "the control loop fell {:.0} ms behind; {} cycles skipped",
+                "the control loop fell {:.0} ms behind; {} cycles skipped; it gives way to the node's other threads for {GIVE_WAY_S} s (no job starts; it wakes {} times a second)",
                 due as f64 * dt * 1000.0,
-                due - 1
+                due - 1,
+                ros::REST_RATE_HZ
             );
             LOOP.skipped(due - 1);
             grid.skip(due - 1);
             due = 1;
+            lp.give_way.start(grid.next(), 1.0 / dt);
         }
         if resting && due > 1 {
             grid.skip(due - 1);
@@ -319,6 +414,25 @@ pub(super) fn control_loop(
             let stamp = clock.stamp(grid.at(n));
             if !lp.cycle(n, stamp) {
                 return;
+            }
+        }
+        // a loop that keeps its CPU gives way (its job ends)
+        if let Some(share) = idle.check(Instant::now(), ros::thread_cpu_time) {
+            last_idle = Some(share);
+            if share < MIN_IDLE_SHARE && !lp.give_way.active(grid.next()) {
+                let why = format!(
+                    "the control loop cannot keep {:.0} Hz on this host: it left its CPU {:.1} % of the last {:.0} ms (it must leave {:.0} %)",
+                    1.0 / dt,
+                    share * 100.0,
+                    IDLE_WINDOW_S * 1000.0,
+                    MIN_IDLE_SHARE * 100.0
+                );
+                ros_error!(
+                    "{why}; it gives way to the node's other threads for {GIVE_WAY_S} s (no job starts; it wakes {} times a second)",
+                    ros::REST_RATE_HZ
+                );
+                lp.give_way.start(grid.next(), 1.0 / dt);
+                lp.end_job = Some(why);
             }
         }
         // at rest, the cycles lined up with the encoder's sampling
@@ -342,9 +456,14 @@ pub(super) fn control_loop(
             if Instant::now() >= stats_due {
                 stats_due += every;
                 ros_info!(
-                    "loop lateness {}; wakes {} us early",
+                    "loop lateness {}; wakes {} us early; left its CPU {}",
                     lateness.summary(),
-                    grid.margin().as_micros()
+                    grid.margin().as_micros(),
+                    last_idle.map_or("-".to_string(), |s| format!(
+                        "{:.1} % of the last {:.0} ms",
+                        s * 100.0,
+                        IDLE_WINDOW_S * 1000.0
+                    ))
                 );
                 if let Some(a) = &lp.enc_age {
                     if a.count() > 0 {
@@ -442,8 +561,8 @@ impl Loop {
                         ros_warn!("{e}");
                     }
                 }
-                Err(TryRecvError::Empty) => break,
-                Err(TryRecvError::Disconnected) => return false,
+                Err(NoCmd::Empty) => break,
+                Err(NoCmd::Gone) => return false,
             }
         }
         let now_ns = time_ns(&stamp);
@@ -470,14 +589,17 @@ impl Loop {
                 self.phase_run = None;
             }
         }
-        while let Ok(a) = self.actual.try_recv() {
+        while let Ok(Some(a)) = self.actual.pop() {
             self.ctl.actual(a);
         }
         if let Some(p) = self.pending.take() {
             let fresh = self.newest_enc >= now_ns - FRESH_PERIODS * self.period_ns;
             // (a job running: the start is refused at once)
             let now = !self.has_spindle || self.ctl.job_id() != 0;
-            if now || fresh || n - p.since >= self.max_wait {
+            if self.give_way.active(n) {
+                // (it waits, as for its readings; its cycles could not run)
+                self.pending = Some(Pending { since: n, ..p });
+            } else if now || fresh || n - p.since >= self.max_wait {
                 let id = p.job.id;
                 let r = self.ctl.start(p.job);
                 if r.is_ok() {
@@ -508,6 +630,9 @@ impl Loop {
             self.job_readings.record(age, self.period_ns);
         }
         let prev_state = self.ctl.state();
+        if let Some(why) = self.end_job.take() {
+            self.ctl.end_job(&why);
+        }
         let tick = self.ctl.tick(now_ns);
         for j in 0..tick.n {
             self.here[j].store(tick.positions[j].to_bits(), Ordering::Relaxed);
@@ -546,7 +671,7 @@ impl Loop {
             job: self.ctl.job_id(),
             recorder,
         };
-        if self.out.try_send(o).is_err() {
+        if !self.out.push(o) {
             self.dropped += 1;
             LOOP.dropped(1);
             if self.dropped.is_power_of_two() {
@@ -581,6 +706,46 @@ mod tests {
     }
 
     const MS: i64 = 1_000_000;
+
+    #[test]
+    fn a_loop_that_fell_behind_wakes_at_the_resting_rate_for_a_second() {
+        // 20 kHz: resting cycles are 400 apart (50 Hz)
+        let (rate, every) = (20_000.0, 400);
+        let mut g = GiveWay::default();
+        assert!(!g.active(0));
+        assert_eq!(g.target(7, every, 7), 7);
+        g.start(16_903, rate);
+        assert_eq!(g.until, 36_903);
+        assert!(g.active(16_903) && g.active(36_902) && !g.active(36_903));
+        // the next cycle the loop wakes for: the next of the resting grid
+        assert_eq!(g.target(16_903, every, 16_903), 17_200);
+        assert_eq!(g.target(17_200, every, 17_200), 17_200);
+        assert_eq!(g.target(36_801, every, 36_801), 37_200);
+        // over: the cycle the loop wanted
+        assert_eq!(g.target(36_903, every, 36_903), 36_903);
+        // at 1 kHz, a second is 1000 cycles
+        g.start(5, 1000.0);
+        assert_eq!(g.until, 1005);
+    }
+
+    #[test]
+    fn the_idle_share_is_taken_over_windows_of_400_ms() {
+        let t0 = Instant::now();
+        let ms = Duration::from_millis;
+        let mut w = IdleShare::new(t0, ms(5));
+        // the window lasts: no share yet (and no CPU time asked for)
+        assert_eq!(w.check(t0 + ms(399), || unreachable!()), None);
+        // 400 ms, 380 of them on the CPU: 5 % left
+        let share = w.check(t0 + ms(400), || ms(385)).unwrap();
+        assert!((share - 0.05).abs() < 1e-12, "{share}");
+        assert!(share < MIN_IDLE_SHARE);
+        // the next window starts there: 500 ms, 50 on the CPU
+        assert_eq!(w.check(t0 + ms(700), || unreachable!()), None);
+        let share = w.check(t0 + ms(900), || ms(435)).unwrap();
+        assert!((share - 0.9).abs() < 1e-12, "{share}");
+        // (more CPU time than wall time, a clock's rounding: none left)
+        assert_eq!(w.check(t0 + ms(1300), || ms(900)), Some(0.0));
+    }
 
     #[test]
     fn cycles_are_moved_to_half_a_period_after_the_sampling() {
