@@ -493,6 +493,35 @@ pub fn set_normal() -> Result<(), String> {
     }
 }
 
+/// The next message of `sub`, as `Subscription::take`, for a real-time
+/// loop: without waiting, spinning, for rustdds' event loop. `take` first
+/// drains the reader's notification channel, a `std::sync::mpsc` channel
+/// whose receiver spins while the event loop is between claiming a slot
+/// and writing it; a loop that preempted the event loop on its CPU, with
+/// the other CPU held by a loop too, spun there for good (BENCHMARKS.md,
+/// "A loop that cannot keep its rate"). This polls the subscription's
+/// stream once instead (a no-op waker): it takes from the reader's cache
+/// and leaves the notifications, which only a poll-based waiter needs
+/// (a full channel only drops the event loop's next one).
+pub fn take_now<M>(
+    sub: &ros2_client::Subscription<M>,
+) -> ros2_client::ReadResult<Option<(M, ros2_client::MessageInfo)>>
+where
+    M: 'static + serde::de::DeserializeOwned,
+{
+    use smol::stream::Stream;
+    use std::task::{Context as TaskContext, Poll, Waker};
+    let stream = sub.async_stream();
+    let mut stream = std::pin::pin!(stream);
+    match stream
+        .as_mut()
+        .poll_next(&mut TaskContext::from_waker(Waker::noop()))
+    {
+        Poll::Ready(Some(r)) => r.map(Some),
+        Poll::Ready(None) | Poll::Pending => Ok(None),
+    }
+}
+
 /// The real-time priority of a node's DDS threads when its loop runs at
 /// `loop_priority` (0: none): [`DDS_PRIORITY`], or just below the loop if
 /// that is lower; above every normal process, so that messages the loop

@@ -106,9 +106,6 @@ fn program_dir(args: &Args, m: &Machine) -> PathBuf {
 }
 
 fn run(setup: Setup) -> Result<(), String> {
-    if let Err(e) = ros::shutdown::catch_signals() {
-        ros_warn!("{e}");
-    }
     let args = &setup.args;
     let mut machine = load_machine(&args.machine)?;
     // recordings attach the machine file as written (or, for a bundled
@@ -134,6 +131,12 @@ fn run(setup: Setup) -> Result<(), String> {
         if let Err(e) = ros::set_realtime(dds_rt) {
             ros_warn!("DDS threads stay at normal priority (SCHED_FIFO {dds_rt}: {e})");
         }
+    }
+    // (the thread that hands the signal on starts here, with this policy:
+    // at normal priority it waited for seconds while the loops held both
+    // CPUs, and SIGTERM seemed ignored)
+    if let Err(e) = ros::shutdown::catch_signals() {
+        ros_warn!("{e}");
     }
     let no_own_params = ros2_client::NodeOptions::new()
         .enable_rosout(false)

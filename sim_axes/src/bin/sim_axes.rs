@@ -67,9 +67,6 @@ fn main() {
 }
 
 fn run(setup: params::Setup) -> Result<(), String> {
-    if let Err(e) = ros::shutdown::catch_signals() {
-        ros_warn!("{e}");
-    }
     let a = &setup.args;
     let mut machine = load_machine(&a.machine)?;
     if let Some(s) = machine.spindle.as_mut() {
@@ -98,6 +95,12 @@ fn run(setup: params::Setup) -> Result<(), String> {
         if let Err(e) = ros::set_realtime(dds_rt) {
             ros_warn!("DDS threads stay at normal priority (SCHED_FIFO {dds_rt}: {e})");
         }
+    }
+    // (the thread that hands the signal on starts here, with this policy:
+    // at normal priority it waited for seconds while the loops held both
+    // CPUs, and SIGTERM seemed ignored)
+    if let Err(e) = ros::shutdown::catch_signals() {
+        ros_warn!("{e}");
     }
     let no_own_params = ros2_client::NodeOptions::new()
         .enable_rosout(false)
@@ -212,7 +215,7 @@ fn run(setup: params::Setup) -> Result<(), String> {
             set_parameter(&name, &v, &mut model, &mut queue);
             busy = true;
         }
-        while let Ok(Some((m, _))) = sub_set.take() {
+        while let Ok(Some((m, _))) = ros::take_now(&sub_set) {
             let t = time_ns(&m.header.stamp);
             busy |= last_set.is_some_and(|p| t > p && ((t - p) as f64) < 0.5e9 / ros::REST_RATE_HZ);
             last_set = Some(t);
@@ -258,7 +261,7 @@ fn run(setup: params::Setup) -> Result<(), String> {
             };
             let _ = srv_delay.send_response(id, resp);
         }
-        while let Ok(Some((m, _))) = sub_spin.take() {
+        while let Ok(Some((m, _))) = ros::take_now(&sub_spin) {
             if m.data.is_finite() {
                 let rpm = m.data * 60.0 / std::f64::consts::TAU;
                 busy |= rpm != spindle_rpm;

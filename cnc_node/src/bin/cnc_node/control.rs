@@ -77,12 +77,12 @@ impl IdleShare {
     }
 }
 
-/// The control loop giving way after it fell behind or kept its CPU: for [`GIVE_WAY_S`]
-/// it wakes only for the cycles of the resting rate (`ros::Pace`), skips
-/// the ones between, and starts no job, so the threads below it get the
-/// CPU back; a job that was running has already ended (its cycles were
-/// skipped). Then the loop goes on as before: if it still cannot keep
-/// its rate, it falls behind and gives way again.
+/// The control loop giving way after it fell behind or kept its CPU
+/// ([`MIN_IDLE_SHARE`]): for [`GIVE_WAY_S`] it wakes only for the cycles
+/// of the resting rate (`ros::Pace`), skips the ones between, and starts
+/// no job, so the threads below it get the CPU back; a job that was
+/// running ends at the first of those cycles. Then the loop goes on as
+/// before: if it still cannot keep its rate, it gives way again.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 struct GiveWay {
     /// the first cycle after the give-way
@@ -110,6 +110,7 @@ impl GiveWay {
         }
     }
 }
+
 /// An encoder reading at most this many periods old is fresh: a job on a
 /// machine with a spindle starts once the newest one is.
 const FRESH_PERIODS: i64 = 3;
@@ -174,7 +175,7 @@ impl Readings {
         // (at most the cache's depth, so a stream of unreadable samples
         // cannot hold the loop)
         for _ in 0..=ros::STREAM_DEPTH {
-            match self.sub.take() {
+            match ros::take_now(&self.sub) {
                 Ok(Some((m, _))) => {
                     let e = EncoderSample {
                         stamp_ns: time_ns(&m.stamp),
@@ -302,8 +303,8 @@ struct Loop {
     /// second after), else at the resting rate
     pace: ros::Pace,
     pending: Option<Pending>,
-    /// after the loop fell behind: no job starts, and it wakes at the
-    /// resting rate, until this ends
+    /// after the loop fell behind or kept its CPU: no job starts, and it
+    /// wakes at the resting rate, until this ends
     give_way: GiveWay,
     /// why the running job ends at the next cycle (the loop gave way)
     end_job: Option<String>,
