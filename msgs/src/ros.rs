@@ -499,26 +499,39 @@ pub fn set_normal() -> Result<(), String> {
 /// whose receiver spins while the event loop is between claiming a slot
 /// and writing it; a loop that preempted the event loop on its CPU, with
 /// the other CPU held by a loop too, spun there for good (BENCHMARKS.md,
-/// "A loop that cannot keep its rate"). This polls the subscription's
-/// stream once instead (a no-op waker): it takes from the reader's cache
-/// and leaves the notifications, which only a poll-based waiter needs
-/// (a full channel only drops the event loop's next one).
+/// "A loop that cannot keep its rate"). This polls `async_take` once
+/// instead ([`now_or_never`]): it takes from the reader's cache and leaves
+/// the notifications, which only a poll-based waiter needs (a full
+/// channel only drops the event loop's next one).
 pub fn take_now<M>(
     sub: &ros2_client::Subscription<M>,
 ) -> ros2_client::ReadResult<Option<(M, ros2_client::MessageInfo)>>
 where
     M: 'static + serde::de::DeserializeOwned,
 {
-    use smol::stream::Stream;
+    now_or_never(sub.async_take()).transpose()
+}
+
+/// The next request to `srv`, as `Server::receive_request`, for a
+/// real-time loop: without its drain, as [`take_now`].
+pub fn receive_now<Req, Resp>(
+    srv: &ros2_client::Server<Req, Resp>,
+) -> ros2_client::ReadResult<Option<(ros2_client::RmwRequestId, Req)>>
+where
+    Req: ros2_client::Message + 'static,
+    Resp: ros2_client::Message + 'static,
+{
+    now_or_never(srv.async_receive_request()).transpose()
+}
+
+/// `f`'s output if it is ready at its first poll (with a waker that does
+/// nothing), else None; `f` is dropped either way.
+pub fn now_or_never<F: std::future::Future>(f: F) -> Option<F::Output> {
     use std::task::{Context as TaskContext, Poll, Waker};
-    let stream = sub.async_stream();
-    let mut stream = std::pin::pin!(stream);
-    match stream
-        .as_mut()
-        .poll_next(&mut TaskContext::from_waker(Waker::noop()))
-    {
-        Poll::Ready(Some(r)) => r.map(Some),
-        Poll::Ready(None) | Poll::Pending => Ok(None),
+    let f = std::pin::pin!(f);
+    match f.poll(&mut TaskContext::from_waker(Waker::noop())) {
+        Poll::Ready(x) => Some(x),
+        Poll::Pending => None,
     }
 }
 
@@ -604,5 +617,24 @@ mod type_names {
             super::action_type::<crate::ExecuteProgramResult>(),
             ("cnc_msgs", "ExecuteProgram")
         );
+    }
+}
+
+#[cfg(test)]
+mod polling {
+    use super::now_or_never;
+
+    #[test]
+    fn a_future_is_polled_once_and_never_waited_for() {
+        assert_eq!(now_or_never(async { 7 }), Some(7));
+        assert_eq!(now_or_never(std::future::pending::<u8>()), None);
+        // one that would need a second poll is dropped after the first
+        let mut polls = 0;
+        let f = std::future::poll_fn(|_| {
+            polls += 1;
+            std::task::Poll::<()>::Pending
+        });
+        assert_eq!(now_or_never(f), None);
+        assert_eq!(polls, 1);
     }
 }

@@ -232,7 +232,7 @@ fn run(setup: params::Setup) -> Result<(), String> {
             queue.push(t, joints());
             mon.setpoint(start.elapsed().as_secs_f64());
         }
-        while let Ok(Some((id, req))) = srv_delay.receive_request() {
+        while let Ok(Some((id, req))) = ros::receive_now(&srv_delay) {
             busy = true;
             let resp = match check_delay(req.delay_ms) {
                 Ok(()) => {
@@ -268,7 +268,7 @@ fn run(setup: params::Setup) -> Result<(), String> {
                 spindle_rpm = rpm;
             }
         }
-        while let Ok(Some((id, req))) = srv_enc.receive_request() {
+        while let Ok(Some((id, req))) = ros::receive_now(&srv_enc) {
             encoder_on = req.data;
             let message = match (model.spindle.is_some(), encoder_on) {
                 (false, _) => "this machine has no spindle encoder".to_string(),
@@ -279,7 +279,7 @@ fn run(setup: params::Setup) -> Result<(), String> {
             let _ = srv_enc.send_response(id, SetBoolResponse { success, message });
             busy = true;
         }
-        while let Ok(Some((id, req))) = srv_stall.receive_request() {
+        while let Ok(Some((id, req))) = ros::receive_now(&srv_stall) {
             busy = true;
             let resp = match model.spindle.as_mut() {
                 Some(sp) => {
