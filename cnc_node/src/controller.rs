@@ -452,12 +452,10 @@ impl Controller {
                     if off.abs() > 0.5 * dt {
                         // cycles were lost: the samples no longer stand for
                         // their instants (a thread would leave its groove)
-                        let why = format!(
-                            "line {}: the control loop fell {:.0} ms behind (cycles skipped); the job ended where it stood",
-                            self.line,
+                        self.end_job(&format!(
+                            "the control loop fell {:.0} ms behind (cycles skipped)",
                             off * 1000.0
-                        );
-                        self.fail(why);
+                        ));
                         return self.output(before);
                     }
                 }
@@ -542,7 +540,6 @@ impl Controller {
         self.state = State::Idle;
     }
 
-    /// Ends the job in the error state (lost signal, fault).
     /// Ends the running job where it stands, in the error state, for a
     /// reason the control loop found (`why`, completed by the line and
     /// "the job ended where it stood"); nothing without a job.
@@ -553,6 +550,7 @@ impl Controller {
         }
     }
 
+    /// Ends the job in the error state (lost signal, fault).
     pub fn fail(&mut self, why: String) {
         self.job = None;
         self.state = State::Error;

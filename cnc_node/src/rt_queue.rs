@@ -73,12 +73,10 @@ impl<T> Tx<T> {
     }
 }
 
-/// What a consumer found.
+/// The producer of a [`spsc`] queue is gone and everything it pushed was
+/// taken.
 #[derive(Debug, PartialEq)]
-pub enum Gone {
-    /// the producer is gone and everything it pushed was taken
-    Gone,
-}
+pub struct Gone;
 
 impl<T> Rx<T> {
     /// The next item, if one is waiting; `Err(Gone)` once the producer is
@@ -90,7 +88,7 @@ impl<T> Rx<T> {
             // producer went is never lost)
             Err(_) if self.inner.is_abandoned() => match self.inner.pop() {
                 Ok(x) => Ok(Some(x)),
-                Err(_) => Err(Gone::Gone),
+                Err(_) => Err(Gone),
             },
             Err(_) => Ok(None),
         }
@@ -217,8 +215,8 @@ mod tests {
         assert_eq!(rx.pop(), Ok(Some(2)));
         assert_eq!(rx.pop(), Ok(Some(3)));
         assert_eq!(rx.pop(), Ok(Some(5)));
-        assert_eq!(rx.pop(), Err(Gone::Gone));
-        assert_eq!(rx.wait(Duration::from_secs(5)), Err(Gone::Gone));
+        assert_eq!(rx.pop(), Err(Gone));
+        assert_eq!(rx.wait(Duration::from_secs(5)), Err(Gone));
     }
 
     #[test]
@@ -253,7 +251,7 @@ mod tests {
                     next += 1;
                 }
                 Ok(None) => {}
-                Err(Gone::Gone) => break,
+                Err(Gone) => break,
             }
         }
         assert_eq!(next, 20_000);

@@ -76,3 +76,35 @@ fn an_override_changes_the_running_jobs_speed_and_is_bounded() {
     assert_eq!(v.len(), n100);
     assert_eq!(ctl.status().feed_override, 1.0);
 }
+
+/// A job ends where it stands, in ERROR, with the line and the reason,
+/// when the control loop lost cycles (a tick 10 periods after the last)
+/// or gave way (`end_job`), and the machine stays where it stood.
+#[test]
+fn a_job_ends_in_error_with_its_line_when_the_loop_loses_cycles_or_gives_way() {
+    for gave_way in [false, true] {
+        let mut at = 0.0;
+        let (_, ctl) = run(|k, c| {
+            if k == 400 {
+                at = c.positions()[0];
+                if gave_way {
+                    c.end_job("the control loop cannot keep 1000 Hz on this host");
+                } else {
+                    // cycle 400 comes 10 ms late: 9 cycles were lost
+                    let _ = c.tick(T0 + 409 * MS);
+                }
+            }
+        });
+        let s = ctl.status();
+        assert_eq!(s.state, State::Error);
+        let want = if gave_way {
+            "line 1: the control loop cannot keep 1000 Hz on this host; the job ended where it stood"
+        } else {
+            "line 1: the control loop fell 9 ms behind (cycles skipped); the job ended where it stood"
+        };
+        assert_eq!(s.last_error, want);
+        // it stopped at cycle 399's position (X moving at 150 mm/s there)
+        assert!(at > 30.0, "{at}");
+        assert_eq!((ctl.positions()[0] * 1000.0).round(), (at * 1000.0).round());
+    }
+}

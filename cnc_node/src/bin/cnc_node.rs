@@ -580,7 +580,7 @@ mod tests {
                 }
             };
             producer.join().expect("producer");
-            assert_eq!(end, Gone::Gone);
+            assert_eq!(end, Gone);
             assert_eq!(got.len() as u64, n, "round {round}");
             assert!(
                 got.iter().enumerate().all(|(i, &k)| i as u64 == k),

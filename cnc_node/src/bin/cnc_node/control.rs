@@ -389,16 +389,15 @@ pub(super) fn control_loop(
         // (woken early, the cycle it woke for is due)
         let mut due = grid.due(now.max(deadline));
         if (due + 1).saturating_sub(intended) as f64 * dt > MAX_BEHIND_S {
-            ros_error!(
-                "the control loop fell {:.0} ms behind; {} cycles skipped; it gives way to the node's other threads for {GIVE_WAY_S} s (no job starts; it wakes {} times a second)",
+            let why = format!(
+                "the control loop fell {:.0} ms behind; {} cycles skipped",
                 due as f64 * dt * 1000.0,
-                due - 1,
-                ros::REST_RATE_HZ
+                due - 1
             );
             LOOP.skipped(due - 1);
             grid.skip(due - 1);
             due = 1;
-            lp.give_way.start(grid.next(), 1.0 / dt);
+            lp.give_way(grid.next(), 1.0 / dt, &why);
         }
         if resting && due > 1 {
             grid.skip(due - 1);
@@ -428,11 +427,7 @@ pub(super) fn control_loop(
                     IDLE_WINDOW_S * 1000.0,
                     MIN_IDLE_SHARE * 100.0
                 );
-                ros_error!(
-                    "{why}; it gives way to the node's other threads for {GIVE_WAY_S} s (no job starts; it wakes {} times a second)",
-                    ros::REST_RATE_HZ
-                );
-                lp.give_way.start(grid.next(), 1.0 / dt);
+                lp.give_way(grid.next(), 1.0 / dt, &why);
                 lp.end_job = Some(why);
             }
         }
@@ -518,6 +513,16 @@ impl JobReadings {
 }
 
 impl Loop {
+    /// The loop gives way from cycle `next` ([`GiveWay`]) for `why`, which
+    /// it logs with what giving way does.
+    fn give_way(&mut self, next: u64, rate_hz: f64, why: &str) {
+        ros_error!(
+            "{why}; it gives way to the node's other threads for {GIVE_WAY_S} s (no job starts; it wakes {} times a second)",
+            ros::REST_RATE_HZ
+        );
+        self.give_way.start(next, rate_hz);
+    }
+
     /// At rest at cycle `n`: no job, none starting, and none for a second.
     fn resting(&self, n: u64) -> bool {
         self.pace.resting(n)
