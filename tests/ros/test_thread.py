@@ -896,15 +896,17 @@ def test_thread_the_cut_groove_stays_put_at_s200_s800_s2000_with_ripple(machine,
     assert 0.15 <= rows[-1][4] <= 0.35, rows[-1]
     # the node's cycles come half a period after the simulator samples the
     # spindle, within a tenth of a period (it moves its grid there at rest
-    # when further off), so the newest reading at a cycle is 400-600 us
-    # old, not anything from 0 to 1 ms plus a period when the reading had
-    # not arrived yet (the grids left to chance).
+    # when further off), where a cycle runs: up to its wake-up margin (at
+    # most 150 us) before its stamp. So the newest reading at a cycle's
+    # stamp is 400-600 us old plus that margin, not anything from 0 to 1 ms
+    # plus a period when the reading had not arrived yet (the grids left
+    # to chance).
     # Measured with the cycles 50 us after the sampling instead: S2000
     # worst 0.33 and 0.35 deg, age p50 1051 us; at 500 us: 0.29-0.33 deg
     time.sleep(2.5)
     p50, p99 = peer.reading_age()
     print("encoder reading age at the node's cycles: p50 %.0f us, p99 %.0f us" % (p50, p99))
-    assert 400 <= p50 <= 601, (p50, p99)
+    assert 400 <= p50 <= 751, (p50, p99)
 
 
 @pytest.mark.parametrize("machine", ["lathe"], indirect=True)

@@ -155,6 +155,13 @@ fn phase_of(now_ns: i64, reading_ns: i64, period_ns: i64) -> i64 {
     (now_ns - reading_ns).rem_euclid(period_ns)
 }
 
+/// The instant (ns) a cycle stamped `stamp_ns` runs at when it runs
+/// `early_ns` before its stamp: where its phase against the readings is
+/// taken ([`phase_of`]), since a reading must have arrived by then.
+fn run_instant(stamp_ns: i64, early_ns: i64) -> i64 {
+    stamp_ns - early_ns
+}
+
 /// The spindle encoder's readings as the loop takes them: straight from
 /// their stream subscription's cache (best effort, keep last
 /// `ros::STREAM_DEPTH`), without a thread of their own that would wake for
@@ -292,6 +299,13 @@ struct Loop {
     /// with loop_stats)
     enc_age: Option<ros::Lateness>,
     newest_enc: i64,
+    /// how long before its stamp a cycle runs, ns: the grid's learnt
+    /// margin, up to how early it may run ([`Grid::running_early`]). The
+    /// phase against the readings is taken at that instant, not at the
+    /// stamp: on a host whose sleeps end late at random the margin grows
+    /// to 150 µs, and a grid lined up by its stamps ran its cycles that
+    /// much closer to the readings they wait for
+    run_early_ns: i64,
     /// how the readings reached the running job's cycles (logged at its end)
     job_readings: JobReadings,
     /// at rest: the phase against the readings ([`phase_of`]) at the first
@@ -357,6 +371,7 @@ pub(super) fn control_loop(
         pending_rec: None,
         enc_age: Some(ros::Lateness::new()),
         newest_enc: 0,
+        run_early_ns: 0,
         job_readings: JobReadings::default(),
         phase_run: None,
         rephase: None,
@@ -409,6 +424,7 @@ pub(super) fn control_loop(
             dt,
         );
         clock.update();
+        lp.run_early_ns = grid.margin().min(grid.early()).as_nanos() as i64;
         for _ in 0..due.min(CATCH_UP) {
             let n = grid.advance();
             let stamp = clock.stamp(grid.at(n));
@@ -579,7 +595,11 @@ impl Loop {
             read = true;
         }
         if read && self.resting(n) {
-            let phase = phase_of(now_ns, self.newest_enc, self.period_ns);
+            let phase = phase_of(
+                run_instant(now_ns, self.run_early_ns),
+                self.newest_enc,
+                self.period_ns,
+            );
             let (still, period) = ((PHASE_STILL * self.period_ns as f64) as i64, self.period_ns);
             let near = |p: i64| {
                 let d = (phase - p).rem_euclid(period);
@@ -777,5 +797,12 @@ mod tests {
         assert_eq!(phase_delay(399_999, MS), Some(100_001));
         // at 250 Hz: 2 ms after
         assert_eq!(phase_delay(0, 4 * MS), Some(2 * MS));
+        // stamped half a period after, but run 150 us before its stamp (a
+        // noisy host's margin): 350 us after, so 150 us later
+        let run = run_instant(reading + 500_000, 150_000);
+        assert_eq!(phase_delay(phase_of(run, reading, MS), MS), Some(150_000));
+        // a quiet host's 40 us: within the tolerance
+        let run = run_instant(reading + 500_000, 40_000);
+        assert_eq!(phase_delay(phase_of(run, reading, MS), MS), None);
     }
 }
