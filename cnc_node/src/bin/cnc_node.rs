@@ -53,6 +53,8 @@ use std::time::{Duration, Instant};
 
 #[path = "cnc_node/control.rs"]
 mod control;
+#[path = "cnc_node/phase.rs"]
+mod phase;
 use control::{control_loop, Commands, Readings};
 #[path = "cnc_node/recording.rs"]
 mod recording;

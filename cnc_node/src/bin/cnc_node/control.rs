@@ -4,6 +4,9 @@
 //! and its sample handed to the DDS thread; at rest it wakes only for the
 //! cycles that publish (`ros::Pace`, docs/ros_interface.md §3.1).
 
+use super::phase::{
+    phase_delay, phase_of, run_instant, ENCODER_PHASE, PHASE_READINGS, PHASE_STILL,
+};
 use super::{Cmd, Out, Rec};
 use cnc_core::Machine;
 use cnc_msgs::ros::{self, Grid, WallClock};
@@ -117,50 +120,6 @@ const FRESH_PERIODS: i64 = 3;
 /// How long a job waits for fresh encoder readings at most, s (then it
 /// starts, and the executor judges the readings as always).
 const MAX_START_WAIT_S: f64 = 0.05;
-
-/// Where a cycle stands against the encoder's sampling, as a share of a
-/// period: the loop's cycles come this long after the instants the
-/// simulator (or drive) samples the spindle at, so that a cycle finds the
-/// reading of the instant before it already arrived (its transport on
-/// one host takes a few hundred µs) and predicts the spindle angle from a
-/// reading of a known age. Left to chance, the two grids stand anywhere
-/// against each other, and at a phase under the transport time the loop
-/// takes every reading a period late: a G33 setpoint then extrapolates a
-/// rippling spindle over a period more.
-const ENCODER_PHASE: f64 = 0.5;
-/// At rest the loop moves its grid when its phase against the readings is
-/// further off [`ENCODER_PHASE`] than this share of a period, and has
-/// held still to within [`PHASE_STILL`] of a period over [`PHASE_READINGS`]
-/// readings in a row (readings not on a grid of the loop's period, as a
-/// drive's own timestamps may be, never do).
-const PHASE_TOLERANCE: f64 = 0.1;
-const PHASE_STILL: f64 = 0.02;
-const PHASE_READINGS: u32 = 5;
-
-/// How much later (ns, under a period) the cycles must come for a cycle
-/// at `now_ns` to stand [`ENCODER_PHASE`] of a period after the last
-/// sampling instant, given `phase_ns`, where it stands now ([`phase_of`]);
-/// None: within [`PHASE_TOLERANCE`].
-fn phase_delay(phase_ns: i64, period_ns: i64) -> Option<i64> {
-    let want = (ENCODER_PHASE * period_ns as f64).round() as i64;
-    let off = phase_ns - want;
-    let tol = (PHASE_TOLERANCE * period_ns as f64) as i64;
-    (off.abs() > tol).then(|| (-off).rem_euclid(period_ns))
-}
-
-/// How long after the last sampling instant of the encoder (a reading
-/// stamped `reading_ns`, on a grid of `period_ns`) a cycle at `now_ns`
-/// stands, ns, under a period.
-fn phase_of(now_ns: i64, reading_ns: i64, period_ns: i64) -> i64 {
-    (now_ns - reading_ns).rem_euclid(period_ns)
-}
-
-/// The instant (ns) a cycle stamped `stamp_ns` runs at when it runs
-/// `early_ns` before its stamp: where its phase against the readings is
-/// taken ([`phase_of`]), since a reading must have arrived by then.
-fn run_instant(stamp_ns: i64, early_ns: i64) -> i64 {
-    stamp_ns - early_ns
-}
 
 /// The spindle encoder's readings as the loop takes them: straight from
 /// their stream subscription's cache (best effort, keep last
@@ -731,8 +690,6 @@ mod tests {
         );
     }
 
-    const MS: i64 = 1_000_000;
-
     #[test]
     fn a_loop_that_fell_behind_wakes_at_the_resting_rate_for_a_second() {
         // 20 kHz: resting cycles are 400 apart (50 Hz)
@@ -771,38 +728,5 @@ mod tests {
         assert!((share - 0.9).abs() < 1e-12, "{share}");
         // (more CPU time than wall time, a clock's rounding: none left)
         assert_eq!(w.check(t0 + ms(1300), || ms(900)), Some(0.0));
-    }
-
-    #[test]
-    fn cycles_are_moved_to_half_a_period_after_the_sampling() {
-        // a cycle 269 us after the reading's instant (as two grids started
-        // at random stood in a test run): 231 us later
-        let reading = 1_700_000_000_000 * MS + 123_456;
-        let now = reading + 7 * MS + 269_000;
-        let phase = phase_of(now, reading, MS);
-        assert_eq!(phase, 269_000);
-        assert_eq!(phase_delay(phase, MS), Some(231_000));
-        // 30 us after: 470 us later
-        assert_eq!(
-            phase_delay(phase_of(reading + 30_000, reading, MS), MS),
-            Some(470_000)
-        );
-        // 900 us after: 600 us later (then 500 us after the next one)
-        assert_eq!(phase_delay(900_000, MS), Some(600_000));
-        // a reading stamped after the cycle (the clocks' offsets moved)
-        assert_eq!(phase_of(reading - 200_000, reading, MS), 800_000);
-        // within 100 us of half a period: left as it is
-        assert_eq!(phase_delay(400_000, MS), None);
-        assert_eq!(phase_delay(600_000, MS), None);
-        assert_eq!(phase_delay(399_999, MS), Some(100_001));
-        // at 250 Hz: 2 ms after
-        assert_eq!(phase_delay(0, 4 * MS), Some(2 * MS));
-        // stamped half a period after, but run 150 us before its stamp (a
-        // noisy host's margin): 350 us after, so 150 us later
-        let run = run_instant(reading + 500_000, 150_000);
-        assert_eq!(phase_delay(phase_of(run, reading, MS), MS), Some(150_000));
-        // a quiet host's 40 us: within the tolerance
-        let run = run_instant(reading + 500_000, 40_000);
-        assert_eq!(phase_delay(phase_of(run, reading, MS), MS), None);
     }
 }
