@@ -1,4 +1,5 @@
-//! The look-ahead's pieces under a jerk limit: a long move is queued as
+//! The look-ahead's pieces under a jerk limit: the move held back until
+//! its exit junction is known is released here; a long move is queued as
 //! pieces so that a neighbour's caps reach only its ends, and an arc's
 //! pieces get the caps of the part of it they lie on
 //! ([`ArcPart`]). (A file of its own: plan.rs would be over 800 lines.)
@@ -10,6 +11,54 @@ use crate::jerk::{least_piece, piece_cuts, ArcPart};
 use crate::shares::MAX_OVERRIDE;
 
 impl<K: Copy> Lookahead<K> {
+    /// Jerk: queues the move held back, `exit_stop` whether its exit
+    /// junction is a stop: whole if it also starts from one (a line; an
+    /// arc cut only where its inside starts), else in pieces. An arc whose
+    /// neighbours both continue its curvature (`exit_curve` the next one)
+    /// is inside a longer curve: all of it has the caps of an arc's inside.
+    pub(super) fn release<O: ItemSink<Kept = K>>(
+        &mut self,
+        exit_stop: bool,
+        exit_curve: bool,
+        exit_beside: bool,
+        out: &mut O,
+    ) {
+        let Some(p) = self.pending.take() else {
+            return;
+        };
+        self.queue_pending(&p, exit_stop, exit_curve, exit_beside, out);
+        self.spare = Some(p);
+    }
+
+    /// [`release`](Self::release) of `p`, the move held back.
+    fn queue_pending<O: ItemSink<Kept = K>>(
+        &mut self,
+        p: &Pending,
+        exit_stop: bool,
+        exit_curve: bool,
+        exit_beside: bool,
+        out: &mut O,
+    ) {
+        // (the first piece queued takes it)
+        self.entry_cap = p.entry_cap;
+        self.move_length = p.prep.length;
+        if p.entry_curve && exit_curve && matches!(p.geom, Geom::Arc(_)) {
+            self.curve_inside(p, out);
+            return;
+        }
+        let ends = !(p.entry_stop && exit_stop);
+        let beside = (p.entry_beside, exit_beside);
+        if !self.split(p, ends, beside, out) {
+            let kept = O::keep(&p.geom, p.feed, p.src);
+            if beside == (true, true) {
+                let prep = self.lim.repart(&p.prep, &p.geom, &p.feed, ArcPart::Beside);
+                self.enqueue(kept, &prep, out);
+            } else {
+                self.enqueue(kept, &p.prep, out);
+            }
+        }
+    }
+
     /// The XYZ filter's span at the top path speed, mm: a line at least
     /// this long keeps whatever lies beyond it out of the filter's window
     /// across its junction with an arc, and pieces of an arc farther than
