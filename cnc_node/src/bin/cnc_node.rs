@@ -282,11 +282,12 @@ fn run(setup: Setup) -> Result<(), String> {
             }
         }
         obs.poll();
-        // services and the override, every SERVICE_POLL (each look costs a
-        // system call; a job's samples wake this thread every cycle)
+        // services and the override, every SERVICE_POLL (as the joint
+        // states below, taken from their caches without draining the
+        // readers' notification channels: a system call each)
         if polled.elapsed() >= SERVICE_POLL {
             polled = Instant::now();
-            while let Ok(Some((id, req))) = srv_run.receive_request() {
+            while let Ok(Some((id, req))) = ros::receive_now(&srv_run) {
                 let _ = chk_tx.send((Asker::Service(id), req));
             }
             for (goal, req) in action.new_goals() {
@@ -295,15 +296,15 @@ fn run(setup: Setup) -> Result<(), String> {
             action.serve(|_job| {
                 let _ = ask(&cmd_tx, Cmd::Abort);
             });
-            while let Ok(Some((id, _))) = srv_abort.receive_request() {
+            while let Ok(Some((id, _))) = ros::receive_now(&srv_abort) {
                 let (success, message) = ask(&cmd_tx, Cmd::Abort);
                 let _ = srv_abort.send_response(id, TriggerResponse { success, message });
             }
-            while let Ok(Some((id, req))) = srv_hold.receive_request() {
+            while let Ok(Some((id, req))) = ros::receive_now(&srv_hold) {
                 let (success, message) = ask(&cmd_tx, |tx| Cmd::Hold(req.data, tx));
                 let _ = srv_hold.send_response(id, SetBoolResponse { success, message });
             }
-            while let Ok(Some((m, _))) = sub_ovr.take() {
+            while let Ok(Some((m, _))) = ros::take_now(&sub_ovr) {
                 match live.feed_override(m.data) {
                     Ok(p) => {
                         let _ = cmd_tx.send(Cmd::Override(p));
@@ -327,7 +328,7 @@ fn run(setup: Setup) -> Result<(), String> {
             obs.encoder(&m);
             recording.send(Msg::Encoder(m));
         }
-        while let Ok(Some((m, _))) = sub_js.take() {
+        while let Ok(Some((m, _))) = ros::take_now(&sub_js) {
             let mut a = ActualSample {
                 stamp_ns: time_ns(&m.header.stamp),
                 n: names.len().min(3),
