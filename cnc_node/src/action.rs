@@ -614,7 +614,7 @@ impl ExecuteProgram {
     /// [`ExecuteProgram::checked`]).
     pub fn new_goals(&mut self) -> Vec<(GoalKey, RunProgramRequest)> {
         let mut out = Vec::new();
-        while let Ok(Some((req, g))) = self.server.receive_goal() {
+        while let Ok(Some((req, g))) = ros::receive_now(self.server.goal_server()) {
             let key = *g.goal_id.uuid.as_bytes();
             if self.goals.goal(req, key, &mut Dds(&self.server)) {
                 out.push((key, g.goal));
@@ -632,7 +632,7 @@ impl ExecuteProgram {
     /// Answers cancel and result requests; `abort` is called with each job
     /// a cancel stops.
     pub fn serve(&mut self, mut abort: impl FnMut(u32)) {
-        while let Ok(Some((req, c))) = self.server.receive_cancel_request() {
+        while let Ok(Some((req, c))) = ros::receive_now(self.server.cancel_server()) {
             let Some((key, stamp)) = cancel_info(&c) else {
                 continue;
             };
@@ -640,7 +640,7 @@ impl ExecuteProgram {
                 abort(job);
             }
         }
-        while let Ok(Some((req, r))) = self.server.receive_result_request() {
+        while let Ok(Some((req, r))) = ros::receive_now(self.server.result_server()) {
             let key = *r.goal_id.uuid.as_bytes();
             self.goals.result_request(req, key, &mut Dds(&self.server));
         }
