@@ -41,11 +41,11 @@ pub const MAX_SPIN: Duration = Duration::from_micros(150);
 /// for: its margin follows this quantile of the sleep's lateness.
 const ON_TIME_SHARE: f64 = 0.9;
 /// The same share for a grid that runs early ([`Grid::running_early`]) by
-/// up to its whole margin (at rates up to 1.6 kHz): its margin costs no spin (the cycle runs when the sleep ends), so it
-/// follows the 99th percentile of the sleep's lateness, and one wake-up
-/// in a hundred, not one in ten, comes after its instant (at 1 kHz the
-/// controller's wake-ups were up to 55–72 µs late at p99 with 0.9, on a
-/// quiet host).
+/// up to its whole margin (at rates up to 1.6 kHz): its margin costs no
+/// spin (the cycle runs when the sleep ends), so it follows the 99th
+/// percentile of the sleep's lateness, and one wake-up in a hundred, not
+/// one in ten, comes after its instant (at 1 kHz the controller's
+/// wake-ups were up to 55–72 µs late at p99 with 0.9, on a quiet host).
 const EARLY_ON_TIME_SHARE: f64 = 0.99;
 
 /// The margin after a sleep that ended `late_ns` after it was asked to
@@ -219,6 +219,14 @@ impl Grid {
     /// How long before an instant the sleep ends now (the spin's bound).
     pub fn margin(&self) -> Duration {
         Duration::from_nanos(self.margin_ns as u64)
+    }
+
+    /// How long before its instant a wait returns now, when the sleep
+    /// ends on time: the margin, up to how early the grid may run
+    /// ([`Grid::running_early`]; zero for a grid that spins to each
+    /// instant).
+    pub fn runs_early_by(&self) -> Duration {
+        self.margin().min(self.early)
     }
 }
 
@@ -609,6 +617,10 @@ mod tests {
         assert_eq!(Grid::new(o, 0.001).early(), Duration::ZERO);
         let mut g = Grid::new(o, 0.001).running_early();
         assert_eq!(g.early(), MAX_SPIN);
+        // (it starts with a margin of 50 µs, all of it run early; a grid
+        // that spins runs none of it early)
+        assert_eq!(g.runs_early_by(), Duration::from_micros(50));
+        assert_eq!(Grid::new(o, 0.001).runs_early_by(), Duration::ZERO);
         // woken before its instant, the cycle is not due yet by the clock:
         // the loop asks at the instant it woke for
         let at = g.at(0);

@@ -258,8 +258,8 @@ struct Loop {
     /// with loop_stats)
     enc_age: Option<ros::Lateness>,
     newest_enc: i64,
-    /// how long before its stamp a cycle runs, ns: the grid's learnt
-    /// margin, up to how early it may run ([`Grid::running_early`]). The
+    /// how long before its stamp a cycle runs, ns
+    /// ([`Grid::runs_early_by`]). The
     /// phase against the readings is taken at that instant, not at the
     /// stamp: on a host whose sleeps end late at random the margin grows
     /// to 150 µs, and a grid lined up by its stamps ran its cycles that
@@ -383,7 +383,7 @@ pub(super) fn control_loop(
             dt,
         );
         clock.update();
-        lp.run_early_ns = grid.margin().min(grid.early()).as_nanos() as i64;
+        lp.run_early_ns = grid.runs_early_by().as_nanos() as i64;
         for _ in 0..due.min(CATCH_UP) {
             let n = grid.advance();
             let stamp = clock.stamp(grid.at(n));

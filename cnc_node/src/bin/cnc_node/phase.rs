@@ -18,7 +18,7 @@ pub(super) const ENCODER_PHASE: f64 = 0.5;
 /// held still to within [`PHASE_STILL`] of a period over [`PHASE_READINGS`]
 /// readings in a row (readings not on a grid of the loop's period, as a
 /// drive's own timestamps may be, never do).
-pub(super) const PHASE_TOLERANCE: f64 = 0.1;
+const PHASE_TOLERANCE: f64 = 0.1;
 pub(super) const PHASE_STILL: f64 = 0.02;
 pub(super) const PHASE_READINGS: u32 = 5;
 
