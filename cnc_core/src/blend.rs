@@ -304,7 +304,8 @@ impl StopCost {
         };
         match own {
             0 => jb.hold_ticks() as f64 * jb.dt,
-            m => f64::from(m - 1) * jb.dt,
+            // (the hold, and the tick the line waits at its start)
+            m => f64::from(m + 1) * jb.dt,
         }
     }
 }

@@ -18,7 +18,8 @@
 //! M_s + M_f − 2 ticks ([`crate::timeline::Timeline::hold`]), so that the
 //! filtered path reaches every stop point exactly; the check counts those
 //! ticks too. A line run from rest to rest has a path filter of its own
-//! and no XYZ filter, and holds that filter's length less one
+//! and no XYZ filter; it waits a tick at its start and holds that
+//! filter's length
 //! ([`crate::profile::Profile::own_filter`]). At high jerk ([`crate::jerk::JerkBudget::single_average`]) there
 //! is no path filter (M_s = 1: the raw point, bit for bit) and the XYZ
 //! filter alone limits the jerk. G33 samples bypass both filters: they follow the spindle
@@ -48,6 +49,7 @@ use crate::plan::{Item, PlanLimits, PlannedMove};
 use crate::source::ProgramSource;
 use crate::thread::{AT_SPEED_SETTLE_S, AT_SPEED_TOLERANCE, ENCODER_TIMEOUT_CYCLES};
 use crate::tracker::{EncoderReading, SpindleTracker};
+use std::collections::VecDeque;
 
 pub use crate::shares::MAX_OVERRIDE;
 
@@ -214,6 +216,14 @@ pub struct Executor<S> {
     /// filter ([`crate::profile::Profile::own_filter`])
     filters: (usize, usize),
     filters_now: (usize, usize),
+    /// a line run from rest to rest with its own path filter: that
+    /// filter's length M (0: none), and the secant speeds of the last M + 1
+    /// steps, oldest first (zeros before the line: it starts from rest).
+    /// The filter is sized for steps of the path acceleration of at most
+    /// a ([`crate::jerk::JerkBudget::own_filter_samples`]), so a change of
+    /// the feed scale keeps any two within M samples of each other within a
+    own_m: usize,
+    w_hist: VecDeque<f64>,
     /// path length of every move finished, mm, and the raw sample's path
     /// length (None: not on the path, a bypassed sample)
     s_total: f64,
@@ -238,6 +248,26 @@ pub struct Executor<S> {
     /// each axis's servo lag under acceleration that G33 leads by, s²
     /// ([`Machine::servo_accel_lag_s2`] × `thread_accel_lead`)
     accel_lag: V3,
+}
+
+/// The σ nearest `bad` within `ok`, by bisection between `bad` (where
+/// `ok` fails) and `good` (where it holds, or is taken to: 0 or the σ in
+/// force); `good` itself if `ok` fails at `good` too and `strict` is not
+/// set.
+fn bisect(bad: f64, good: f64, ok: impl Fn(f64) -> bool, strict: bool) -> f64 {
+    if !strict && !ok(good) {
+        return good;
+    }
+    let (mut good, mut bad) = (good, bad);
+    for _ in 0..48 {
+        let mid = 0.5 * (good + bad);
+        if ok(mid) {
+            good = mid;
+        } else {
+            bad = mid;
+        }
+    }
+    good
 }
 
 /// The spindle at a setpoint's instant, revolutions counted in the
@@ -292,6 +322,8 @@ impl<S: ProgramSource> Executor<S> {
             smooth: (lim.jerk.m_f > 1).then(|| Smoother::new(lim.jerk.m_f, machine.home())),
             filters: (lim.jerk.m_s, lim.jerk.m_f),
             filters_now: (lim.jerk.m_s, lim.jerk.m_f),
+            own_m: 0,
+            w_hist: VecDeque::new(),
             s_total: 0.0,
             raw_s: None,
             drain: None,
@@ -424,7 +456,10 @@ impl<S: ProgramSource> Executor<S> {
         let cap = p.vlim;
         // from σ·vp back to vp before the cruise ends, at the path
         // acceleration, with a step in hand
-        let left = p.d_acc + p.d_cruise - p.s_at(tau) - 2.0 * cap * self.dt;
+        // (under a line's own path filter the deceleration may start up to
+        // that filter's length later, [`Self::update_scale`])
+        let late = (2 + self.own_m) as f64 * cap * self.dt;
+        let left = p.d_acc + p.d_cruise - p.s_at(tau) - late;
         let brake = (1.0 + 2.0 * p.a * left.max(0.0) / (p.vp * p.vp)).sqrt();
         (cap / p.vp).min(brake).max(1.0)
     }
@@ -439,17 +474,37 @@ impl<S: ProgramSource> Executor<S> {
     /// acceleration × dt per sample, whatever the profile itself does at
     /// the same time. With σ at its target nothing changes. `w_prev`: the
     /// secant speed of the step that led here (mm/s, in virtual time).
+    ///
+    /// Under a line's own path filter of M samples (sized for steps of
+    /// a, [`crate::jerk::JerkBudget::own_filter_samples`]) also: the
+    /// secant's change differs from the one M steps back by at most a·dt;
+    /// and where the line's deceleration is less than M + 3 samples away,
+    /// or under way, σ rises only up to √½ (or stays where it is, if
+    /// higher) with changes of at most a/2: the deceleration it meets is
+    /// then at most a/2 too, or its change in the window is only the
+    /// profile's own (whose cruise outlasts the window).
     fn update_scale(&mut self, m: &PlannedMove, tau: f64, w_prev: f64) {
-        let goal = if self.target > 1.0 {
+        let p = &m.profile;
+        let mut goal = if self.target > 1.0 {
             self.target.min(self.boost_limit(m, tau))
         } else {
             self.target
         };
-        if self.scale == goal {
+        let mut rise = f64::INFINITY;
+        if self.own_m > 0 && goal > self.scale {
+            let ahead = (self.own_m + 3) as f64 * self.dt * goal;
+            if p.t_acc + p.t_cruise - tau < ahead {
+                goal = goal.min(self.scale.max(std::f64::consts::FRAC_1_SQRT_2));
+                rise = 0.5 * p.a * self.dt;
+            }
+        }
+        // (under a line's own path filter the window is kept at the goal
+        // too: after a change of σ the profile's own step may leave it)
+        let own = self.own_m > 0 && self.w_hist.len() > self.own_m;
+        if self.scale == goal && !own {
             return;
         }
         let dt = self.dt;
-        let p = &m.profile;
         let s0 = p.s_at(tau);
         let down = goal < self.scale;
         // path length at local time t. After a stop nothing moves until
@@ -472,6 +527,35 @@ impl<S: ProgramSource> Executor<S> {
         let across = tau - self.scale * dt < 0.0 || tau + self.scale.max(goal) * dt > p.duration;
         let step = if across { p.a_join } else { p.a } * dt;
         let (from, to) = (self.scale, goal);
+        if own {
+            // under a line's own path filter of M samples: the change of
+            // the secant M steps back, which this step's may differ from
+            // by at most a·dt (the filter's jerk is the difference over
+            // M·dt); and the rate's bound on the side σ moves to (at the
+            // goal, where the profile's own steps are on the limits: not
+            // where they pass them by a rounding)
+            let n = self.w_hist.len();
+            let back = self.w_hist[n - self.own_m] - self.w_hist[n - self.own_m - 1];
+            let slack = if from == to { 1e-6 * p.a * dt } else { 0.0 };
+            let win = p.a * dt + slack;
+            let lo = w_prev + (back - win).max(if down { -step } else { f64::NEG_INFINITY });
+            let hi = w_prev
+                + (back + win).min(if down {
+                    f64::INFINITY
+                } else {
+                    step.min(rise) + slack
+                });
+            let x = w(to);
+            self.scale = if x > hi {
+                // (σ gives way, down to 0 if it must, where the secant is 0)
+                bisect(to, 0.0, |g| w(g) <= hi, true)
+            } else if x < lo && from > to {
+                bisect(to, from, |g| w(g) >= lo, false)
+            } else {
+                to
+            };
+            return;
+        }
         // the limit the secant must not pass, and whether σ = `to` keeps it
         let ok = |x: f64| {
             if down {
@@ -886,6 +970,11 @@ impl<S: ProgramSource> Executor<S> {
                     Some(Item::Move(m)) => {
                         if self.path.is_some() && m.profile.v0 == 0.0 {
                             self.filters_for(m.profile.own_filter());
+                            self.own_m = m.profile.own_filter().unwrap_or(0) as usize;
+                            self.w_hist.clear();
+                            if self.own_m > 0 {
+                                self.w_hist.resize(self.own_m + 1, 0.0);
+                            }
                         }
                         if let Some(pf) = self.path.as_mut() {
                             pf.add_move(self.s_total, m.geom);
@@ -939,7 +1028,7 @@ impl<S: ProgramSource> Executor<S> {
             }
             match self.cur.take() {
                 Some(Cur::Move(m, stop)) => {
-                    let tau = self.pipe.timeline.local_time(self.vk);
+                    let tau = self.pipe.timeline.move_time(self.vk, &m.profile);
                     let running = match stop {
                         Some(end) => self.vk < end as f64,
                         None => tau < m.profile.duration,
@@ -959,6 +1048,10 @@ impl<S: ProgramSource> Executor<S> {
                         let s_now = self.s_base + m.profile.s_at(tau);
                         let w_prev = (s_now - self.s_last) / (self.dt * self.sp_last.max(1e-9));
                         self.s_last = s_now;
+                        if self.own_m > 0 {
+                            self.w_hist.pop_front();
+                            self.w_hist.push_back(w_prev);
+                        }
                         self.update_scale(&m, tau, w_prev);
                         self.cur = Some(Cur::Move(m, stop));
                         self.sp_last = spindle;

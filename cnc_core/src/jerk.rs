@@ -214,25 +214,43 @@ impl JerkBudget {
     }
 
     /// A line's own path filter, for a run from rest to rest: a moving
-    /// average of M samples keeps the tangential jerk of a profile whose
-    /// acceleration steps by up to 2·a (a feed hold's deceleration right
-    /// after speeding up) within 2·a/(M·dt); on axis i that is |u_i| times
-    /// as much (`u`: |direction| per axis), and a line needs no share for
-    /// normal accelerations or their turn, so M = ⌈2·a·max|u_i| / (j·dt)⌉,
-    /// never longer than the path filter itself. 0 without the path
-    /// filter. (The planner sizes the filter with it, `limits.rs`, and the
-    /// blender reckons its hold, `blend.rs`.)
+    /// average of M samples keeps the tangential jerk within
+    /// (A_k − A_{k−M})/(M·dt), A the profile's sampled path acceleration.
+    /// The line's profile never has +a and −a in one window (its cruise
+    /// lasts at least M + 2 samples, [`own_peak_cap`](Self::own_peak_cap),
+    /// and a feed hold or override keeps any two within M samples of each
+    /// other within a, `exec.rs`), so A steps by at most a: on axis i that
+    /// is |u_i|·a (`u`: |direction| per axis), and a line needs no share
+    /// for normal accelerations or their turn, so M = ⌈a·max|u_i| /
+    /// (j·dt)⌉, never longer than the path filter itself. 0 without the
+    /// path filter. (The planner sizes the filter with it, `limits.rs`,
+    /// and the blender reckons its hold, `blend.rs`.)
     #[inline]
     pub(crate) fn own_filter_samples(&self, u: &V3, a: f64) -> u32 {
         if !(self.limited() && self.m_s > 1) {
             return 0;
         }
-        let m = (2.0 * a * u.max() / (self.j * self.dt) - 1e-9).ceil();
+        let m = (a * u.max() / (self.j * self.dt) - 1e-9).ceil();
         if m.is_finite() {
             m.clamp(1.0, self.m_s as f64) as u32
         } else {
             self.m_s as u32
         }
+    }
+
+    /// The fastest peak of a line run from rest to rest with its own path
+    /// filter of `m` samples, acceleration `a` over `length`: its cruise
+    /// lasts at least M + 2 samples, so that no window of the filter holds
+    /// both its acceleration and its deceleration (v²/a + v·T ≤ length, T
+    /// = (M + 2)·dt). Against a filter sized for a step of 2·a (2·M
+    /// samples, a hold of 2·M − 1) a line that cruises anyway runs M − 2
+    /// samples shorter (a tick's wait and a hold of M, `timeline.rs`), and
+    /// one whose peak this caps 2·(v/a − √(length/a)) + 4·dt longer: shorter
+    /// unless its triangle would have lasted only a few samples.
+    #[inline]
+    pub(crate) fn own_peak_cap(&self, m: u32, a: f64, length: f64) -> f64 {
+        let t = (m as f64 + 2.0) * self.dt;
+        0.5 * a * ((t * t + 4.0 * length / a).sqrt() - t)
     }
 
     /// The largest distance by which the XYZ filter moves a setpoint off
@@ -514,10 +532,14 @@ impl PathFilter {
         if self.settled() {
             return (raw, speed);
         }
-        let sf = self.s.iter().sum::<f64>() / n;
         // the oldest value is the least (s never decreases): moves ending
         // before it are behind the window
         let oldest = self.s[self.i];
+        // (the mean of the differences to the oldest, which are exact and
+        // short: summed whole, path lengths of hundreds of mm rounded the
+        // mean by 1e-11 mm, a sampled jerk of 0.1 mm/s³, where a line's
+        // own filter meets the jerk limit exactly)
+        let sf = oldest + self.s.iter().map(|x| x - oldest).sum::<f64>() / n;
         while self.segs.len() > 1 && self.segs[1].0 <= oldest.min(sf) {
             self.segs.pop_front();
         }

@@ -28,7 +28,8 @@ pub struct Profile {
     /// a line's own path filter length, samples
     /// ([`MoveLimits::own_m`](crate::limits::MoveLimits::own_m)): run
     /// from rest to rest, the line is filtered with it alone (no XYZ
-    /// filter) and the hold after it is `own_m − 1`; 0: the machine's
+    /// filter), starts a tick late and the hold after it is `own_m`
+    /// ([`crate::timeline::Timeline::move_time`]); 0: the machine's
     /// filters
     pub own_m: u32,
 }

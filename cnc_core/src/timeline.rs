@@ -73,9 +73,33 @@ impl Timeline {
     /// For a move that ends at rest: the tick of its end (the next group's start).
     pub fn stop_tick(&self, m: &PlannedMove) -> Option<u64> {
         (m.profile.v1 == 0.0).then(|| {
-            self.group_k0
-                .saturating_add(self.ticks(self.seg_t0 + m.profile.duration))
+            self.group_k0.saturating_add(
+                self.ticks(self.seg_t0 + self.lead(&m.profile) + m.profile.duration),
+            )
         })
+    }
+
+    /// How long a move waits at its group's start, s: a line run from
+    /// rest to rest under its own path filter of M samples, one tick.
+    /// That filter's steps of the sampled jerk are the whole limit (a/M
+    /// per sample), and the sampled jerk of the first step reaches back
+    /// three samples: without the tick it would also hold the last step
+    /// of the filters settling on the stop before.
+    #[inline]
+    fn lead(&self, p: &Profile) -> f64 {
+        if p.own_filter().is_some() {
+            self.dt
+        } else {
+            0.0
+        }
+    }
+
+    /// Time of (virtual) tick `k` relative to the start of move `p` (the
+    /// current one): [`local_time`](Self::local_time) less its
+    /// [`lead`](Self::lead).
+    #[inline]
+    pub fn move_time(&self, k: f64, p: &Profile) -> f64 {
+        self.local_time(k) - self.lead(p)
     }
 
     /// Time of (virtual) tick `k` relative to the start of the current move;
@@ -93,15 +117,16 @@ impl Timeline {
     #[inline]
     pub(crate) fn finish_profile(&mut self, p: &Profile) {
         // as `stop_tick`, then the hold (a line run from rest to rest
-        // with its own path filter: that filter's)
+        // with its own path filter of M samples: M, a tick more than the
+        // filter takes to settle, for the same reason as its `lead`)
         if p.v1 == 0.0 {
             let hold = match p.own_filter() {
-                Some(m) => u64::from(m) - 1,
+                Some(m) => u64::from(m),
                 None => self.hold,
             };
             self.group_k0 = self
                 .group_k0
-                .saturating_add(self.ticks(self.seg_t0 + p.duration))
+                .saturating_add(self.ticks(self.seg_t0 + self.lead(p) + p.duration))
                 .saturating_add(hold);
             self.seg_t0 = 0.0;
         } else {

@@ -38,13 +38,14 @@ fn hold_decelerates_on_the_path_holds_still_and_resumes_to_the_exact_end() {
     // 100 mm/s at 2000 mm/s² (the line runs between two stops, so it has
     // the whole acceleration) stops in 50 ms, 2.5 mm, plus the 0.95 mm
     // that the setpoint lags: a line from rest to rest runs with a path
-    // filter of its own, ⌈2·a/(j·dt)⌉ = 2 · 2000 / (200 · 1) = 20 samples
-    // (at X's 200 m/s³), and no XYZ filter: (20 − 1)/2 samples
+    // filter of its own, ⌈a/(j·dt)⌉ = 2000 / (200 · 1) = 10 samples (at
+    // X's 200 m/s³), and no XYZ filter: (10 − 1)/2 samples (in the cruise
+    // the hold may decelerate at once: no acceleration in the window)
     let stop = s[1999].pos;
     let travelled = stop[0] - s[1499].pos[0];
     let b = m.jerk_budget();
-    let own = (2.0 * 2000.0 / (b.j * m.dt()) - 1e-9).ceil();
-    assert_eq!(own, 20.0);
+    let own = (2000.0 / (b.j * m.dt()) - 1e-9).ceil();
+    assert_eq!(own, 10.0);
     let lag = (own - 1.0) / 2.0 * 0.1;
     assert!(
         (travelled - 100.0 * 100.0 / (2.0 * 2000.0) - lag).abs() < 0.1,
@@ -149,4 +150,71 @@ fn feed_override_scales_the_cruise_within_every_limit() {
         n50 > n100 + 1900 && n150 + 600 < n100 && n200 < n150,
         "{n50} {n100} {n150} {n200}"
     );
+}
+
+/// Largest sampled jerk of X, mm/s³.
+fn max_jerk_x(s: &[Sample], dt: f64) -> f64 {
+    s.windows(4)
+        .map(|w| (w[3].pos[0] - 3.0 * w[2].pos[0] + 3.0 * w[1].pos[0] - w[0].pos[0]).abs())
+        .fold(0.0, f64::max)
+        / (dt * dt * dt)
+}
+
+/// Runs `prog`, setting the feed target to `level` at sample `at` and
+/// back to 1 at `back`.
+fn run_with(m: &Machine, prog: &str, at: usize, level: f64, back: usize) -> Vec<Sample> {
+    let mut ex = Executor::new(StrSource::new(prog), Dialect::Cnc836, m);
+    let mut s = Vec::new();
+    while let Some(x) = ex.next_sample() {
+        s.push(x);
+        if s.len() == at {
+            ex.set_feed_target(level);
+        } else if s.len() == back {
+            ex.set_feed_target(1.0);
+        }
+    }
+    s
+}
+
+/// A line run from rest to rest has a path filter of its own sized for
+/// steps of a (10 samples on the bundled mill's X at 200 m/s³): a feed
+/// hold while it speeds up may not turn +a into −a within that window
+/// (2·a over 10 ms is twice the jerk limit). It first stops speeding up
+/// (for the window), then decelerates; a resume just before the line's
+/// planned deceleration rises only to √½ at a/2, so that it meets that
+/// deceleration within the window too. The jerk stays at the limit.
+#[test]
+fn a_hold_on_a_line_from_rest_to_rest_keeps_its_own_filters_window() {
+    let m = Machine::builtin_mill();
+    let dt = m.dt();
+    let prog = "G01 X100 F6000\n";
+    // the line: a tick's wait, 50 ms up to 100 mm/s, its filter 10 ms
+    // behind; a hold 30 ms into it, while it accelerates at 2000 mm/s²
+    let s = run_with(&m, prog, 31, 0.0, 400);
+    let a = |k: usize| (s[k].pos[0] - 2.0 * s[k - 1].pos[0] + s[k - 2].pos[0]) / (dt * dt);
+    let jerk = max_jerk_x(&s, dt);
+    assert!(jerk <= 2e5 * (1.0 + 1e-6), "{jerk} mm/s³");
+    // (the raw path stops speeding up for the filter's window, then
+    // decelerates at 2000 mm/s²: the setpoints' acceleration falls from
+    // 2000 to 0 over 10 samples and on to −2000 over the next 10, the
+    // limit's 200 mm/s² a sample; without the window it fell at twice that)
+    let near = |x: f64, want: f64| (x - want).abs() < 1e-6;
+    assert!(
+        near(a(31), 2000.0) && near(a(41), 0.0) && near(a(51), -2000.0),
+        "{} {} {}",
+        a(31),
+        a(41),
+        a(51)
+    );
+    assert_eq!(s.last().unwrap().pos, V3::new(100.0, 0.0, 0.0));
+    // held 50 ms before the deceleration would start (at 1.001 s), so
+    // that it stops just before it, and resumed 80 ms later: at a from
+    // rest to 1 it would meet the deceleration's −a within the window
+    // (twice the limit); it rises to √½ at a/2
+    let s = run_with(&m, prog, 950, 0.0, 1030);
+    let jerk = max_jerk_x(&s, dt);
+    assert!(jerk <= 2e5 * (1.0 + 1e-6), "{jerk} mm/s³");
+    let ra = max_accel_ratio(&s, &m);
+    assert!(ra <= 1.0 + 1e-6, "acceleration at {ra} of the limit");
+    assert_eq!(s.last().unwrap().pos, V3::new(100.0, 0.0, 0.0));
 }

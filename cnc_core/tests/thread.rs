@@ -301,8 +301,8 @@ fn after_a_spindle_reversal_a_thread_waits_for_the_next_index_only() {
         .unwrap();
     let wait = (moving - ready) as f64 * m.dt();
     assert!(wait < 1.0 / 3.0, "{wait} s");
-    // (76 ms here; the whole run 5.814 s)
-    assert_eq!(s.len(), 5814 + 1);
+    // (50 ms here; the whole run 5.746 s)
+    assert_eq!(s.len(), 5746 + 1);
     // and it reaches its end point
     assert!(s.iter().any(|x| x.src.line == 8 && x.pos[2] == -50.0));
 }

@@ -163,10 +163,10 @@ fn a_dry_run_is_admitted_with_the_checks_estimate() {
     assert!(a.dry_run);
     // 100 mm at 100 mm/s, 50 ms more to reach the speed and to stop at
     // 2000 mm/s², then the line's own path filter settles on the end (a
-    // line from rest to rest: 20 samples at the bundled 200 m/s³, a hold
-    // of 19 ticks): whole ticks of 1 ms
+    // line from rest to rest: 10 samples at the bundled 200 m/s³, a tick's
+    // wait before it and a hold of 10 ticks): whole ticks of 1 ms
     assert!(
-        (1.068..1.070).contains(&a.estimated_duration_s),
+        (1.060..1.062).contains(&a.estimated_duration_s),
         "{}",
         a.estimated_duration_s
     );
