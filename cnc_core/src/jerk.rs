@@ -238,8 +238,9 @@ impl JerkBudget {
         }
     }
 
-    /// The fastest peak of a line run from rest to rest with its own path
-    /// filter of `m` samples, acceleration `a` over `length`: its cruise
+    /// The speed cap `vcap` of a line run from rest to rest with its own
+    /// path filter of `m` samples, acceleration `a` over `length`, lowered
+    /// where need be so that its cruise
     /// lasts at least M + 2 samples, so that no window of the filter holds
     /// both its acceleration and its deceleration (v²/a + v·T ≤ length, T
     /// = (M + 2)·dt). Against a filter sized for a step of 2·a (2·M
@@ -248,9 +249,13 @@ impl JerkBudget {
     /// one whose peak this caps 2·(v/a − √(length/a)) + 4·dt longer: shorter
     /// unless its triangle would have lasted only a few samples.
     #[inline]
-    pub(crate) fn own_peak_cap(&self, m: u32, a: f64, length: f64) -> f64 {
+    pub(crate) fn own_peak_cap(&self, m: u32, a: f64, length: f64, vcap: f64) -> f64 {
         let t = (m as f64 + 2.0) * self.dt;
-        0.5 * a * ((t * t + 4.0 * length / a).sqrt() - t)
+        // (most lines cruise that long at their feed: no square root)
+        if vcap * (vcap / a + t) <= length {
+            return vcap;
+        }
+        vcap.min(0.5 * a * ((t * t + 4.0 * length / a).sqrt() - t))
     }
 
     /// The largest distance by which the XYZ filter moves a setpoint off

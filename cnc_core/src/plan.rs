@@ -672,9 +672,10 @@ impl<K: Copy> Lookahead<K> {
             if lim.own_m > 0 && self.v_head == 0.0 && v1 == 0.0 {
                 // a line from rest to rest under its own path filter:
                 // its cruise outlasts the filter's window
-                lim.vcap = lim
-                    .vcap
-                    .min(self.lim.jerk.own_peak_cap(lim.own_m, lim.a, h.length));
+                lim.vcap = self
+                    .lim
+                    .jerk
+                    .own_peak_cap(lim.own_m, lim.a, h.length, lim.vcap);
             }
             // (the next move's acceleration may still rise, never fall)
             let a_after = match self.queue.get(1) {

@@ -402,6 +402,34 @@ fn a_line_from_rest_to_rest_runs_with_a_path_filter_of_its_own() {
 }
 
 #[test]
+fn a_short_line_from_rest_to_rest_peaks_where_its_cruise_outlasts_its_filter() {
+    // the bundled mill's X (2000 mm/s², 200 m/s³): a 1 mm line at F6000
+    // would peak at √(a·L) = 44.7 mm/s, a triangle whose +a and −a the
+    // line's own 10-sample filter would see in one window (twice the
+    // jerk). It peaks where its cruise lasts 10 + 2 samples: v²/a + v·T
+    // = L, T = 12 ms: v = 1000·(√(0.012² + 0.002) − 0.012) = 34.30 mm/s
+    let m = mill();
+    let s = run(
+        "G01 X1 F6000
+",
+        &m,
+    );
+    let dt = m.dt();
+    let v: Vec<f64> = s
+        .windows(2)
+        .map(|w| (w[1].pos[0] - w[0].pos[0]) / dt)
+        .collect();
+    let top = v.iter().cloned().fold(0.0, f64::max);
+    let want = 1000.0 * ((0.012f64 * 0.012 + 0.002).sqrt() - 0.012);
+    assert!((top - want).abs() < 1e-6, "{top} mm/s against {want}");
+    assert!(largest_jerk(&s, dt) <= 2e5 * (1.0 + 1e-6));
+    // a tick's wait, 2·34.30/2000 + 0.012 s of motion (46.3 ms: 47
+    // ticks), the hold of 10
+    assert_eq!(s.len(), 1 + 47 + 10 + 1);
+    assert_eq!(s.last().unwrap().pos, V3::new(1.0, 0.0, 0.0));
+}
+
+#[test]
 fn runs_at_ten_kilohertz() {
     let mut m = mill();
     m.interpolation.rate_hz = 10_000.0;
