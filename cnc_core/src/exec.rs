@@ -17,7 +17,7 @@
 //! normal acceleration. After each stop the setpoints hold still for
 //! M_s + M_f − 2 ticks ([`crate::timeline::Timeline::hold`]), so that the
 //! filtered path reaches every stop point exactly; the check counts those
-//! ticks too. A line run from rest to rest has a path filter of its own
+//! ticks too. A line or an arc run from rest to rest has a path filter of its own
 //! and no XYZ filter; it waits a tick at its start and holds that
 //! filter's length
 //! ([`crate::profile::Profile::own_filter`]). At high jerk ([`crate::jerk::JerkBudget::single_average`]) there
@@ -216,7 +216,7 @@ pub struct Executor<S> {
     /// filter ([`crate::profile::Profile::own_filter`])
     filters: (usize, usize),
     filters_now: (usize, usize),
-    /// a line run from rest to rest with its own path filter: that
+    /// a line or an arc run from rest to rest with its own path filter: that
     /// filter's length M (0: none), and the secant speeds of the last M + 1
     /// steps, oldest first (zeros before the line: it starts from rest).
     /// The filter is sized for steps of the path acceleration of at most
@@ -456,7 +456,7 @@ impl<S: ProgramSource> Executor<S> {
         let cap = p.vlim;
         // from σ·vp back to vp before the cruise ends, at the path
         // acceleration, with a step in hand
-        // (under a line's own path filter the deceleration may start up to
+        // (under a line's (or an arc's) own path filter the deceleration may start up to
         // that filter's length later, [`Self::update_scale`])
         let late = (2 + self.own_m) as f64 * cap * self.dt;
         let left = p.d_acc + p.d_cruise - p.s_at(tau) - late;
@@ -475,7 +475,7 @@ impl<S: ProgramSource> Executor<S> {
     /// the same time. With σ at its target nothing changes. `w_prev`: the
     /// secant speed of the step that led here (mm/s, in virtual time).
     ///
-    /// Under a line's own path filter of M samples (sized for steps of
+    /// Under a line's (or an arc's) own path filter of M samples (sized for steps of
     /// a, [`crate::jerk::JerkBudget::own_filter_samples`]) also: the
     /// secant's change differs from the one M steps back by at most a·dt;
     /// and where the line's deceleration is less than M + 3 samples away,
@@ -498,7 +498,7 @@ impl<S: ProgramSource> Executor<S> {
                 rise = 0.5 * p.a * self.dt;
             }
         }
-        // (under a line's own path filter the window is kept at the goal
+        // (under a line's (or an arc's) own path filter the window is kept at the goal
         // too: after a change of σ the profile's own step may leave it)
         let own = self.own_m > 0 && self.w_hist.len() > self.own_m;
         if self.scale == goal && !own {
@@ -528,7 +528,7 @@ impl<S: ProgramSource> Executor<S> {
         let step = if across { p.a_join } else { p.a } * dt;
         let (from, to) = (self.scale, goal);
         if own {
-            // under a line's own path filter of M samples: the change of
+            // under a line's (or an arc's) own path filter of M samples: the change of
             // the secant M steps back, which this step's may differ from
             // by at most a·dt (the filter's jerk is the difference over
             // M·dt); and the rate's bound on the side σ moves to (at the
@@ -926,7 +926,7 @@ impl<S: ProgramSource> Executor<S> {
 
     /// At the start of a group (at rest, the hold after the stop before
     /// over): the path filter of `own` samples and no XYZ filter for a
-    /// line run from rest to rest, else the machine's filters. The filters
+    /// line or an arc run from rest to rest, else the machine's filters. The filters
     /// are made anew, standing at the stop: the sample the group starts
     /// with (the stop point again) fills the last of the old filters'
     /// slots that still held an earlier point, so either way it comes out

@@ -40,7 +40,7 @@
 
 use crate::geom::{Geom, V3};
 use crate::shares::{
-    NORMAL_JERK_SHARE, S_FILTER_SHARE, TURN_JERK_SHARE, XYZ_FILTER_ERROR_MM,
+    NORMAL_JERK_SHARE, OWN_ARC_TANGENT_SHARE, S_FILTER_SHARE, TURN_JERK_SHARE, XYZ_FILTER_ERROR_MM,
     XYZ_FILTER_TOLERANCE_SHARE,
 };
 use std::collections::VecDeque;
@@ -236,6 +236,55 @@ impl JerkBudget {
         } else {
             self.m_s as u32
         }
+    }
+
+    /// An arc's own path filter, for a run from rest to rest (its normal
+    /// acceleration v²κ then starts and ends at 0: no step for an XYZ
+    /// filter to spread): M = ⌈a/([`OWN_ARC_TANGENT_SHARE`]·j·dt)⌉ for
+    /// its tangential acceleration a (steps of at most a, as a line's:
+    /// [`own_filter_samples`](Self::own_filter_samples)), never longer
+    /// than the path filter. The rest of the jerk is for the normal
+    /// acceleration's growth and turn ([`own_arc_cap`](Self::own_arc_cap)).
+    /// 0 without the path filter.
+    #[inline]
+    pub(crate) fn own_arc_samples(&self, a: f64) -> u32 {
+        if !(self.limited() && self.m_s > 1) {
+            return 0;
+        }
+        let m = (a / (OWN_ARC_TANGENT_SHARE * self.j * self.dt) - 1e-9).ceil();
+        if m.is_finite() {
+            m.clamp(1.0, self.m_s as f64) as u32
+        } else {
+            self.m_s as u32
+        }
+    }
+
+    /// The fastest an arc of curvature at most `kappa` may run from rest
+    /// to rest with its own path filter, at tangential acceleration up to
+    /// `a`: on the arc (or helix) the jerk is s⃛·T + 3·ṡ·s̈·κ·N + ṡ³·r⃛(s),
+    /// |r⃛| ≤ κ², so it stays within j where 3·v·a·κ + v³·κ² is within
+    /// the share the tangential jerk leaves. (Newton's method from above,
+    /// on an increasing convex function: it never passes the root.)
+    pub(crate) fn own_arc_cap(&self, kappa: f64, a: f64) -> f64 {
+        let r = (1.0 - OWN_ARC_TANGENT_SHARE) * self.j;
+        let (k2, k1) = (kappa * kappa, 3.0 * a * kappa);
+        if !(k2 > 0.0 && r > 0.0) {
+            return f64::INFINITY;
+        }
+        // (either term alone reaching r bounds the root from above)
+        let mut v = (r / k2).cbrt();
+        if k1 > 0.0 {
+            v = v.min(r / k1);
+        }
+        for _ in 0..8 {
+            let f = k2 * v * v * v + k1 * v - r;
+            let d = 3.0 * k2 * v * v + k1;
+            if !(f > 0.0 && d > 0.0) {
+                break;
+            }
+            v -= f / d;
+        }
+        v * (1.0 - 1e-9)
     }
 
     /// The speed cap `vcap` of a line run from rest to rest with its own

@@ -23,11 +23,14 @@ pub(crate) struct MoveLimits {
     /// speed cap at any feed, with acceleration `a`
     /// ([`Profile::vlim`](crate::profile::Profile::vlim))
     pub vlim: f64,
-    /// a line under the path filter: the length of the path filter that
-    /// keeps its jerk with the whole of it, should it run from rest to
+    /// a line or an arc under the path filter: the length of the path
+    /// filter of its own that keeps its jerk, should it run from rest to
     /// rest ([`Profile::own_m`](crate::profile::Profile::own_m)); 0
     /// otherwise
     pub own_m: u32,
+    /// an arc's curvature bound 1/r for that run, 1/mm (0: a line), for
+    /// its speed cap then ([`PlanLimits::own_run`])
+    pub own_kappa: f32,
 }
 
 /// What the planner needs of a move before it looks at its neighbours:
@@ -60,6 +63,7 @@ impl MovePrep {
             a: 0.0,
             vlim: 0.0,
             own_m: 0,
+            own_kappa: 0.0,
         };
         MovePrep {
             length,
@@ -184,7 +188,8 @@ impl PlanLimits {
                 if arc.length <= 0.0 {
                     return MovePrep::skipped(arc.length);
                 }
-                let l = self.arc_limits(arc, f, vlim, part);
+                let own = !matches!(feed, Feed::PerRev { .. });
+                let l = self.arc_limits(arc, f, vlim, part, own);
                 MovePrep {
                     length: arc.length,
                     t_start: geom.start_tangent(),
@@ -228,7 +233,8 @@ impl PlanLimits {
         if arc.length <= 0.0 || !self.jerk.limited() || slow {
             return *prep;
         }
-        let l = self.arc_limits(arc, f, true, part);
+        let own = !matches!(feed, Feed::PerRev { .. });
+        let l = self.arc_limits(arc, f, true, part, own);
         MovePrep {
             red: l[0],
             fine: l[1],
@@ -236,6 +242,52 @@ impl PlanLimits {
             stop: stops(&l, arc.length),
             ..*prep
         }
+    }
+
+    /// `lim` of a move known to run from rest to rest under a path filter
+    /// of its own (`lim.own_m` > 0), `length` long: a line's speed cap so
+    /// that its cruise outlasts the filter ([`JerkBudget::own_peak_cap`]);
+    /// an arc's also within [`JerkBudget::own_arc_cap`] (its speed limit
+    /// for an override too), or, where that makes it slower than the
+    /// machine's filters with their hold, those (`own_m` 0). `vlim`:
+    /// whether the speed limit over the feed is wanted (the check's
+    /// estimate does not read it, and it decides nothing here).
+    #[inline]
+    pub(crate) fn own_run(&self, mut lim: MoveLimits, length: f64, vlim: bool) -> MoveLimits {
+        let jb = &self.jerk;
+        let vcap = jb.own_peak_cap(lim.own_m, lim.a, length, lim.vcap);
+        if lim.own_kappa <= 0.0 {
+            lim.vcap = vcap;
+            return lim;
+        }
+        // (the usual arc: its feed keeps 3·v·a·κ + v³·κ² within the share,
+        // its cruise outlasts the filter, and the filter's ticks are fewer
+        // than the machine filters' hold; no cube root, no choice)
+        let kappa = f64::from(lim.own_kappa);
+        let normal = |v: f64| v * kappa * (3.0 * lim.a + v * v * kappa);
+        let share = (1.0 - crate::shares::OWN_ARC_TANGENT_SHARE) * jb.j;
+        if vcap == lim.vcap && normal(vcap) <= share && u64::from(lim.own_m) < jb.hold_ticks() {
+            if vlim && normal(lim.vlim) > share {
+                lim.vlim = jb.own_arc_cap(kappa, lim.a);
+            }
+            return lim;
+        }
+        let cap = jb.own_arc_cap(kappa, lim.a);
+        let v = jb.own_peak_cap(lim.own_m, lim.a, length, lim.vcap.min(cap));
+        // (rest to rest at peak v: its trapezoid and the ticks after it)
+        let a = lim.a;
+        let time = |v: f64, ticks: f64| {
+            let v = v.min((a * length).sqrt());
+            length / v + v / a + ticks * jb.dt
+        };
+        let own = time(v, f64::from(lim.own_m) + 1.0);
+        if v > 0.0 && own < time(lim.vcap, jb.hold_ticks() as f64) {
+            lim.vcap = v;
+            lim.vlim = lim.vlim.min(cap);
+        } else {
+            lim.own_m = 0;
+        }
+        lim
     }
 
     /// A line's limits with [`LINE_SHARE`], [`FINE_SHARE`] and the whole acceleration:
@@ -264,6 +316,7 @@ impl PlanLimits {
             a,
             vlim,
             own_m,
+            own_kappa: 0.0,
         };
         a.map(limits)
     }
@@ -274,7 +327,34 @@ impl PlanLimits {
     /// [`ARC_NORMAL_MAX`]·share, and the tangential part the rest, so
     /// their vector sum stays under the share on every axis.
     #[inline]
-    fn arc_limits(&self, arc: &Arc, f: f64, vlim: bool, part: ArcPart) -> [MoveLimits; 3] {
+    fn arc_limits(
+        &self,
+        arc: &Arc,
+        f: f64,
+        vlim: bool,
+        part: ArcPart,
+        own: bool,
+    ) -> [MoveLimits; 3] {
+        let mut l = self.arc_limits_shared(arc, f, vlim, part);
+        // (run from rest to rest: a path filter of its own, sized for the
+        // whole tangential acceleration, and the curvature for its speed
+        // cap then; `as f32` rounded up, it stays a bound)
+        if own && self.jerk.limited() && self.jerk.m_s > 1 && arc.radius > 0.0 {
+            let own_m = self.jerk.own_arc_samples(l[2].a);
+            let kappa = (1.0 / arc.radius * (1.0 + 1e-6)) as f32;
+            if own_m > 0 && kappa.is_finite() {
+                for x in &mut l {
+                    x.own_m = own_m;
+                    x.own_kappa = kappa;
+                }
+            }
+        }
+        l
+    }
+
+    /// [`arc_limits`](Self::arc_limits) but for a run of its own.
+    #[inline]
+    fn arc_limits_shared(&self, arc: &Arc, f: f64, vlim: bool, part: ArcPart) -> [MoveLimits; 3] {
         // A flat arc's length is its length in the plane, r·|sweep|, and
         // its plane fraction r·|sweep| / length is then exactly 1: the
         // limits with the literal 1, which the compiler takes out of its
@@ -355,6 +435,7 @@ impl PlanLimits {
                 a: a.min(aj),
                 vlim,
                 own_m: 0,
+                own_kappa: 0.0,
             }
         };
         [limits(LINE_SHARE), limits(FINE_SHARE), limits(1.0)]
@@ -458,6 +539,7 @@ mod tests {
                     a,
                     vlim,
                     own_m: 0,
+                    own_kappa: 0.0,
                 }
             }
             Geom::Arc(arc) => {
@@ -492,6 +574,7 @@ mod tests {
                     a,
                     vlim: vgeo.min(centripetal(normal_left)),
                     own_m: 0,
+                    own_kappa: 0.0,
                 }
             }
         }

@@ -629,7 +629,7 @@ impl<K: Copy> Lookahead<K> {
     }
 
     /// Commits every head whose exit speed can no longer change.
-    fn commit(&mut self, all: bool, out: &mut impl ItemSink<Kept = K>) {
+    fn commit<O: ItemSink<Kept = K>>(&mut self, all: bool, out: &mut O) {
         // (jerk: a cap of a move still to come falls on whole pieces, so
         // it may lower the entry of the piece that reaches over the last
         // `lag_distance(top)` from as far back as that piece starts; found
@@ -670,12 +670,10 @@ impl<K: Copy> Lookahead<K> {
             };
             let mut lim = h.lim;
             if lim.own_m > 0 && self.v_head == 0.0 && v1 == 0.0 {
-                // a line from rest to rest under its own path filter:
-                // its cruise outlasts the filter's window
-                lim.vcap = self
-                    .lim
-                    .jerk
-                    .own_peak_cap(lim.own_m, lim.a, h.length, lim.vcap);
+                // a line or an arc from rest to rest under its own path
+                // filter: its cruise outlasts the filter's window (an
+                // arc: and its speed keeps the normal jerk)
+                lim = self.lim.own_run(lim, h.length, O::VLIM);
             }
             // (the next move's acceleration may still rise, never fall)
             let a_after = match self.queue.get(1) {

@@ -25,7 +25,7 @@ pub struct Profile {
     /// without a stop: what a change of the feed scale may use in a
     /// sample step that reaches across a junction
     pub a_join: f64,
-    /// a line's own path filter length, samples
+    /// a line's or an arc's own path filter length, samples
     /// ([`MoveLimits::own_m`](crate::limits::MoveLimits::own_m)): run
     /// from rest to rest, the line is filtered with it alone (no XYZ
     /// filter), starts a tick late and the hold after it is `own_m`
@@ -72,7 +72,7 @@ impl Profile {
     }
 
     /// The length of the path filter this move runs with on its own, if
-    /// it does: a line from rest to rest under the path filter.
+    /// it does: a line or an arc from rest to rest under the path filter.
     #[inline]
     pub fn own_filter(&self) -> Option<u32> {
         (self.own_m > 0 && self.v0 == 0.0 && self.v1 == 0.0).then_some(self.own_m)

@@ -42,6 +42,11 @@ pub const S_FILTER_SHARE: f64 = 0.5;
 pub const NORMAL_JERK_SHARE: f64 = 0.4;
 /// What is left, for the turn of the tangential acceleration on arcs.
 pub const TURN_JERK_SHARE: f64 = 1.0 - S_FILTER_SHARE - NORMAL_JERK_SHARE;
+/// Jerk: share of the jerk limit the own path filter of an arc run from
+/// rest to rest gives its tangential jerk; the rest is for the normal
+/// acceleration's growth and turn, 3·v·a·κ + v³·κ²
+/// ([`crate::jerk::JerkBudget::own_arc_cap`]).
+pub const OWN_ARC_TANGENT_SHARE: f64 = 0.5;
 /// Largest distance, mm, by which the XYZ filter may move a setpoint off
 /// a curve (programmed arcs and blend arcs) under G61, and the least it
 /// may under G64 P: the planner caps the normal acceleration for it. Also

@@ -79,8 +79,8 @@ impl Timeline {
         })
     }
 
-    /// How long a move waits at its group's start, s: a line run from
-    /// rest to rest under its own path filter of M samples, one tick.
+    /// How long a move waits at its group's start, s: a line or an arc run
+    /// from rest to rest under its own path filter of M samples, one tick.
     /// That filter's steps of the sampled jerk are the whole limit (a/M
     /// per sample), and the sampled jerk of the first step reaches back
     /// three samples: without the tick it would also hold the last step
@@ -116,7 +116,7 @@ impl Timeline {
     /// Advances past a finished move with profile `p`.
     #[inline]
     pub(crate) fn finish_profile(&mut self, p: &Profile) {
-        // as `stop_tick`, then the hold (a line run from rest to rest
+        // as `stop_tick`, then the hold (a line or an arc run from rest to rest
         // with its own path filter of M samples: M, a tick more than the
         // filter takes to settle, for the same reason as its `lead`)
         if p.v1 == 0.0 {

@@ -430,6 +430,33 @@ fn a_short_line_from_rest_to_rest_peaks_where_its_cruise_outlasts_its_filter() {
 }
 
 #[test]
+fn an_arc_from_rest_to_rest_runs_on_its_circle_with_a_path_filter_of_its_own() {
+    // the bundled mill (200 m/s³): a full circle R10 at F3000 between
+    // stops. Its normal acceleration starts and ends at 0, so it needs no
+    // XYZ filter: a path filter of ⌈a/(0.5·j·dt)⌉ = 20 samples of its own
+    // (a 1984 mm/s² along the path, what the centripetal 250 mm/s²
+    // leaves), and every setpoint lies on the circle (the XYZ filter
+    // pulled them inside by up to 0.5 µm). 3·v·a·κ + v³·κ², the normal
+    // acceleration's growth and turn, is 0.16 of j at 50 mm/s (the
+    // other half of j allows 130 mm/s)
+    let m = mill();
+    let s = run("G00 X10 Y0\nG02 X10 Y0 I10 J0 F3000\n", &m);
+    let dt = m.dt();
+    let on: Vec<&Sample> = s.iter().filter(|p| p.src.line == 2).collect();
+    assert!(on.len() > 1000);
+    for p in &on {
+        let r = ((p.pos[0] - 20.0).powi(2) + p.pos[1].powi(2)).sqrt();
+        assert!((r - 10.0).abs() < 1e-9, "{} mm off the circle", r - 10.0);
+    }
+    assert!(largest_jerk(&s, dt) <= 2e5 * (1.0 + 1e-6));
+    // the circle's samples: a tick's wait, 62.83 mm at 50 mm/s and 25 ms
+    // of speeding up and slowing down (1282 ticks), the hold of 20 (44
+    // with the machine's filters) and the program's last sample
+    assert_eq!(on.len(), 1 + 1282 + 20 + 1);
+    assert_eq!(s.last().unwrap().pos, V3::new(10.0, 0.0, 0.0));
+}
+
+#[test]
 fn runs_at_ten_kilohertz() {
     let mut m = mill();
     m.interpolation.rate_hz = 10_000.0;
