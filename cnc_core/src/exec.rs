@@ -969,8 +969,9 @@ impl<S: ProgramSource> Executor<S> {
                     None | Some(Item::End { .. }) => return self.end_at(self.pos),
                     Some(Item::Move(m)) => {
                         if self.path.is_some() && m.profile.v0 == 0.0 {
-                            self.filters_for(m.profile.own_filter());
-                            self.own_m = m.profile.own_filter().unwrap_or(0) as usize;
+                            let own = m.profile.own_filter();
+                            self.filters_for(own);
+                            self.own_m = own.unwrap_or(0) as usize;
                             self.w_hist.clear();
                             if self.own_m > 0 {
                                 self.w_hist.resize(self.own_m + 1, 0.0);

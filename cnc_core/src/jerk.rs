@@ -227,10 +227,18 @@ impl JerkBudget {
     /// and the blender reckons its hold, `blend.rs`.)
     #[inline]
     pub(crate) fn own_filter_samples(&self, u: &V3, a: f64) -> u32 {
+        self.own_samples(a * u.max(), self.j)
+    }
+
+    /// A filter of its own that turns steps of `step` (mm/s²) into a jerk
+    /// within `jerk`: ⌈step/(jerk·dt)⌉ samples, never longer than the path
+    /// filter; 0 without the path filter.
+    #[inline]
+    fn own_samples(&self, step: f64, jerk: f64) -> u32 {
         if !(self.limited() && self.m_s > 1) {
             return 0;
         }
-        let m = (a * u.max() / (self.j * self.dt) - 1e-9).ceil();
+        let m = (step / (jerk * self.dt) - 1e-9).ceil();
         if m.is_finite() {
             m.clamp(1.0, self.m_s as f64) as u32
         } else {
@@ -248,15 +256,21 @@ impl JerkBudget {
     /// 0 without the path filter.
     #[inline]
     pub(crate) fn own_arc_samples(&self, a: f64) -> u32 {
-        if !(self.limited() && self.m_s > 1) {
-            return 0;
-        }
-        let m = (a / (OWN_ARC_TANGENT_SHARE * self.j * self.dt) - 1e-9).ceil();
-        if m.is_finite() {
-            m.clamp(1.0, self.m_s as f64) as u32
-        } else {
-            self.m_s as u32
-        }
+        self.own_samples(a, OWN_ARC_TANGENT_SHARE * self.j)
+    }
+
+    /// The jerk an arc run from rest to rest under its own path filter
+    /// leaves its normal acceleration's growth and turn, mm/s³.
+    #[inline]
+    fn own_arc_share(&self) -> f64 {
+        (1.0 - OWN_ARC_TANGENT_SHARE) * self.j
+    }
+
+    /// Whether speed `v` keeps such an arc's 3·v·a·κ + v³·κ² within its
+    /// share ([`own_arc_cap`](Self::own_arc_cap) is the fastest that does).
+    #[inline]
+    pub(crate) fn own_arc_keeps(&self, kappa: f64, a: f64, v: f64) -> bool {
+        v * kappa * (3.0 * a + v * v * kappa) <= self.own_arc_share()
     }
 
     /// The fastest an arc of curvature at most `kappa` may run from rest
@@ -266,7 +280,7 @@ impl JerkBudget {
     /// the share the tangential jerk leaves. (Newton's method from above,
     /// on an increasing convex function: it never passes the root.)
     pub(crate) fn own_arc_cap(&self, kappa: f64, a: f64) -> f64 {
-        let r = (1.0 - OWN_ARC_TANGENT_SHARE) * self.j;
+        let r = self.own_arc_share();
         let (k2, k1) = (kappa * kappa, 3.0 * a * kappa);
         if !(k2 > 0.0 && r > 0.0) {
             return f64::INFINITY;

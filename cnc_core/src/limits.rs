@@ -12,6 +12,14 @@ use crate::shares::{
     ARC_NORMAL_MAX, FINE_KINK_SHARE, FINE_SHARE, KINK_SHARE, LINE_SHARE, SMOOTH_SHARE,
 };
 
+/// Whether a move at `feed` may run from rest to rest with a path filter
+/// of its own: not under G95, whose follow-up of the measured spindle is
+/// documented and tested against the machine's filters' delay.
+#[inline]
+fn own_filter_allowed(feed: &Feed) -> bool {
+    !matches!(feed, Feed::PerRev { .. })
+}
+
 /// Speed cap, path acceleration and geometric speed limit of a move
 /// planned with one acceleration share.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -172,7 +180,7 @@ impl PlanLimits {
                 // (a G95 line keeps the machine's filters: the follow-up of
                 // the measured spindle is documented and tested against
                 // their delay)
-                let own = !matches!(feed, Feed::PerRev { .. });
+                let own = own_filter_allowed(feed);
                 let l = self.line_limits(&t.abs(), f, own);
                 MovePrep {
                     length,
@@ -188,7 +196,7 @@ impl PlanLimits {
                 if arc.length <= 0.0 {
                     return MovePrep::skipped(arc.length);
                 }
-                let own = !matches!(feed, Feed::PerRev { .. });
+                let own = own_filter_allowed(feed);
                 let l = self.arc_limits(arc, f, vlim, part, own);
                 MovePrep {
                     length: arc.length,
@@ -233,7 +241,7 @@ impl PlanLimits {
         if arc.length <= 0.0 || !self.jerk.limited() || slow {
             return *prep;
         }
-        let own = !matches!(feed, Feed::PerRev { .. });
+        let own = own_filter_allowed(feed);
         let l = self.arc_limits(arc, f, true, part, own);
         MovePrep {
             red: l[0],
@@ -264,10 +272,11 @@ impl PlanLimits {
         // its cruise outlasts the filter, and the filter's ticks are fewer
         // than the machine filters' hold; no cube root, no choice)
         let kappa = f64::from(lim.own_kappa);
-        let normal = |v: f64| v * kappa * (3.0 * lim.a + v * v * kappa);
-        let share = (1.0 - crate::shares::OWN_ARC_TANGENT_SHARE) * jb.j;
-        if vcap == lim.vcap && normal(vcap) <= share && u64::from(lim.own_m) < jb.hold_ticks() {
-            if vlim && normal(lim.vlim) > share {
+        if vcap == lim.vcap
+            && jb.own_arc_keeps(kappa, lim.a, vcap)
+            && u64::from(lim.own_m) < jb.hold_ticks()
+        {
+            if vlim && !jb.own_arc_keeps(kappa, lim.a, lim.vlim) {
                 lim.vlim = jb.own_arc_cap(kappa, lim.a);
             }
             return lim;
@@ -335,14 +344,18 @@ impl PlanLimits {
         part: ArcPart,
         own: bool,
     ) -> [MoveLimits; 3] {
-        let mut l = self.arc_limits_shared(arc, f, vlim, part);
+        let mut l = self.arc_limits_filtered(arc, f, vlim, part);
         // (run from rest to rest: a path filter of its own, sized for the
         // whole tangential acceleration, and the curvature for its speed
         // cap then; `as f32` rounded up, it stays a bound)
-        if own && self.jerk.limited() && self.jerk.m_s > 1 && arc.radius > 0.0 {
-            let own_m = self.jerk.own_arc_samples(l[2].a);
+        let own_m = if own && arc.radius > 0.0 {
+            self.jerk.own_arc_samples(l[2].a)
+        } else {
+            0
+        };
+        if own_m > 0 {
             let kappa = (1.0 / arc.radius * (1.0 + 1e-6)) as f32;
-            if own_m > 0 && kappa.is_finite() {
+            if kappa.is_finite() {
                 for x in &mut l {
                     x.own_m = own_m;
                     x.own_kappa = kappa;
@@ -352,9 +365,10 @@ impl PlanLimits {
         l
     }
 
-    /// [`arc_limits`](Self::arc_limits) but for a run of its own.
+    /// [`arc_limits`](Self::arc_limits) under the machine's filters, with
+    /// no filter of its own.
     #[inline]
-    fn arc_limits_shared(&self, arc: &Arc, f: f64, vlim: bool, part: ArcPart) -> [MoveLimits; 3] {
+    fn arc_limits_filtered(&self, arc: &Arc, f: f64, vlim: bool, part: ArcPart) -> [MoveLimits; 3] {
         // A flat arc's length is its length in the plane, r·|sweep|, and
         // its plane fraction r·|sweep| / length is then exactly 1: the
         // limits with the literal 1, which the compiler takes out of its
