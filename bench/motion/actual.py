@@ -20,6 +20,11 @@ actual positions over DDS and offline (aligned by the setpoint delay).
 
     . .venv-ros/env.sh
     python3 bench/motion/actual.py [--jerks 50 200] [--out DIR] [--bin DIR]
+                                   [--accel-ff F] [--program cam|helix_pairs]
+
+`--program helix_pairs` runs `gen.py helix_pairs` under `G61` instead:
+helical arcs of R 0.5, 2 and 10 mm, each from rest to rest (the arcs'
+own path filter, no XYZ filter).
 
 Bounded: every wait has a timeout, and both processes are stopped on exit.
 """
@@ -173,7 +178,7 @@ def over_dds(a, machine, out, jerk):
         raise RuntimeError(NS_CNC + "/run_program not there within 60 s")
     spin_until(lambda: False, 2.0)  # the simulator's first states reach the node
     req = RunProgram.Request()
-    req.program_path = "cam.nc"
+    req.program_path = a.program + ".nc"
     req.record = True
     fut = cli.call_async(req)
     if not spin_until(fut.done, 60):
@@ -228,13 +233,16 @@ def main():
     ap.add_argument("--bin", default=os.path.join(ROOT, "target", "release"))
     ap.add_argument("--accel-ff", type=float, default=0.0,
                     help="the simulated drives' acceleration feed-forward, 0..1 (servo_accel_feed_forward)")
+    ap.add_argument("--program", choices=("cam", "helix_pairs"), default="cam",
+                    help="gen.py's program: cam (G64 P0.01) or helix_pairs (G61)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     a.out = os.path.abspath(a.out)
     signal.signal(signal.SIGTERM, lambda s, f: (stop_all(), sys.exit(128 + s)))
-    prog = os.path.join(a.out, "cam.nc")
-    subprocess.run([sys.executable, os.path.join(HERE, "gen.py"), "cam", "--dialect", "cnc836",
-                    "--mode", "G64 P0.01", "-o", prog], check=True)
+    prog = os.path.join(a.out, a.program + ".nc")
+    mode = {"cam": "G64 P0.01", "helix_pairs": "G61"}[a.program]
+    subprocess.run([sys.executable, os.path.join(HERE, "gen.py"), a.program, "--dialect", "cnc836",
+                    "--mode", mode, "-o", prog], check=True)
     segs = analyse.parse_program(prog)
     cnc = os.path.join(a.bin, "cnc")
     import rclpy
