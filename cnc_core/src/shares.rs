@@ -30,8 +30,25 @@ pub const ARC_NORMAL_MAX: f64 = 0.866_025_403_784_438_6;
 /// deceleration runs; they are planned for it.
 pub const SPEED_MARGIN: f64 = 1.05;
 /// Share of an axis's acceleration a thread's run-in, deceleration and
-/// runout use (the rest absorbs the spindle's speed ripple).
+/// runout use (the rest absorbs the spindle's speed ripple), and of its
+/// jerk at most ([`TRACKER_JERK_COUNTS`]).
 pub const THREAD_SHARE: f64 = 0.8;
+/// The spindle tracker's predicted angle moves by up to this many counts
+/// in its third difference from one cycle to the next on a steady spindle
+/// (its quantization; `tracker`'s test
+/// `a_steady_spindle_s_prediction_changes_smoothly`, 0.30 measured). A
+/// thread's setpoints carry it as jerk, pitch·0.35/(counts·dt³): 128
+/// m/s³ on a 1.5 mm pitch at 4096 counts and 1 kHz. Where a run-in or a
+/// deceleration adds its own jerk, the two add up, so theirs is what the
+/// axis's limit leaves beside it (at most [`THREAD_SHARE`] of it, at
+/// least [`THREAD_JERK_FLOOR`]; `thread::run_in_jerk`). With
+/// [`THREAD_SHARE`] alone the run-in's end made the bundled lathe's Z 234
+/// m/s³ over its 200 where a few readings were lost there.
+pub const TRACKER_JERK_COUNTS: f64 = 0.35;
+/// The least share of an axis's jerk a run-in or deceleration uses where
+/// the encoder's noise leaves less (a coarse encoder, a fine rate: the
+/// noise alone then exceeds the limit, README "Thread cutting").
+pub const THREAD_JERK_FLOOR: f64 = 0.25;
 
 /// Jerk (issue 17, [`crate::jerk`]): share of each axis's jerk limit the
 /// path-parameter filter (the S-curve of the speed profile) uses.

@@ -41,7 +41,9 @@
 
 use crate::canon::{RunoutPath, ThreadMove, ThreadSeg};
 use crate::geom::V3;
-use crate::shares::{KINK_SHARE, SPEED_MARGIN, THREAD_SHARE};
+use crate::shares::{
+    KINK_SHARE, SPEED_MARGIN, THREAD_JERK_FLOOR, THREAD_SHARE, TRACKER_JERK_COUNTS,
+};
 
 /// Encoder readings older than this many interpolation cycles mean the
 /// signal is lost (during G33 or G95 motion: controlled stop, error),
@@ -331,6 +333,31 @@ pub struct ThreadLimits {
     pub jmax: V3,
     pub dt: f64,
     pub present: [bool; 3],
+    /// the spindle encoder's counts per revolution (0: none configured)
+    pub cpr: f64,
+}
+
+impl ThreadLimits {
+    /// The jerk the spindle tracker's quantization puts on the lead of a
+    /// thread of `pitch`, mm/s³ ([`TRACKER_JERK_COUNTS`]; 0 without an
+    /// encoder).
+    pub fn noise_jerk(&self, pitch: f64) -> f64 {
+        if self.cpr > 0.0 && self.dt > 0.0 {
+            TRACKER_JERK_COUNTS * pitch.abs() / (self.cpr * self.dt.powi(3))
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The jerk a run-in or deceleration may give an axis of jerk limit
+/// `jmax` that carries `noise` mm/s³ of the tracker's: what the limit
+/// leaves beside it, within [`THREAD_SHARE`] and [`THREAD_JERK_FLOOR`] of
+/// the limit.
+fn run_in_jerk(jmax: f64, noise: f64) -> f64 {
+    (THREAD_SHARE * jmax)
+        .min(jmax - noise)
+        .max(THREAD_JERK_FLOOR * jmax)
 }
 
 /// Why a thread block cannot be cut at its programmed speed. The
@@ -395,8 +422,9 @@ pub fn runout_blend(tan: f64, v_lead: f64, amax: f64, jmax: f64) -> (f64, f64) {
 }
 
 /// Fits a thread block to the axes at `rpm`: every axis within its speed
-/// in the thread, the lead acceleration and jerk within [`THREAD_SHARE`]
-/// of every axis's (half of it for the runout axis), the run-in within the block
+/// in the thread, the lead acceleration within [`THREAD_SHARE`] of every
+/// axis's and the jerk within what the tracker's noise leaves of it
+/// ([`run_in_jerk`]; half of each for the runout axis), the run-in within the block
 /// before its runout (`chained`: none), and a chained block's start
 /// continuing the previous block's end velocity `prev` within the kink
 /// share of one cycle.
@@ -430,7 +458,7 @@ pub fn fit(
             1.0
         };
         accel = accel.min(THREAD_SHARE * share * lim.amax[i] / r);
-        jerk = jerk.min(THREAD_SHARE * share * lim.jmax[i] / r);
+        jerk = jerk.min(share * run_in_jerk(lim.jmax[i], r * lim.noise_jerk(seg.pitch)) / r);
     }
     let (delta, _) = ramp_revs(seg.pitch, w_p, accel, jerk); // revolutions
     let ramp = 0.5 * seg.pitch * delta; // lead travel, mm

@@ -152,6 +152,16 @@ const STALL_S: f64 = 0.020;
 /// 3.05 counts at S200, 3.11 with 8 ms); 3 ms stepped the lead after
 /// readings lost for 16 cycles (306 m/s³).
 const BLEND_RATE_MS: f64 = 5.0;
+/// [`BLEND_RATE_MS`] for a new fit whose window, or the one before it,
+/// is thin from lost readings ([`SpindleTracker::thin_window`]): the fit
+/// extrapolated across the gap and the one after it differ in slope by
+/// more than late readings make them, and eased over 5 ms that difference
+/// alone put up to 320 m/s³ on the lead of a 1.5 mm thread at 4096 counts
+/// (16 readings lost at S800 and S2000); over 8 ms it stays under the
+/// thread's own. Late readings (which arrive, so the window is not thin)
+/// keep the shorter ease, which holds the lead closer (2.32 counts of
+/// spread at S200 with 8 ms stalls, 2.51 eased over 8 ms).
+const BLEND_RATE_GAP_MS: f64 = 8.0;
 /// The cycles over which the transport's usual lateness is learned.
 const LATENESS_CYCLES: usize = 64;
 /// At most this many steps are being eased at once.
@@ -168,6 +178,8 @@ struct Blend {
     /// the cycle it starts at, s
     start: f64,
     e: [f64; 3],
+    /// how long the slopes' and curvatures' difference is eased over, ms
+    rate_ms: f64,
 }
 
 impl Blend {
@@ -179,7 +191,7 @@ impl Blend {
     /// a curvature of thousands of counts/s², which no spindle has).
     fn at(&self, now: f64) -> Option<[f64; 3]> {
         let tau = (now - self.start) * 1000.0;
-        if !(0.0..BLEND_MS.max(BLEND_RATE_MS)).contains(&tau) {
+        if !(0.0..BLEND_MS.max(self.rate_ms)).contains(&tau) {
             return None;
         }
         // the quintic smoothstep down from 1 to 0 over `over` ms
@@ -187,7 +199,7 @@ impl Blend {
             let u = (tau / over).min(1.0);
             1.0 - u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
         };
-        let (g, h) = (ease(BLEND_MS), ease(BLEND_RATE_MS));
+        let (g, h) = (ease(BLEND_MS), ease(self.rate_ms));
         let [e0, e1, e2] = self.e;
         Some([
             g * e0 + h * (e1 * tau + 0.5 * e2 * tau * tau),
@@ -504,8 +516,17 @@ impl SpindleTracker {
                         *slot = None;
                     }
                 }
+                let rate_ms = if gap || self.gap {
+                    BLEND_RATE_GAP_MS
+                } else {
+                    BLEND_RATE_MS
+                };
                 if let Some(slot) = self.blends.iter_mut().find(|b| b.is_none()) {
-                    *slot = Some(Blend { start: now, e });
+                    *slot = Some(Blend {
+                        start: now,
+                        e,
+                        rate_ms,
+                    });
                 }
             }
             self.current = Some(fit);

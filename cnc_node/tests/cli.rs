@@ -377,15 +377,15 @@ fn plot_thread_and_compare_of_a_recording() {
         "{out}"
     );
     assert!(
-        out.contains("  pass 1: I90 against the recorded encoder, setpoints at their stamp + 0.000 ms (2275 paired), joint states at their own (2275 paired); synchronized Z 4.759415..-39.759415 mm"),
+        out.contains("  pass 1: I90 against the recorded encoder, setpoints at their stamp + 0.000 ms (2287 paired), joint states at their own (2287 paired); synchronized Z 4.640923..-39.640923 mm"),
         "{out}"
     );
     assert!(
-        out.contains("  pass 1 (N20, line 3): F1.5 synchronized 58.8..10738.8° (2226 samples); largest error there: setpoint 0.2439 µm (0.666 counts)"),
+        out.contains("  pass 1 (N20, line 3): F1.5 synchronized 87.6..10710.0° (2214 samples); largest error there: setpoint 0.2439 µm (0.666 counts)"),
         "{out}"
     );
     assert!(
-        out.contains("    groove phase there (0 = the programmed start angle): setpoint mean +0.0000°, worst 0.0585°, spread 0.1159° (2226 samples); actual mean -0.0364°"),
+        out.contains("    groove phase there (0 = the programmed start angle): setpoint mean +0.0000°, worst 0.0585°, spread 0.1159° (2214 samples); actual mean -0.0256°"),
         "{out}"
     );
     let text = std::fs::read_to_string(&svg).unwrap();
@@ -451,11 +451,11 @@ fn plot_thread_and_compare_of_a_recording() {
     let (code, out, err) = cnc(&["bag", "compare", rec_s, rec_s]);
     assert_eq!(code, 0, "{err}");
     assert!(
-        out.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean +0.0000° worst 0.0585° (2226 samples), B mean +0.0000° worst 0.0585° (2226 samples), B - A mean +0.0000° worst +0.0000°"),
+        out.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean +0.0000° worst 0.0585° (2214 samples), B mean +0.0000° worst 0.0585° (2214 samples), B - A mean +0.0000° worst +0.0000°"),
         "{out}"
     );
     assert!(
-        out.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0364° worst 5.4108° (2225 samples)"),
+        out.contains("thread pass 1 (N20, line 3, I90) groove phase, actual: A mean -0.0256° worst 3.8800° (2213 samples)"),
         "{out}"
     );
     assert!(

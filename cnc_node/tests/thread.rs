@@ -201,12 +201,14 @@ fn lead_error_in_the_synchronized_part_is_within_one_count_or_1_3_under_ripple()
             assert_eq!(r.fault, None);
             let on = r.on_line(4);
             // the synchronized part runs from the end of the run-in to the
-            // deceleration (each 0.525 mm at 2000 rpm: 35 mm/s with the
-            // speed margin, an S-curve of 35/2000 + 2000/160000 = 30 ms;
-            // the first sample on the line up to a cycle's 35 µm after it)
+            // deceleration (each 0.612 mm at 2000 rpm: 35 mm/s with the
+            // speed margin, an S-curve of 35/2000 + 2000/114551 = 35 ms,
+            // at the jerk the tracker's noise on a 1 mm pitch leaves of
+            // 200 m/s³; the first sample on the line up to a cycle's 35 µm
+            // after it)
             let first = on.first().unwrap().u_set;
             let last = on.last().unwrap().u_set;
-            assert!(first < 0.565 && last > 44.435, "{rpm} rpm: {first}..{last}");
+            assert!(first < 0.652 && last > 44.348, "{rpm} rpm: {first}..{last}");
             let (mut to_true, mut to_count) = (0.0f64, 0.0f64);
             for s in &on {
                 // start + pitch × revolutions from the index + I, in counts
@@ -853,8 +855,13 @@ fn with_a_servo_lag_the_simulated_groove_stays_on_the_programmed_angle() {
 /// setpoints, 2045 m/s³ at S2000), where the axis trails as without it.
 ///
 /// Spreads measured at S2000 and S800, where the lead is fully on / over
-/// the whole settled line: 0.224° / 0.354° and 0.153° / 0.153° at 1 kHz,
-/// 0.091° / 0.272° and 0.078° / 0.078° at 10 kHz. (While the simulated
+/// the whole settled line: 0.224° / 0.310° and 0.162° / 0.185° at 1 kHz,
+/// 0.073° / 0.171° and 0.062° / 0.104° at 10 kHz; before the run-ins left
+/// room for the tracker's noise (shorter, so the ripple fell elsewhere on
+/// the line) 0.224° / 0.354° and 0.153° / 0.153°, 0.091° / 0.272° and
+/// 0.078° / 0.078°. Over the whole line the last samples count, where the
+/// lead has eased out and the axis trails by the ripple's a·τ/kp (up to
+/// 0.1° at S800). (While the simulated
 /// axis stepped its position by the cycle's end velocity, its lag at
 /// 1 kHz was 1.54 ms/kp, not the 2 ms/kp G33 leads by: 0.290° / 0.337°
 /// and 0.188° at 1 kHz, 0.102° / 0.271° and 0.082° at 10 kHz.)
@@ -864,9 +871,9 @@ fn g33_leads_the_servo_lag_under_the_spindle_s_acceleration() {
     let c = m.servo_accel_lag_s2()[2];
     assert!((c - 0.002 / 60.0).abs() < 1e-12, "{c}");
     for (rate, rpm, on, all) in [
-        (1000.0, 800.0, 0.18, 0.18),
+        (1000.0, 800.0, 0.18, 0.22),
         (1000.0, 2000.0, 0.26, 0.4),
-        (10_000.0, 800.0, 0.1, 0.1),
+        (10_000.0, 800.0, 0.1, 0.15),
         (10_000.0, 2000.0, 0.12, 0.3),
     ] {
         let [(s_mean, s_worst, _), (a_mean, _, a_spread), (_, _, on_spread)] =

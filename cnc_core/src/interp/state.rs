@@ -201,6 +201,10 @@ impl<S: ProgramSource, C: Canon> Interpreter<S, C> {
                 jmax: machine.jmax(),
                 dt: machine.dt(),
                 present,
+                cpr: machine
+                    .spindle
+                    .as_ref()
+                    .map_or(0.0, |s| f64::from(s.encoder_counts_per_rev)),
             },
             runout: machine
                 .runout()
