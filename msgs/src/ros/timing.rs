@@ -322,13 +322,17 @@ impl WallClock {
     }
 
     /// Measures the offset again (kept when the measurement was
-    /// interrupted, or when it agrees with the offset there).
-    pub fn update(&mut self) {
+    /// interrupted, or when it agrees with the offset there); how far it
+    /// moved, ns (0: kept), which is how far the system clock was slewed
+    /// or stepped against the monotonic one since the last that moved it.
+    pub fn update(&mut self) -> i128 {
+        let before = self.offset_ns;
         if let Some((w, off)) = self.measure() {
             if w <= Self::MAX_BRACKET {
                 self.offset_ns = consistent_offset(self.offset_ns, off, w.as_nanos() as i128);
             }
         }
+        self.offset_ns - before
     }
 
     /// The wall clock's time at `at`, ns since the epoch.
@@ -684,5 +688,27 @@ mod tests {
         // an odd bracket's half rounds up; an empty bracket is exact
         assert_eq!(consistent_offset(0, 10, 3), 8);
         assert_eq!(consistent_offset(0, 10, 0), 10);
+    }
+
+    /// `update` says how far it moved the offset: by a step of the system
+    /// clock (here the offset made 1 ms off, as if the clock had been
+    /// stepped back by 1 ms since), to within half a measurement's
+    /// bracket; nothing when the offset agrees.
+    #[test]
+    fn an_update_says_how_far_the_system_clock_moved() {
+        let mut c = WallClock::new();
+        c.offset_ns += 1_000_000;
+        // (a measurement interrupted for over 20 µs is skipped: a few tries)
+        let moved = (0..100)
+            .map(|_| c.update())
+            .find(|m| *m != 0)
+            .expect("no measurement within 20 µs in 100 tries");
+        let half = WallClock::MAX_BRACKET.as_nanos() as i128 / 2 + 1;
+        assert!(
+            (moved + 1_000_000).abs() <= half,
+            "moved {moved} ns, not -1 ms"
+        );
+        let again: i128 = (0..10).map(|_| c.update()).sum();
+        assert!(again.abs() <= 2 * half, "{again} ns");
     }
 }

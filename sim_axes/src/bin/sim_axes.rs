@@ -328,7 +328,8 @@ fn run(setup: params::Setup) -> Result<(), String> {
             pace.busy(grid.next());
         }
         mon.wake(due, late, dt);
-        clock.update();
+        // (the controller logs the system clock's moves)
+        let _ = clock.update();
         // the encoder readings first (the controller waits for them), then
         // the joint states
         for _ in 0..due {

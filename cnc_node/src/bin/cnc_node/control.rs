@@ -28,6 +28,9 @@ use std::time::{Duration, Instant};
 /// time base, which a thread synchronizes to the encoder in) while the
 /// encoder readings of the stall have time to arrive.
 const CATCH_UP: u64 = 2;
+/// The system clock's moves against the monotonic one (slews, steps) are
+/// logged once they add up to this many ns (at most once a second).
+const CLOCK_MOVE_LOG_NS: i128 = 10_000;
 /// A loop further behind than this skips the missed cycles; a running job
 /// then ends where it stands, in the error state (its time base is lost).
 const MAX_BEHIND_S: f64 = 0.2;
@@ -306,6 +309,9 @@ pub(super) fn control_loop(
     // a few tens of µs early, instead of spinning to its instant)
     let mut grid = Grid::new(Instant::now() + period, dt).running_early();
     let mut clock = WallClock::new();
+    // (how far the system clock has moved against the monotonic one since
+    // it was last logged, ns, and when that was)
+    let (mut clock_moved, mut clock_logged) = (0i128, None::<Instant>);
     let has_spindle = machine.spindle.is_some();
     let mut lp = Loop {
         pace: ros::Pace::new(machine.interpolation.rate_hz),
@@ -382,7 +388,18 @@ pub(super) fn control_loop(
             due.min(CATCH_UP),
             dt,
         );
-        clock.update();
+        clock_moved += clock.update();
+        if clock_moved.abs() >= CLOCK_MOVE_LOG_NS
+            && clock_logged.is_none_or(|t: Instant| t.elapsed() >= Duration::from_secs(1))
+        {
+            // (stamps follow the system clock: a stamp this far off the
+            // grid a subscriber sees is this, not the loop)
+            ros_info!(
+                "the system clock moved {:+.1} µs against the monotonic clock; the stamps follow it",
+                clock_moved as f64 / 1000.0
+            );
+            (clock_moved, clock_logged) = (0, Some(Instant::now()));
+        }
         lp.run_early_ns = grid.runs_early_by().as_nanos() as i64;
         for _ in 0..due.min(CATCH_UP) {
             let n = grid.advance();
