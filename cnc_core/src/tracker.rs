@@ -227,15 +227,15 @@ pub struct SpindleTracker {
     /// newest reading then.
     fitted_at: f64,
     newest_then: f64,
-    /// Whether the last cycle held its fit, and how many readings its fit
-    /// missed beyond the usual lateness.
-    held: bool,
+    /// How many readings the last cycle's fit missed beyond the usual
+    /// lateness.
     excess: i32,
     /// Whether the last fit's window had readings lost in it.
     gap: bool,
     /// How far the last new fit of an on-time cycle moved the prediction
     /// for its cycle from the fit before it, counts; what a held fit adds
-    /// to its prediction; how many cycles it has held
+    /// to its prediction; how many cycles in a row up to the last have
+    /// held their fit (0: the last made a new one)
     /// ([`SpindleTracker::next_cycle`]).
     last_move: f64,
     hold_offset: f64,
@@ -259,7 +259,6 @@ impl Default for SpindleTracker {
             current: None,
             fitted_at: f64::NEG_INFINITY,
             newest_then: f64::NEG_INFINITY,
-            held: false,
             excess: 0,
             gap: false,
             last_move: 0.0,
@@ -506,6 +505,8 @@ impl SpindleTracker {
         let hold =
             prev.is_some() && newest == self.newest_then && now - self.fitted_at <= MISSING_MOST;
         let mut gap = self.gap;
+        // (whether the last cycle held its fit)
+        let held = self.held_cycles > 0;
         if !hold {
             let (c, there) = self.fit(k0, missing);
             let fit = Fit {
@@ -522,7 +523,7 @@ impl SpindleTracker {
             // (in a run of on-time cycles: how far the new fit moved the
             // prediction, which the next one moves it by much alike)
             self.last_move = match prev {
-                Some(old) if !(self.held || excess != 0 || self.excess != 0 || gap || self.gap) => {
+                Some(old) if !(held || excess != 0 || self.excess != 0 || gap || self.gap) => {
                     fit.at(t)[0] - old.at(t)[0]
                 }
                 _ => 0.0,
@@ -531,7 +532,7 @@ impl SpindleTracker {
                 self.blends = [None; BLENDS];
             } else if let (Some(old), true) = (
                 prev,
-                self.held || excess > 0 || excess != self.excess || gap || self.gap,
+                held || excess > 0 || excess != self.excess || gap || self.gap,
             ) {
                 // the old fit's prediction goes on and eases into the new
                 let (a, b) = (old.at(t), fit.at(t));
@@ -570,7 +571,6 @@ impl SpindleTracker {
             }
             self.held_cycles += 1;
         }
-        self.held = hold;
         self.excess = excess;
         self.gap = gap;
         self.cycle = now;
