@@ -223,7 +223,8 @@ pub struct SpindleTracker {
     /// one has beyond its count ([`SpindleTracker::fill_in`]); 0.0 for a
     /// measured one.
     frac: [f64; HISTORY],
-    /// The newest reading after readings filled in (−∞: none).
+    /// The newest reading after more readings were filled in than a fit
+    /// is held for ([`MISSING_MOST`]; −∞: none).
     filled_at: f64,
     head: usize,
     len: usize,
@@ -324,7 +325,12 @@ impl SpindleTracker {
             };
             self.put(l.t + f * (r.t - l.t), c, y - whole);
         }
-        self.filled_at = r.t;
+        // (more lost than the cycles a fit is held for: the fits in between
+        // weighed them as missing, and the fits after are eased in while
+        // the filled-in readings are in the window)
+        if (n - 1.0) * p > MISSING_MOST * (1.0 + STAMP_TOLERANCE) {
+            self.filled_at = r.t;
+        }
     }
 
     /// Adds a reading to the ring (`frac`: see [`SpindleTracker::frac`]).
@@ -523,7 +529,7 @@ impl SpindleTracker {
     ///   the lead enough for 226 m/s³;
     /// - and a new fit while readings are missing, or right after, or while
     ///   lost readings leave the window thin ([`thin_window`](Self::thin_window))
-    ///   or filled-in ones are in it,
+    ///   or more filled-in ones than a fit is held for are in it,
     ///   does not step the prediction: the old fit's goes on and eases
     ///   into it ([`Blend`]), unless no reading came for over [`STALL_S`] (a
     ///   stall, where the new fit takes over at once).
