@@ -50,9 +50,10 @@ def limits():
 
 def series(path):
     """Setpoints and joint states as {joint: [position mm]} (the topics
-    carry metres), and the
-    program line each setpoint belongs to (the last status before it)."""
-    set_pos, act_pos, lines = {}, {}, []
+    carry metres), the
+    program line each setpoint belongs to (the last status before it), and
+    the joint states' stamps (s)."""
+    set_pos, act_pos, lines, act_t = {}, {}, [], []
     line = 0
     with open(path, "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
@@ -66,7 +67,8 @@ def series(path):
             elif ch.topic == "/sim/joint_states":
                 for n, p in zip(msg.name, msg.position):
                     act_pos.setdefault(n, []).append(p * 1000.0)
-    return set_pos, act_pos, lines
+                act_t.append(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
+    return set_pos, act_pos, lines, act_t
 
 
 def main():
@@ -98,18 +100,22 @@ def main():
     recs = sorted(rec_dir.glob("*.mcap"))
     if not recs:
         sys.exit(f"no recording in {rec_dir} (logs in {out})")
-    set_pos, act_pos, lines = series(recs[-1])
+    set_pos, act_pos, lines, act_t = series(recs[-1])
     lim = limits()
     print(f"recording {recs[-1]} ({len(lines)} setpoints); jerk limits {lim} m/s³")
     print("| series | part | joint | max \\|a\\| mm/s² | max \\|j\\| (p99.9) m/s³ | samples over |")
     print("|---|---|---|---:|---:|---:|")
     on_thread = lambda k: all(lines[i] in G33_LINES for i in range(k - 3, k + 1))  # noqa: E731
+    # (the joint states' differences only over four samples a period apart:
+    # the recording's first state may come before a gap)
+    on_grid = lambda k: k >= 3 and all(  # noqa: E731
+        abs(act_t[i] - act_t[i - 1] - DT) < 0.1 * DT for i in range(k - 2, k + 1))
     for name, pos in (("setpoints", set_pos), ("simulated axes", act_pos)):
         for part, keep in (("whole job", None), ("G33 lines", on_thread)):
             for j in sorted(pos):
                 if j not in lim:
                     continue
-                s = series_stats(pos[j], lim[j] * 1000.0, DT, keep if name == "setpoints" else None)
+                s = series_stats(pos[j], lim[j] * 1000.0, DT, keep if name == "setpoints" else on_grid)
                 if s is None or (name != "setpoints" and part != "whole job"):
                     continue
                 print(f"| {name} | {part} | {j} | {s[0]:.0f} | {s[1]:.1f} ({s[2]:.1f}) | {s[3]} |")
