@@ -235,10 +235,11 @@ fn readings_that_come_late_keep_the_lead_within_3_2_counts() {
     }
 }
 
-/// Now and then (every 300 cycles) `gap` readings in a row are lost, as
-/// over a best-effort transport (one DDS run lost 12), wherever the gaps
-/// fall (their phase in steps of 20 cycles, the spindle's run-up and the
-/// thread's run-in, line and deceleration alike): every setpoint stays
+/// Now and then (every 300 cycles) 1, 4 or 16 readings in a row are
+/// lost, as over a best-effort transport (one DDS run lost 12), wherever
+/// the gaps fall (their phase in steps of 20 cycles, of 7 for a single
+/// lost reading; the spindle's run-up and the thread's run-in, line and
+/// deceleration alike): every setpoint stays
 /// within the lathe's 200 m/s³. The fit then leans on the few readings on
 /// either side of the gap; it eases into each new fit while its window
 /// has fewer readings than it spans (the slopes' difference over 8 ms
