@@ -42,23 +42,31 @@ fn run(
     rpm: f64,
     deliver: impl FnMut(usize, usize) -> usize,
 ) -> (Vec<Vec<f64>>, Vec<EncoderReading>) {
-    run_losing(m, rpm, deliver, |_| false)
+    let r = run_losing(m, &program(rpm), deliver, |_| false);
+    (r.set, r.readings)
 }
 
-/// [`run`], where the readings `j` that `lost(j)` never reach the
-/// executor.
+/// What [`run_losing`] gives: every sample's setpoints (joint order), the
+/// encoder reading taken after each, and whether each is a G33 sample.
+struct Run {
+    set: Vec<Vec<f64>>,
+    readings: Vec<EncoderReading>,
+    sync: Vec<bool>,
+}
+
+/// [`run`] of the program text `p`, where the readings `j` that
+/// `lost(j)` never reach the executor.
 fn run_losing(
     m: &Machine,
-    rpm: f64,
+    p: &str,
     mut deliver: impl FnMut(usize, usize) -> usize,
     lost: impl Fn(usize) -> bool,
-) -> (Vec<Vec<f64>>, Vec<EncoderReading>) {
-    let p = program(rpm);
+) -> Run {
     let mut model = model_for(m);
-    let mut exec = Executor::new(StrSource::new(&p), Dialect::Cnc836, m);
+    let mut exec = Executor::new(StrSource::new(p), Dialect::Cnc836, m);
     exec.attach_encoder();
     let joints = m.joint_indices();
-    let (mut set, mut readings) = (Vec::new(), Vec::new());
+    let (mut set, mut readings, mut sync) = (Vec::new(), Vec::new(), Vec::new());
     let mut given = 0;
     while let Some(s) = exec.next_sample() {
         let pos: Vec<f64> = joints.iter().map(|&i| s.pos[i]).collect();
@@ -70,6 +78,7 @@ fn run_losing(
             s.t,
         ));
         set.push(pos);
+        sync.push(s.sync.is_some());
         let upto = deliver(set.len(), readings.len()).min(readings.len());
         for (j, r) in readings.iter().enumerate().take(upto).skip(given) {
             if !lost(j) {
@@ -80,7 +89,11 @@ fn run_losing(
         assert!(set.len() < 200_000, "the run did not end");
     }
     assert_eq!(exec.fault(), None);
-    (set, readings)
+    Run {
+        set,
+        readings,
+        sync,
+    }
 }
 
 /// Every joint's largest sampled jerk within the machine's limit (`what`:
@@ -100,11 +113,16 @@ fn assert_within_jerk_limits(m: &Machine, set: &[Vec<f64>], what: &str) {
 fn max_jerk(set: &[Vec<f64>], dt: f64) -> Vec<f64> {
     (0..set[0].len())
         .map(|j| {
-            set.windows(4)
-                .map(|w| (w[3][j] - 3.0 * w[2][j] + 3.0 * w[1][j] - w[0][j]).abs() / dt.powi(3))
+            (3..set.len())
+                .map(|i| jerk_at(set, i, j, dt))
                 .fold(0.0, f64::max)
         })
         .collect()
+}
+
+/// The sampled jerk of joint `j` ending at sample `i` (≥ 3), mm/s³.
+fn jerk_at(set: &[Vec<f64>], i: usize, j: usize, dt: f64) -> f64 {
+    (set[i][j] - 3.0 * set[i - 1][j] + 3.0 * set[i - 2][j] - set[i - 3][j]).abs() / dt.powi(3)
 }
 
 /// Now and then (one cycle in forty) the readings stop coming for 1, 2,
@@ -269,7 +287,7 @@ fn readings_lost_now_and_then_keep_the_thread_within_the_jerk_limit() {
                 // (the reading after sample j is lost while (j + 1 + phase)
                 // mod 300 < gap)
                 let lost = |j: usize| (j + 1 + phase) % 300 < gap;
-                let (set, _) = run_losing(&m, rpm, |_, n| n, lost);
+                let set = run_losing(&m, &program(rpm), |_, n| n, lost).set;
                 assert!(set.len() > 2000, "S{rpm}: {} samples", set.len());
                 assert_within_jerk_limits(&m, &set, &format!("{gap} lost at {phase}, S{rpm}"));
             }
@@ -348,7 +366,6 @@ fn lost_readings_scan() {
         .collect();
     let step: usize = env("STEP", "1").parse().unwrap_or(1).max(1);
     let dt = m.dt();
-    let joints = m.joint_indices();
     for gap in gaps {
         for rpm in SPEEDS {
             let mut worst = [(0.0, 0); 2];
@@ -356,29 +373,11 @@ fn lost_readings_scan() {
                 let prog = format!(
                     "N5 G00 X20 Z5\nN10 M03 S{rpm}\nN20 G33 Z-33 F1.5 J3\nN30\nN40 X30 Z5\n"
                 );
-                let mut model = model_for(&m);
-                let mut exec = Executor::new(StrSource::new(&prog), Dialect::Cnc836, &m);
-                exec.attach_encoder();
-                let (mut set, mut sync) = (Vec::<Vec<f64>>::new(), Vec::new());
-                while let Some(s) = exec.next_sample() {
-                    let pos: Vec<f64> = joints.iter().map(|&i| s.pos[i]).collect();
-                    if s.k > 0 {
-                        model.step(&pos, s.spindle_rpm, dt);
-                    }
-                    let r = encoder_reading(&model.spindle.as_ref().unwrap().encoder(), s.t);
-                    if (set.len() + 1 + phase) % 300 >= gap {
-                        exec.encoder(r);
-                    }
-                    set.push(pos);
-                    sync.push(s.sync.is_some());
-                }
-                assert_eq!(exec.fault(), None);
+                let Run { set, sync, .. } =
+                    run_losing(&m, &prog, |_, n| n, |j| (j + 1 + phase) % 300 < gap);
                 for (a, w) in worst.iter_mut().enumerate() {
                     for i in (3..set.len()).filter(|&i| sync[i] || sync[i - 3]) {
-                        let j = (set[i][a] - 3.0 * set[i - 1][a] + 3.0 * set[i - 2][a]
-                            - set[i - 3][a])
-                            .abs()
-                            / dt.powi(3);
+                        let j = jerk_at(&set, i, a, dt);
                         if j > w.0 {
                             *w = (j, phase);
                         }
@@ -405,7 +404,6 @@ fn lost_readings_scan() {
 #[test]
 fn g95_with_lost_readings_on_a_rippling_spindle_keeps_the_jerk_limit() {
     let m = rippling_lathe();
-    let dt = m.dt();
     for gap in [1, 16] {
         for rpm in SPEEDS {
             for phase in (0..300).step_by(50) {
@@ -414,23 +412,8 @@ fn g95_with_lost_readings_on_a_rippling_spindle_keeps_the_jerk_limit() {
                 let prog = format!(
                     "N5 G00 X20 Z5\nN10 M03 S{rpm}\nN20 G04 P1\nN30 G95 G01 Z-30 F{f:.4}\nN40 G94 G00 X30\n"
                 );
-                let mut model = model_for(&m);
-                let mut exec = Executor::new(StrSource::new(&prog), Dialect::Cnc836, &m);
-                exec.attach_encoder();
-                let (mut set, mut z_end) = (Vec::new(), 0.0);
-                while let Some(s) = exec.next_sample() {
-                    let pos: Vec<f64> = m.joint_indices().iter().map(|&i| s.pos[i]).collect();
-                    if s.k > 0 {
-                        model.step(&pos, s.spindle_rpm, dt);
-                    }
-                    let r = encoder_reading(&model.spindle.as_ref().unwrap().encoder(), s.t);
-                    if (set.len() + 1 + phase) % 300 >= gap {
-                        exec.encoder(r);
-                    }
-                    z_end = pos[1];
-                    set.push(pos);
-                }
-                assert_eq!(exec.fault(), None);
+                let set = run_losing(&m, &prog, |_, n| n, |j| (j + 1 + phase) % 300 < gap).set;
+                let z_end = set.last().map_or(f64::NAN, |p| p[1]);
                 assert!((z_end + 30.0).abs() < 1e-9, "Z ends at {z_end}");
                 assert_within_jerk_limits(&m, &set, &format!("G95, {gap} lost at {phase}, S{rpm}"));
             }
