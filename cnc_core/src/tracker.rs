@@ -315,7 +315,10 @@ impl SpindleTracker {
         let d = counts_between(l.count, r.count);
         let curv = self.current.map_or(0.0, |f| f.c[2]);
         let span = (r.t - l.t) * 1000.0;
-        for i in 1..n as usize {
+        // (all of them or none: a count out of an i64's range, near ±2⁶³,
+        // leaves the gap as lost)
+        let mut fills = [(0.0, 0, 0.0); FILL_MOST];
+        for (i, slot) in (1..n as usize).zip(fills.iter_mut()) {
             let f = i as f64 / n;
             let x = f * span;
             let y = d * f + curv * x * (x - span);
@@ -323,7 +326,10 @@ impl SpindleTracker {
             let Ok(c) = i64::try_from(i128::from(l.count) + whole as i128) else {
                 return;
             };
-            self.put(l.t + f * (r.t - l.t), c, y - whole);
+            *slot = (l.t + f * (r.t - l.t), c, y - whole);
+        }
+        for &(t, c, frac) in &fills[..n as usize - 1] {
+            self.put(t, c, frac);
         }
         // (more lost than the cycles a fit is held for: the fits in between
         // weighed them as missing, and the fits after are eased in while

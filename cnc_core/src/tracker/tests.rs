@@ -193,3 +193,71 @@ fn readings_held_back_move_the_prediction_by_what_older_readings_predict() {
         );
     }
 }
+
+fn reading(t_ms: f64, count: i64) -> EncoderReading {
+    EncoderReading {
+        t: t_ms * 1.0e-3,
+        count,
+        counts_per_rev: 4096,
+        index_count: 1,
+        count_at_index: 0,
+    }
+}
+
+/// Three readings lost in a row (10.5 counts a ms, no fit yet, so no
+/// curvature) are filled in on the line between their neighbours, each
+/// as a count and its fraction; the measured ones keep a fraction of 0.
+#[test]
+fn lost_readings_are_filled_in_as_counts_and_fractions() {
+    let mut tr = SpindleTracker::default();
+    for k in 0..=4 {
+        tr.push(reading(
+            f64::from(k),
+            42 + (10.5 * f64::from(k)).floor() as i64,
+        ));
+    }
+    tr.push(reading(8.0, 42 + 84));
+    assert_eq!(tr.len, 9);
+    // newest first: the reading at 8 ms, then the three filled in
+    let got: Vec<(f64, i64, f64)> = (0..5)
+        .map(|k| {
+            let (t, c) = tr.ring[(tr.head + HISTORY - k) % HISTORY];
+            (t * 1000.0, c, tr.frac_at(k))
+        })
+        .collect();
+    let want = [
+        (8.0, 126, 0.0),
+        (7.0, 115, 0.5),
+        (6.0, 105, 0.0),
+        (5.0, 94, 0.5),
+        (4.0, 84, 0.0),
+    ];
+    for ((t, c, f), (wt, wc, wf)) in got.iter().zip(want) {
+        assert!((t - wt).abs() < 1e-9, "{got:?}");
+        assert_eq!(*c, wc, "{got:?}");
+        assert!((f - wf).abs() < 1e-9, "{got:?}");
+    }
+}
+
+/// A filled-in count that would leave an i64's range (near −2⁶³, the fit
+/// curving down between two equal counts) leaves the whole gap unfilled,
+/// not the readings before that count filled and the rest lost.
+#[test]
+fn a_gap_whose_fill_leaves_an_i64_s_range_is_not_filled_at_all() {
+    let mut tr = SpindleTracker::default();
+    let low = i64::MIN + 3;
+    for k in 0..=4 {
+        tr.push(reading(f64::from(k), low));
+    }
+    // 1 count/ms² of curvature: −3, −4 and −3 counts below the line at
+    // 5, 6 and 7 ms; the first fits, the second does not
+    tr.current = Some(Fit {
+        t0: 0.004,
+        count0: low,
+        c: [0.0, 0.0, 1.0],
+    });
+    tr.push(reading(8.0, low));
+    assert_eq!(tr.len, 6);
+    assert_eq!(tr.ring[tr.head], (0.008, low));
+    assert_eq!(tr.ring[(tr.head + HISTORY - 1) % HISTORY], (0.004, low));
+}
