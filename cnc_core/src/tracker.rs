@@ -142,12 +142,19 @@ impl Fit {
 /// counts (`cnc_node/tests/encoder_timing.rs`); eased over 4 ms, the
 /// jerk reached 281 m/s³ there.
 const BLEND_MS: f64 = 8.0;
-/// A new fit after no reading came for longer than this (s) replaces the
-/// prediction at once and ends every ease: that is a stall, not a
-/// transport's jitter, and the setpoints of a stalled machine are late
-/// anyway; easing would keep the stale fit's prediction longer (the
-/// thread with 20 ms stalls: 3.51 counts of spread at S200, 4.03 eased).
-const STALL_S: f64 = 0.020;
+/// The most jerk an ease of a step between two fits gives the predicted
+/// angle, counts/ms³: a step of 1.5 counts over [`BLEND_MS`] (64 m/s³ on
+/// a 1.5 mm lead at 4096 counts); a larger step, or a larger difference
+/// of the slopes, is eased over longer ([`Blend::new`]). Before, every
+/// step was eased over [`BLEND_MS`] and [`BLEND_RATE_GAP_MS`], and a new
+/// fit after 20 ms without a reading took over at once: that lead's Z
+/// went to 1.6 km/s³ after readings held up 20 ms
+/// (`cnc_node/tests/controller_thread.rs`), and to 0.2–13 km/s³ after 16
+/// to 20 readings lost (`cnc_node/tests/encoder_timing.rs`,
+/// `lost_readings_scan`). With a count over 8 ms the losses gave less
+/// still, but readings held up 8 ms widened the lead's spread (1.68 →
+/// 1.99 counts at S2000); with 2 counts, more of the jerk was left.
+const EASE_JERK: f64 = 1.5 * 60.0 / (BLEND_MS * BLEND_MS * BLEND_MS);
 /// How long the two fits' slopes' and curvatures' difference is eased
 /// over, ms: the old fit's slope carried on moves its prediction away
 /// from the new fit's as it goes (by the difference times the time), so
@@ -175,17 +182,34 @@ const BLENDS: usize = 16;
 /// at the step, as a parabola `e` in ms after `start`) and moves to the
 /// new fit's over [`BLEND_MS`] (a quintic smoothstep, zero slope and
 /// curvature at both ends); the part the two fits' slopes and curvatures
-/// differ by, over [`BLEND_RATE_MS`].
+/// differ by, over [`BLEND_RATE_MS`]; a larger step over longer
+/// ([`Blend::new`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Blend {
     /// the cycle it starts at, s
     start: f64,
     e: [f64; 3],
+    /// how long the angles' difference is eased over, ms
+    over_ms: f64,
     /// how long the slopes' and curvatures' difference is eased over, ms
     rate_ms: f64,
 }
 
 impl Blend {
+    /// The ease of the step `e` from `start`, over [`BLEND_MS`] and
+    /// `rate_ms` at the least, and longer for a step whose ease would
+    /// otherwise have more jerk than [`EASE_JERK`]: a quintic
+    /// smoothstep's third derivative peaks at 60·e/T³ for the angle's part
+    /// and at about 60·e'/T² for the slope's (e' times the time, eased).
+    fn new(start: f64, e: [f64; 3], rate_ms: f64) -> Blend {
+        Blend {
+            start,
+            e,
+            over_ms: BLEND_MS.max((60.0 * e[0].abs() / EASE_JERK).cbrt()),
+            rate_ms: rate_ms.max((60.0 * e[1].abs() / EASE_JERK).sqrt()),
+        }
+    }
+
     /// The offset (counts, counts/ms, counts/ms²) at the cycle `now`;
     /// None once it has run out. Each of the three is eased out on its
     /// own: the ease's own slope and curvature are left out of the speed
@@ -194,7 +218,7 @@ impl Blend {
     /// a curvature of thousands of counts/s², which no spindle has).
     fn at(&self, now: f64) -> Option<[f64; 3]> {
         let tau = (now - self.start) * 1000.0;
-        if !(0.0..BLEND_MS.max(self.rate_ms)).contains(&tau) {
+        if !(0.0..self.over_ms.max(self.rate_ms)).contains(&tau) {
             return None;
         }
         // the quintic smoothstep down from 1 to 0 over `over` ms
@@ -202,7 +226,7 @@ impl Blend {
             let u = (tau / over).min(1.0);
             1.0 - u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
         };
-        let (g, h) = (ease(BLEND_MS), ease(self.rate_ms));
+        let (g, h) = (ease(self.over_ms), ease(self.rate_ms));
         let [e0, e1, e2] = self.e;
         Some([
             g * e0 + h * (e1 * tau + 0.5 * e2 * tau * tau),
@@ -537,8 +561,9 @@ impl SpindleTracker {
     ///   lost readings leave the window thin ([`thin_window`](Self::thin_window))
     ///   or more filled-in ones than a fit is held for are in it,
     ///   does not step the prediction: the old fit's goes on and eases
-    ///   into it ([`Blend`]), unless no reading came for over [`STALL_S`] (a
-    ///   stall, where the new fit takes over at once).
+    ///   into it ([`Blend`]), over longer for a larger step: after
+    ///   readings held up or lost for 20 ms too, where the new fit once
+    ///   took over at once and stepped a 1.5 mm thread's Z by 1.6 km/s³.
     ///
     /// A second prediction for the same cycle uses the same fit.
     pub fn predict_motion(&mut self, t: f64, now: f64) -> Option<Predicted> {
@@ -602,9 +627,7 @@ impl SpindleTracker {
                 }
                 _ => 0.0,
             };
-            if prev.is_some() && now - self.newest_then > STALL_S {
-                self.blends = [None; BLENDS];
-            } else if let (Some(old), true) = (
+            if let (Some(old), true) = (
                 prev,
                 held || excess > 0 || excess != self.excess || gap || self.gap,
             ) {
@@ -622,11 +645,7 @@ impl SpindleTracker {
                     BLEND_RATE_MS
                 };
                 if let Some(slot) = self.blends.iter_mut().find(|b| b.is_none()) {
-                    *slot = Some(Blend {
-                        start: now,
-                        e,
-                        rate_ms,
-                    });
+                    *slot = Some(Blend::new(now, e, rate_ms));
                 }
             }
             self.current = Some(fit);
