@@ -47,7 +47,7 @@ use crate::machine::Machine;
 use crate::pipeline::Pipeline;
 use crate::plan::{Item, PlanLimits, PlannedMove};
 use crate::source::ProgramSource;
-use crate::thread::{AT_SPEED_SETTLE_S, AT_SPEED_TOLERANCE, ENCODER_TIMEOUT_CYCLES};
+use crate::thread::{LeadAccel, AT_SPEED_SETTLE_S, AT_SPEED_TOLERANCE, ENCODER_TIMEOUT_CYCLES};
 use crate::tracker::{EncoderReading, SpindleTracker};
 use std::collections::VecDeque;
 
@@ -248,6 +248,8 @@ pub struct Executor<S> {
     /// each axis's servo lag under acceleration that G33 leads by, s²
     /// ([`Machine::servo_accel_lag_s2`] × `thread_accel_lead`)
     accel_lag: V3,
+    /// the spindle acceleration that lead multiplies, averaged
+    lead_acc: LeadAccel,
 }
 
 /// The σ nearest `bad` within `ok`, by bisection between `bad` (where
@@ -335,6 +337,7 @@ impl<S: ProgramSource> Executor<S> {
             delay: 0.0,
             servo_lag: machine.servo_lag_s(),
             accel_lag: machine.servo_accel_lag_s2() * machine.interpolation.thread_accel_lead,
+            lead_acc: LeadAccel::new(lim.dt),
         }
     }
 
@@ -839,8 +842,9 @@ impl<S: ProgramSource> Executor<S> {
         // run-in and out before the deceleration (switched on where the
         // line began, it stepped the setpoints: 2045 m/s³ at S2000 on the
         // 200 m/s³ lathe with a spindle rippling by ±2 %)
+        let rev_s2_lead = self.lead_acc.push(rev_s2);
         let accel_lead = if on_line {
-            self.accel_lag[m.seg.lead] * m.seg.pitch * rev_s2 * m.accel_lead_weight(x)
+            self.accel_lag[m.seg.lead] * m.seg.pitch * rev_s2_lead * m.accel_lead_weight(x)
         } else {
             0.0
         };
@@ -1006,6 +1010,10 @@ impl<S: ProgramSource> Executor<S> {
                         self.pipe.timeline.set_hold(b.hold_ticks());
                     }
                     Some(Item::Thread(m)) => {
+                        if m.runin.is_some() {
+                            // a new pass
+                            self.lead_acc.reset();
+                        }
                         self.cur = Some(Cur::Thread(ThreadRun {
                             m,
                             // a chained block is synchronized already

@@ -381,11 +381,11 @@ fn plot_thread_and_compare_of_a_recording() {
         "{out}"
     );
     assert!(
-        out.contains("  pass 1 (N20, line 3): F1.5 synchronized 87.6..10710.0° (2214 samples); largest error there: setpoint 0.2439 µm (0.666 counts)"),
+        out.contains("  pass 1 (N20, line 3): F1.5 synchronized 87.6..10710.0° (2214 samples); largest error there: setpoint 0.2560 µm (0.699 counts)"),
         "{out}"
     );
     assert!(
-        out.contains("    groove phase there (0 = the programmed start angle): setpoint mean +0.0000°, worst 0.0585°, spread 0.1159° (2214 samples); actual mean -0.0256°"),
+        out.contains("    groove phase there (0 = the programmed start angle): setpoint mean +0.0000°, worst 0.0614°, spread 0.1188° (2214 samples); actual mean -0.0256°"),
         "{out}"
     );
     let text = std::fs::read_to_string(&svg).unwrap();
@@ -451,7 +451,7 @@ fn plot_thread_and_compare_of_a_recording() {
     let (code, out, err) = cnc(&["bag", "compare", rec_s, rec_s]);
     assert_eq!(code, 0, "{err}");
     assert!(
-        out.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean +0.0000° worst 0.0585° (2214 samples), B mean +0.0000° worst 0.0585° (2214 samples), B - A mean +0.0000° worst +0.0000°"),
+        out.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean +0.0000° worst 0.0614° (2214 samples), B mean +0.0000° worst 0.0614° (2214 samples), B - A mean +0.0000° worst +0.0000°"),
         "{out}"
     );
     assert!(

@@ -855,8 +855,13 @@ fn with_a_servo_lag_the_simulated_groove_stays_on_the_programmed_angle() {
 /// setpoints, 2045 m/s³ at S2000), where the axis trails as without it.
 ///
 /// Spreads measured at S2000 and S800, where the lead is fully on / over
-/// the whole settled line: 0.224° / 0.310° and 0.162° / 0.185° at 1 kHz,
-/// 0.073° / 0.171° and 0.062° / 0.104° at 10 kHz; before the run-ins left
+/// the whole settled line: 0.255° / 0.327° and 0.146° / 0.179° at 1 kHz,
+/// 0.100° / 0.185° and 0.052° / 0.096° at 10 kHz, since the acceleration
+/// the lead multiplies is averaged over 8 ms (`thread::LeadAccel`: the
+/// fit's curvature swung with the counts' quantization, and late or lost
+/// readings took Z over its jerk limit through it); before that 0.224° /
+/// 0.310° and 0.162° / 0.185° at 1 kHz, 0.073° / 0.171° and 0.062° /
+/// 0.104° at 10 kHz; before the run-ins left
 /// room for the tracker's noise (shorter, so the ripple fell elsewhere on
 /// the line) 0.224° / 0.354° and 0.153° / 0.153°, 0.091° / 0.272° and
 /// 0.078° / 0.078°. Over the whole line the last samples count, where the

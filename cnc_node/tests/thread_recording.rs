@@ -237,7 +237,7 @@ fn a_shifted_index_moves_the_groove_by_90_degrees() {
     let text = r.to_string();
     eprintln!("{text}");
     assert!(
-        text.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean +0.0000° worst 0.0585° (2214 samples), B mean +90.0000°"),
+        text.contains("thread pass 1 (N20, line 3, I90) groove phase, setpoints: A mean +0.0000° worst 0.0614° (2214 samples), B mean +90.0000°"),
         "{text}"
     );
     assert!(
