@@ -217,6 +217,16 @@ impl Blend {
         }
     }
 
+    /// Takes on the step `e` of a cycle `now` (at or after its start) too:
+    /// the parabola `e` shifted to this ease's start, so that the two
+    /// ease out together.
+    fn absorb(&mut self, now: f64, e: [f64; 3]) {
+        let d = ((now - self.start) * 1000.0).max(0.0);
+        self.e[0] += e[0] - e[1] * d + 0.5 * e[2] * d * d;
+        self.e[1] += e[1] - e[2] * d;
+        self.e[2] += e[2];
+    }
+
     /// The offset (counts, counts/ms, counts/ms²) at the cycle `now`;
     /// None once it has run out. Each of the three is eased out on its
     /// own: the ease's own slope and curvature are left out of the speed
@@ -653,6 +663,17 @@ impl SpindleTracker {
                 };
                 if let Some(slot) = self.blends.iter_mut().find(|b| b.is_none()) {
                     *slot = Some(Blend::new(now, e, rate_ms));
+                } else if let Some(young) = self
+                    .blends
+                    .iter_mut()
+                    .flatten()
+                    .max_by(|a, b| a.start.total_cmp(&b.start))
+                {
+                    // (every slot busy, which no scan of late or lost
+                    // readings has reached: at most 10 of them were; the
+                    // step joins the youngest ease rather than going
+                    // uneased)
+                    young.absorb(now, e);
                 }
             }
             self.current = Some(fit);

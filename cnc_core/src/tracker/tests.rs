@@ -261,3 +261,20 @@ fn a_gap_whose_fill_leaves_an_i64_s_range_is_not_filled_at_all() {
     assert_eq!(tr.ring[tr.head], (0.008, low));
     assert_eq!(tr.ring[(tr.head + HISTORY - 1) % HISTORY], (0.004, low));
 }
+
+/// A step taken on by an ease that started 2 ms before (every slot busy)
+/// is the same parabola from there: its angle, slope and curvature at the
+/// step's cycle are the step's, added to the ease's own.
+#[test]
+fn a_step_taken_on_by_an_older_ease_keeps_its_parabola() {
+    let mut b = Blend::new(1.000, [0.5, 0.02, 0.001], BLEND_RATE_MS);
+    let e = [1.2, -0.3, 0.004];
+    b.absorb(1.002, e);
+    // the raw parabolas (no easing) 2 ms after the ease's start
+    let d = 2.0;
+    let at = |e: [f64; 3], x: f64| [e[0] + e[1] * x + 0.5 * e[2] * x * x, e[1] + e[2] * x, e[2]];
+    let (got, own) = (at(b.e, d), at([0.5, 0.02, 0.001], d));
+    for i in 0..3 {
+        assert!((got[i] - own[i] - e[i]).abs() < 1e-12, "{i}: {got:?}");
+    }
+}
