@@ -56,9 +56,11 @@ fn run(
 }
 
 /// What [`run_losing`] gives: every sample's setpoints (joint order), the
+/// simulated axes' positions after each (the in-process drive model), the
 /// encoder reading taken after each, and whether each is a G33 sample.
 struct Run {
     set: Vec<Vec<f64>>,
+    act: Vec<Vec<f64>>,
     readings: Vec<EncoderReading>,
     sync: Vec<bool>,
 }
@@ -75,7 +77,8 @@ fn run_losing(
     let mut exec = Executor::new(StrSource::new(p), Dialect::Cnc836, m);
     exec.attach_encoder();
     let joints = m.joint_indices();
-    let (mut set, mut readings, mut sync) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut set, mut act, mut readings, mut sync) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut given = 0;
     while let Some(s) = exec.next_sample() {
         let pos: Vec<f64> = joints.iter().map(|&i| s.pos[i]).collect();
@@ -87,6 +90,7 @@ fn run_losing(
             s.t,
         ));
         set.push(pos);
+        act.push(model.axes.iter().map(|a| a.position()).collect());
         sync.push(s.sync.is_some());
         let upto = deliver(set.len(), readings.len()).min(readings.len());
         for (j, r) in readings.iter().enumerate().take(upto).skip(given) {
@@ -100,6 +104,7 @@ fn run_losing(
     assert_eq!(exec.fault(), None);
     Run {
         set,
+        act,
         readings,
         sync,
     }
@@ -365,28 +370,31 @@ fn lost_readings_scan() {
     let dt = m.dt();
     for gap in gaps {
         for rpm in SPEEDS {
-            let mut worst = [(0.0, 0); 2];
+            // (setpoints X, Z; then the simulated axes' X, Z)
+            let mut worst = [(0.0, 0); 4];
             for phase in (0..300).step_by(step) {
                 let prog = format!(
                     "N5 G00 X20 Z5\nN10 M03 S{rpm}\nN20 G33 Z-33 F1.5 J3\nN30\nN40 X30 Z5\n"
                 );
-                let Run { set, sync, .. } =
+                let Run { set, act, sync, .. } =
                     run_losing(&m, &prog, |_, n| n, |j| (j + 1 + phase) % 300 < gap);
-                for (a, w) in worst.iter_mut().enumerate() {
+                for (k, w) in worst.iter_mut().enumerate() {
+                    let series = if k < 2 { &set } else { &act };
                     for i in (3..set.len()).filter(|&i| sync[i] || sync[i - 3]) {
-                        let j = jerk_at(&set, i, a, dt);
+                        let j = jerk_at(series, i, k % 2, dt);
                         if j > w.0 {
                             *w = (j, phase);
                         }
                     }
                 }
             }
+            let f = |w: (f64, usize)| format!("{:.1} m/s³ (phase {})", w.0 / 1000.0, w.1);
             eprintln!(
-                "{gap} lost, S{rpm}: X {:.1} m/s³ (phase {}), Z {:.1} m/s³ (phase {})",
-                worst[0].0 / 1000.0,
-                worst[0].1,
-                worst[1].0 / 1000.0,
-                worst[1].1
+                "{gap} lost, S{rpm}: X {}, Z {}; simulated axes X {}, Z {}",
+                f(worst[0]),
+                f(worst[1]),
+                f(worst[2]),
+                f(worst[3])
             );
         }
     }
