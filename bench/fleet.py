@@ -150,17 +150,19 @@ def one_round(a, n, out):
     extra = a.node_args.split() if a.node_args else []
     sim_extra = a.sim_args.split() if a.sim_args else []
     for k in range(1, n + 1):
+        # --pin: twin k on CPU (k - 1) mod the CPUs, both its nodes
+        pin = ["--cpu-affinity", str((k - 1) % os.cpu_count())] if a.pin else []
         slog, nlog = os.path.join(out, "sim%d.log" % k), os.path.join(out, "cnc%d.log" % k)
         with open(slog, "wb") as s, open(nlog, "wb") as g:
             sims.append(subprocess.Popen(
                 [os.path.join(a.bin, "sim_axes"), "--machine", a.machine, "--namespace", "/sim%d" % k,
-                 "--controller-namespace", "/cnc%d" % k, "--seed", str(k)] + sim_extra,
+                 "--controller-namespace", "/cnc%d" % k, "--seed", str(k)] + sim_extra + pin,
                 cwd=ROOT, env=env, stderr=s))
             started.append(sims[-1])
             nodes.append(subprocess.Popen(
                 [os.path.join(a.bin, "cnc_node"), "--machine", a.machine, "--namespace", "/cnc%d" % k,
                  "--sim-namespace", "/sim%d" % k, "--program-dir", os.path.join(HERE, "fleet"),
-                 "--record-all", "--record-dir", os.path.join(out, "rec%d" % k), "--loop-stats", "1"] + extra,
+                 "--record-all", "--record-dir", os.path.join(out, "rec%d" % k), "--loop-stats", "1"] + extra + pin,
                 cwd=ROOT, env=env, stderr=g))
             started.append(nodes[-1])
         logs.append((slog, nlog))
@@ -280,6 +282,8 @@ def main():
     ap.add_argument("--node-args", default="", help="more cnc_node options, e.g. '--rt-priority 0'")
     ap.add_argument("--sim-args", default="", help="more sim_axes options, e.g. '--rt-priority 80'")
     ap.add_argument("--keep-going", action="store_true", help="go on raising N after a round that failed")
+    ap.add_argument("--pin", action="store_true",
+                    help="each twin on one CPU (--cpu-affinity), twin k on CPU (k-1) mod the CPUs")
     a = ap.parse_args()
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)

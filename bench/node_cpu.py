@@ -81,18 +81,18 @@ def window(procs, secs, spin):
     return {k: (100.0 * (c1[k][0] - c0[k][0]) / w, {t: delta(k, t) for t in c1[k][1]}) for k in procs}
 
 
-def one(a, label, bindir, run_no, node):
+def one(a, label, bindir, run_no, node, extra=()):
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    ns = "/cpu%s%d" % (label.replace("-", "_"), run_no)
+    ns = "/cpu%s%d" % ("".join(c if c.isalnum() else "_" for c in label), run_no)
     procs = {}
     try:
         if not a.no_sim:
             procs["sim_axes"] = subprocess.Popen(
                 [os.path.join(bindir, "sim_axes"), "--machine", "lathe", "--namespace", ns + "s",
-                 "--controller-namespace", ns] + a.sim_args.split(), cwd=ROOT, env=env, stderr=subprocess.DEVNULL)
+                 "--controller-namespace", ns] + a.sim_args.split() + list(extra), cwd=ROOT, env=env, stderr=subprocess.DEVNULL)
         procs["cnc_node"] = subprocess.Popen(
             [os.path.join(bindir, "cnc_node"), "--machine", "lathe", "--namespace", ns, "--sim-namespace", ns + "s",
-             "--program-dir", os.path.join(HERE, "fleet")] + a.node_args.split(),
+             "--program-dir", os.path.join(HERE, "fleet")] + a.node_args.split() + list(extra),
             cwd=ROOT, env=env, stderr=subprocess.DEVNULL)
         cli = node.create_client(RunProgram, ns + "/run_program")
         states = []
@@ -182,8 +182,13 @@ def main():
     ap.add_argument("--sim-args", default="")
     ap.add_argument("--no-sim", action="store_true")
     ap.add_argument("--threads", action="store_true", help="per-thread breakdown")
+    ap.add_argument("--pin", type=int, metavar="CPU",
+                    help="run each build also with both nodes on this CPU (--cpu-affinity CPU)")
     a = ap.parse_args()
-    builds = [b.split("=", 1) for b in a.build]
+    builds = [b.split("=", 1) + [()] for b in a.build]
+    if a.pin is not None:
+        builds = [v for lab, d, _ in builds
+                  for v in ([lab, d, ()], ["%s on CPU %d" % (lab, a.pin), d, ("--cpu-affinity", str(a.pin))])]
     rclpy.init()
     node = rclpy.create_node("cpu_probe")
     print("%d cores, load average before: %s" % (os.cpu_count(), open("/proc/loadavg").read().split()[:3]))
@@ -191,10 +196,10 @@ def main():
     if ref is not None:
         print("host reference: `cnc check` (%s) of bench/gen_program.py's 100,000 blocks: %.3f s of CPU "
               "(median of 3)" % (builds[0][0], ref), flush=True)
-    got = {lab: [] for lab, _ in builds}
+    got = {lab: [] for lab, _, _ in builds}
     for r in range(a.runs):
-        for lab, d in builds:
-            res = one(a, lab, d, r, node)
+        for lab, d, extra in builds:
+            res = one(a, lab, d, r, node, extra)
             got[lab].append(res)
             print("run %d %s: %s" % (r + 1, lab, "; ".join(
                 "%s %s %.1f %%" % (ph, k, v[0]) for ph, x in res.items() for k, v in x.items())), flush=True)
@@ -203,7 +208,7 @@ def main():
     print("|---|---|---:|---:|")
     def phases(lab):
         return [ph for ph in ("idle", "running") if any(ph in x for x in got[lab])]
-    for lab, _ in builds:
+    for lab, _, _ in builds:
         for ph in phases(lab):
             cells = []
             for k in ("cnc_node", "sim_axes"):
@@ -211,7 +216,7 @@ def main():
                 cells.append("%.1f (%s)" % (statistics.median(v), ", ".join("%.1f" % y for y in v)) if v else "—")
             print("| %s | %s | %s | %s |" % (lab, ph, cells[0], cells[1]))
     if a.threads:
-        for lab, _ in builds:
+        for lab, _, _ in builds:
             for ph in phases(lab):
                 runs = [x for x in got[lab] if ph in x]
                 for k in runs[0][ph]:

@@ -15,7 +15,8 @@ ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE apply as usual.
 """
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument
-from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
+from launch.conditions import IfCondition, UnlessCondition
+from launch.substitutions import EqualsSubstitution, LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
@@ -35,8 +36,27 @@ def generate_launch_description():
             "params_file",
             default_value=PathJoinSubstitution([FindPackageShare(PKG), "config", "cnc_params.yaml"]),
             description="parameters of both nodes (rcl's YAML)"),
-        Node(package=PKG, executable="sim_axes", name="sim_axes", namespace=sim_ns, output="screen",
-             parameters=[params, {"machine": machine, "controller_namespace": ns}]),
-        Node(package=PKG, executable="cnc_node", name="cnc_node", namespace=ns, output="screen",
-             parameters=[params, {"machine": machine, "sim_namespace": sim_ns}]),
-    ])
+        DeclareLaunchArgument(
+            "cpu_affinity", default_value="",
+            description="the CPUs both nodes run on, e.g. [1] (a twin on one CPU costs less); "
+                        "empty: the params file's, else any"),
+    ] + nodes(machine, ns, sim_ns, params))
+
+
+def nodes(machine, ns, sim_ns, params):
+    """Both nodes, twice: with `cpu_affinity` where the launch argument
+    gives it, else without (so that the params file's stands)."""
+    cpus = LaunchConfiguration("cpu_affinity")
+    out = []
+    for given in (False, True):
+        extra = {"cpu_affinity": cpus} if given else {}
+        cond = (UnlessCondition if given else IfCondition)(EqualsSubstitution(cpus, ""))
+        out += [
+            Node(package=PKG, executable="sim_axes", name="sim_axes", namespace=sim_ns, output="screen",
+                 parameters=[params, {"machine": machine, "controller_namespace": ns, **extra}],
+                 condition=cond),
+            Node(package=PKG, executable="cnc_node", name="cnc_node", namespace=ns, output="screen",
+                 parameters=[params, {"machine": machine, "sim_namespace": sim_ns, **extra}],
+                 condition=cond),
+        ]
+    return out

@@ -24,6 +24,9 @@ pub enum Kind {
     Integer,
     Double,
     String,
+    /// a list of integers (`[0, 1]`); a single integer or a string such
+    /// as `0,1` is taken for one
+    IntegerArray,
 }
 
 impl Kind {
@@ -33,6 +36,7 @@ impl Kind {
             Kind::Integer => raw::ParameterType::INTEGER,
             Kind::Double => raw::ParameterType::DOUBLE,
             Kind::String => raw::ParameterType::STRING,
+            Kind::IntegerArray => raw::ParameterType::INTEGER_ARRAY,
         }
     }
 
@@ -42,6 +46,7 @@ impl Kind {
             Kind::Integer => "an integer",
             Kind::Double => "a double",
             Kind::String => "a string",
+            Kind::IntegerArray => "an integer array",
         }
     }
 }
@@ -125,18 +130,36 @@ impl Param {
             (Kind::Double, V::Double(d)) => V::Double(*d),
             (Kind::Double, V::Integer(i)) => V::Double(*i as f64),
             (Kind::String, V::String(s)) => V::String(s.clone()),
+            (Kind::IntegerArray, V::IntegerArray(a)) => V::IntegerArray(a.clone()),
+            (Kind::IntegerArray, V::Integer(i)) => V::IntegerArray(vec![*i]),
+            // (`[]` reads as an empty string array)
+            (Kind::IntegerArray, V::StringArray(a)) if a.is_empty() => V::IntegerArray(Vec::new()),
+            (Kind::IntegerArray, V::String(s)) => {
+                let mut a = Vec::new();
+                for part in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+                    a.push(part.parse::<i64>().map_err(|_| wrong())?);
+                }
+                V::IntegerArray(a)
+            }
             _ => return Err(wrong()),
         };
         if let Some((lo, hi)) = self.range {
-            let x = match &out {
-                V::Integer(i) => *i as f64,
-                V::Double(d) => *d,
-                _ => lo,
+            let xs: Vec<f64> = match &out {
+                V::Integer(i) => vec![*i as f64],
+                V::Double(d) => vec![*d],
+                V::IntegerArray(a) => a.iter().map(|&i| i as f64).collect(),
+                _ => Vec::new(),
             };
-            if !(x.is_finite() && (lo..=hi).contains(&x)) {
+            if let Some(x) = xs
+                .iter()
+                .find(|x| !(x.is_finite() && (lo..=hi).contains(*x)))
+            {
+                let what = match &out {
+                    V::IntegerArray(_) => format!("{x}"),
+                    _ => show(&out),
+                };
                 return Err(format!(
-                    "parameter '{n}': {} is out of its range {lo} to {hi}",
-                    show(&out)
+                    "parameter '{n}': {what} is out of its range {lo} to {hi}"
                 ));
             }
         }
@@ -609,5 +632,21 @@ mod tests {
         assert!(all.coerce(&V::Integer(1)).is_err());
         let dir = Param::live("record_dir", Kind::String, "");
         assert!(dir.coerce(&V::Integer(1)).is_err());
+        let cpus = Param::fixed("cpu_affinity", Kind::IntegerArray, "").range(0.0, 1023.0);
+        let a = |v: &[i64]| V::IntegerArray(v.to_vec());
+        assert_eq!(cpus.coerce(&a(&[0, 1])).unwrap(), a(&[0, 1]));
+        assert_eq!(cpus.coerce(&V::Integer(1)).unwrap(), a(&[1]));
+        assert_eq!(cpus.coerce(&V::StringArray(vec![])).unwrap(), a(&[]));
+        assert_eq!(cpus.coerce(&V::String("0, 1".into())).unwrap(), a(&[0, 1]));
+        assert_eq!(cpus.coerce(&V::String(String::new())).unwrap(), a(&[]));
+        assert_eq!(
+            cpus.coerce(&V::String("one".into())).unwrap_err(),
+            "parameter 'cpu_affinity' is an integer array, not a string ('one')"
+        );
+        assert_eq!(
+            cpus.coerce(&a(&[1, 2000])).unwrap_err(),
+            "parameter 'cpu_affinity': 2000 is out of its range 0 to 1023"
+        );
+        assert!(cpus.coerce(&V::Double(1.0)).is_err());
     }
 }

@@ -10,6 +10,7 @@ use ros2_client::{
 use std::net::{IpAddr, Ipv4Addr};
 use std::time::Duration;
 
+pub mod affinity;
 mod pace;
 pub mod shutdown;
 mod timing;

@@ -196,12 +196,14 @@ def m2(env, tmp_path_factory):
     sim = Started(env, ["ros2", "run", "cnc_controller", "sim_axes", "--ros-args",
                         "-r", "__ns:=/m2sim", "-r", "joint_states:=actual_joints",
                         "-p", "controller_namespace:=/m2",
-                        "-p", "setpoint_delay_ms:=2.0", "-p", "rt_priority:=0"], str(d / "sim.log"))
+                        "-p", "setpoint_delay_ms:=2.0", "-p", "rt_priority:=0",
+                        "-p", "cpu_affinity:=0"], str(d / "sim.log"))
     node = Started(env, ["ros2", "run", "cnc_controller", "cnc_node", "--rate", "1000", "--ros-args",
                          "-r", "__ns:=/m2",
                          "-r", "/m2sim/joint_states:=/m2sim/actual_joints",
                          "-p", "sim_namespace:=/m2sim", "-p", "rate:=500",
-                         "-p", "record_dir:=%s" % rec, "-p", "rt_priority:=0"], str(d / "node.log"))
+                         "-p", "record_dir:=%s" % rec, "-p", "rt_priority:=0",
+                         "-p", "cpu_affinity:=[0]"], str(d / "node.log"))
     yield {"sim": sim, "node": node, "rec": rec}
     node.stop()
     sim.stop()
@@ -215,7 +217,7 @@ def test_ros2_run_starts_both_nodes_under_their_ros_args(env, m2):
     rc, out, err = ros2(env, "param", "list", "--no-daemon", "--spin-time", "5", "/m2/cnc_node")
     names = out.split()
     for n in ["machine", "sim_namespace", "rate", "program_dir", "record_dir", "record_all",
-              "rt_priority", "loop_stats", "max_feed_override", "use_sim_time"]:
+              "rt_priority", "cpu_affinity", "loop_stats", "max_feed_override", "use_sim_time"]:
         assert n in names, out + err
     rc, out, err = ros2(env, "param", "get", "--no-daemon", "--timeout", "30", "/m2/cnc_node", "rate")
     assert out.strip() == "Double value is: 500.0", out + err  # -p rate:=500 over --rate 1000
@@ -232,6 +234,35 @@ def test_ros2_run_starts_both_nodes_under_their_ros_args(env, m2):
     # the option given both ways was said so
     assert ("--rate and -p rate:=500 both set rate: the ROS parameter wins (500.0)"
             in m2["node"].text()), m2["node"].text()
+    # both nodes pinned to CPU 0 (-p cpu_affinity:=[0] and :=0), every thread
+    for node_name, ns in (("cnc_node", "/m2"), ("sim_axes", "/m2sim")):
+        rc, out, err = ros2(env, "param", "get", "--no-daemon", "--timeout", "30",
+                            "%s/%s" % (ns, node_name), "cpu_affinity")
+        assert out.strip() == "Integer values are: [0]", out + err
+        cpus = threads_cpus(node_name, "__ns:=%s" % ns)
+        assert len(cpus) >= 5 and set(cpus.values()) == {"0"}, cpus
+
+
+def threads_cpus(exe, arg):
+    """{thread name: the CPUs it may run on} of the running process of
+    executable `exe` with `arg` among its arguments."""
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            with open("/proc/%s/cmdline" % pid, "rb") as f:
+                argv = f.read().decode(errors="replace").split("\0")
+            if os.path.basename(argv[0]) != exe or arg not in argv:
+                continue
+            out = {}
+            for tid in os.listdir("/proc/%s/task" % pid):
+                with open("/proc/%s/task/%s/comm" % (pid, tid)) as f:
+                    name = f.read().strip()
+                with open("/proc/%s/task/%s/status" % (pid, tid)) as f:
+                    allowed = [ln.split()[1] for ln in f if ln.startswith("Cpus_allowed_list:")]
+                out[name] = allowed[0]
+            return out
+        except OSError:
+            continue
+    return {}
 
 
 def test_ros2_param_set_takes_what_may_change_and_says_why_not(env, m2):
@@ -351,6 +382,10 @@ def test_bad_ros_args_stop_the_node_with_the_reason(env, tmp_path):
         (["sim_axes", "--ros-args", "-r", "__ns:=/1bad"],
          "sim_axes: remap '__ns:=/1bad': '1bad' must start with a letter or '_'"),
         (["sim_axes", "--ros-args", "--no-such-flag"], "sim_axes: unknown ROS argument '--no-such-flag'"),
+        (["cnc_node", "--ros-args", "-p", "cpu_affinity:=[0, 1023]"],
+         "cnc_node: --cpu-affinity: CPU 1023 is not one this process may run on (it may run on 0-"),
+        (["sim_axes", "--ros-args", "-p", "cpu_affinity:=[-1]"],
+         "sim_axes: parameter 'cpu_affinity': -1 is out of its range 0 to 1023 (from -p cpu_affinity:=[-1])"),
     ]:
         rc, out, err = ros2(env, "run", "cnc_controller", *args)
         assert rc != 0 and want in err, (args, rc, out, err)
@@ -371,9 +406,12 @@ def test_ros2_launch_starts_both_with_a_params_file_and_runs_a_job(env, tmp_path
         "/**/cnc_node:\n  ros__parameters:\n    rate: 250.0\n    record_all: true\n"
         "    record_dir: %s\n    rt_priority: 0\n"
         "/l3sim/sim_axes:\n  ros__parameters:\n    setpoint_delay_ms: 4.0\n    seed: 7\n"
-        "    rt_priority: 0\n" % rec)
+        "    rt_priority: 0\n    cpu_affinity: [0]\n" % rec)
+    # (the launch argument over the file's [0]: both nodes on the last CPU)
+    last_cpu = max(os.sched_getaffinity(0))
     launch = Started(env, ["ros2", "launch", os.path.join("launch_scripts", "cnc_ros.launch.py"),
-                           "namespace:=/l3", "sim_namespace:=/l3sim", "params_file:=%s" % params],
+                           "namespace:=/l3", "sim_namespace:=/l3sim", "params_file:=%s" % params,
+                           "cpu_affinity:=[%d]" % last_cpu],
                      str(tmp_path / "launch.log"))
     peer = None
     try:
@@ -387,6 +425,9 @@ def test_ros2_launch_starts_both_with_a_params_file_and_runs_a_job(env, tmp_path
             rc, out, err = until("the parameters of %s" % node, lambda: (lambda r: (
                 all(w in r[1].splitlines() for w in want), r[1], r[2]))(
                     ros2(env, "param", "dump", "--no-daemon", "--timeout", "30", node)), 45.0)
+        for exe, ns in (("cnc_node", "/l3"), ("sim_axes", "/l3sim")):
+            cpus = threads_cpus(exe, "__ns:=%s" % ns)
+            assert len(cpus) >= 5 and set(cpus.values()) == {str(last_cpu)}, (exe, cpus)
         from cnc_msgs.srv import RunProgram
         peer = Peer("ros2_launch_peer", "/l3", "/l3sim")
         peer.wait_for("setpoints and joint states",

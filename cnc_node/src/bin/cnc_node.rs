@@ -125,6 +125,8 @@ fn run(setup: Setup) -> Result<(), String> {
     }
     let dir = program_dir(args, &machine);
     let domain = args.domain.unwrap_or_else(ros::domain_from_env);
+    // (before any thread starts, so that every one takes it)
+    ros::affinity::pin_process(&args.cpu_affinity).map_err(|e| format!("--cpu-affinity: {e}"))?;
     // DDS's threads start in join and inherit this thread's policy: real
     // time below the control loop, so a busy machine does not hold up the
     // encoder readings (the check worker goes back to normal)

@@ -87,6 +87,8 @@ fn run(setup: params::Setup) -> Result<(), String> {
     }
     let dt = 1.0 / rate;
     let domain = a.domain.unwrap_or_else(ros::domain_from_env);
+    // (before any thread starts, so that every one takes it)
+    ros::affinity::pin_process(&a.cpu_affinity).map_err(|e| format!("--cpu-affinity: {e}"))?;
     // DDS's threads start in join and inherit this thread's policy: real
     // time below the simulation loop, so a busy machine does not hold up
     // the encoder readings
