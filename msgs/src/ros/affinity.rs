@@ -90,7 +90,7 @@ pub fn pin_process(cpus: &[usize]) -> Result<(), String> {
         ));
     }
     // SAFETY: as in allowed_cpus; CPU_SET writes the set for c < CPU_SETSIZE
-    // (parse_cpus and `allowed` keep every c below it).
+    // (every c is in `allowed`, which holds none above it).
     let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
     for &c in cpus {
         unsafe { libc::CPU_SET(c, &mut set) };
