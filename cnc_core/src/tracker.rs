@@ -181,6 +181,30 @@ const BLEND_RATE_MS: f64 = 5.0;
 const BLEND_RATE_GAP_MS: f64 = 8.0;
 /// The cycles over which the transport's usual lateness is learned.
 const LATENESS_CYCLES: usize = 64;
+/// The share of each on-time cycle's move that the tracker's average of
+/// them (`usual_move`) takes on: about the last four cycles.
+///
+/// On a rippling spindle the fits lag its acceleration, so each on-time
+/// cycle's new fit moves the prediction by about the same amount as the
+/// one before (a third of a count a cycle at S2000 under ±2 % at 5 Hz).
+/// Where a cycle's fit is made anew after a late reading (not at the end
+/// of a hold, which goes on by the last move already), the old fit's
+/// course it eases from lacked that move: the lead's speed stepped by
+/// about a third of a count in one cycle and the ease gave it back over
+/// 8 ms. Two cycles late in a row every 23 to 53 cycles put a 1.5 mm
+/// thread's Z at 301.9 m/s³ at S2000
+/// (`two_late_cycles_in_a_row_on_a_rippling_spindle`), readings late at
+/// random at 256–283 (`jittery_readings_scan`). That fit's old course
+/// now goes on by [`USUAL_MOVE_SHARE`] of the average: 202.2 and 203–217.
+/// The last move alone (not averaged) is the counts' noise at S200 and
+/// stepped the lead there instead (176 → 224 m/s³); the whole average
+/// gave the pairs 192.3 but one S800 run at random 201.5 near the
+/// thread's start (BENCHMARKS.md, "Where S2000's late readings still go
+/// over").
+const MOVE_AVERAGE: f64 = 0.25;
+/// The share of the usual move a fit made anew after a late reading goes
+/// on by ([`MOVE_AVERAGE`]).
+const USUAL_MOVE_SHARE: f64 = 0.75;
 /// At most this many steps are being eased at once.
 const BLENDS: usize = 16;
 
@@ -289,6 +313,9 @@ pub struct SpindleTracker {
     /// held their fit (0: the last made a new one)
     /// ([`SpindleTracker::next_cycle`]).
     last_move: f64,
+    /// The on-time cycles' moves, averaged ([`MOVE_AVERAGE`]) and kept
+    /// through late cycles.
+    usual_move: f64,
     hold_offset: f64,
     held_cycles: u32,
     /// How many readings each of the last cycles missed (a ring).
@@ -315,6 +342,7 @@ impl Default for SpindleTracker {
             excess: 0,
             gap: false,
             last_move: 0.0,
+            usual_move: 0.0,
             hold_offset: 0.0,
             held_cycles: 0,
             lateness: [0; LATENESS_CYCLES],
@@ -644,10 +672,22 @@ impl SpindleTracker {
                 }
                 _ => 0.0,
             };
+            if prev.is_none() {
+                self.usual_move = 0.0;
+            } else if !(held || excess != 0 || self.excess != 0 || gap || self.gap) {
+                self.usual_move += (self.last_move - self.usual_move) * MOVE_AVERAGE;
+            }
             if let (Some(old), true) = (
                 prev,
                 held || excess > 0 || excess != self.excess || gap || self.gap,
             ) {
+                // (a fit made anew, not at the end of a hold, where at most
+                // one reading is missing now and was in the cycle before:
+                // the old fit goes on by most of the usual move, as an
+                // on-time fit would have moved it; see MOVE_AVERAGE)
+                if self.held_cycles == 0 && excess <= 1 && self.excess <= 1 && !(gap || self.gap) {
+                    self.hold_offset += USUAL_MOVE_SHARE * self.usual_move;
+                }
                 // the old fit's prediction goes on and eases into the new
                 let (a, b) = (old.at(t), fit.at(t));
                 let e = [a[0] + self.hold_offset - b[0], a[1] - b[1], a[2] - b[2]];
