@@ -666,16 +666,14 @@ impl SpindleTracker {
             }
             // (in a run of on-time cycles: how far the new fit moved the
             // prediction, which the next one moves it by much alike)
-            self.last_move = match prev {
-                Some(old) if !(held || excess != 0 || self.excess != 0 || gap || self.gap) => {
-                    fit.at(t)[0] - old.at(t)[0]
+            let on_time = !(held || excess != 0 || self.excess != 0 || gap || self.gap);
+            match prev {
+                Some(old) if on_time => {
+                    self.last_move = fit.at(t)[0] - old.at(t)[0];
+                    self.usual_move += (self.last_move - self.usual_move) * MOVE_AVERAGE;
                 }
-                _ => 0.0,
-            };
-            if prev.is_none() {
-                self.usual_move = 0.0;
-            } else if !(held || excess != 0 || self.excess != 0 || gap || self.gap) {
-                self.usual_move += (self.last_move - self.usual_move) * MOVE_AVERAGE;
+                Some(_) => self.last_move = 0.0,
+                None => (self.last_move, self.usual_move) = (0.0, 0.0),
             }
             if let (Some(old), true) = (
                 prev,
