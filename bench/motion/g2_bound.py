@@ -66,6 +66,7 @@ from scipy.optimize import linprog
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import analyse  # noqa: E402
+from profile_plot import SECTIONS  # noqa: E402
 
 DS = 0.004  # fine grid of the geometry, mm
 W0 = float(os.environ.get("G2_W0", "3"))  # widest smoothing, mm
@@ -75,7 +76,7 @@ SLOPE = float(os.environ.get("G2_SLOPE", "0.5"))  # how fast the smoothing width
 RHO = 0.3  # trust region of each linear program
 TWICE = os.environ.get("G2_TWICE", "1") == "1"  # polylines: the smoothing's shrink of arcs made up
 DT_GRID = 0.0003  # s, longest step of the speed grid at the first speeds
-SECTIONS = {"square": (15, 65), "ellipse": (85, 175), "slot": (195, 305), "helix": (315, 345)}
+NO_FEED = 1e9  # mm/s, a rapid's feed: the axes' speed limits only
 
 
 def runs(segs):
@@ -93,7 +94,7 @@ def runs(segs):
     return out
 
 
-def dense(run, vel):
+def dense(run):
     """Points every DS mm or less, the feed at each point (mm/s)."""
     pts = [np.array([run[0]["a"]], dtype=float)]
     feeds = []
@@ -101,7 +102,7 @@ def dense(run, vel):
         L = analyse.seg_length(s)
         n = max(1, math.ceil(L / DS))
         pts.append(np.array([analyse.seg_point(s, k / n) for k in range(1, n + 1)]))
-        f = math.inf if s["rapid"] or s["f"] is None else s["f"]
+        f = NO_FEED if s["rapid"] or s["f"] is None else s["f"]
         feeds.append(np.full(n, f))
     p = np.vstack(pts)
     fe = np.concatenate([[feeds[0][0]]] + feeds)
@@ -110,7 +111,7 @@ def dense(run, vel):
     for i, f in zip(idx, feeds[1:]):
         fe[i] = min(fe[i], f[0])
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))])
-    return p, s, np.minimum(fe, math.inf)
+    return p, s, fe
 
 
 def box(p, s, w, x):
@@ -226,13 +227,13 @@ def plan_speed(sig, T, K, Kd, feed, V, A, J):
     for it in range(12):
         rows, cols, vals, rhs = [], [], [], []
         r0 = 0
+        he = np.diff(sig)
         jb = J / np.sqrt(np.maximum(uref[1:-1], 1e-9))
         for ax in range(3):
             t, k, kd = T[1:-1, ax], K[1:-1, ax], Kd[1:-1, ax]
             # acceleration on each interval [i, i+1] (one-sided: central
             # differences would let u zigzag), jerk at each inner point
             te, ke = 0.5 * (T[:-1, ax] + T[1:, ax]), 0.5 * (K[:-1, ax] + K[1:, ax])
-            he = np.diff(sig)
             blocks = [
                 ((np.zeros(n - 1), -te / (2 * he) + ke / 2, te / (2 * he) + ke / 2), np.full(n - 1, A), ie),
                 ((t * cm / 2 + 1.5 * k * dm, t * c0 / 2 + kd, t * cp / 2 + 1.5 * k * dp), jb, ii),
@@ -286,8 +287,7 @@ def grid_of(S, spacing):
 
 def geometry_at(gs, sig, T, K, Kd, feed):
     at = lambda arr: np.stack([np.interp(gs, sig, arr[:, k]) for k in range(3)], axis=1)
-    fe = np.interp(gs, sig, np.where(np.isfinite(feed), feed, 1e9))
-    return gs, at(T), at(K), at(Kd), fe
+    return gs, at(T), at(K), at(Kd), np.interp(gs, sig, feed)
 
 
 def steps(sig, u, J):
@@ -334,7 +334,7 @@ def main():
     for run in runs(segs):
         if only and str(run[0]["line"]) not in only.split(","):
             continue
-        p, s, feed = dense(run, V)
+        p, s, feed = dense(run)
         if len(run) == 1 and run[0]["kind"] == "line":
             q, w, dev = p, np.full(len(p), W0), 0.0
             su = s
@@ -344,7 +344,7 @@ def main():
             # to even out the polyline's vertices; otherwise plain
             twice = TWICE and s[-1] / len(run) < 1.0
             q, w, dev, su = smooth(p, s, a.tol, twice)
-            feed = np.interp(su, s, np.where(np.isfinite(feed), feed, 1e9))
+            feed = np.interp(su, s, feed)
             print(f"  smoothed in {time.time() - t0:.0f} s", file=sys.stderr, flush=True)
         sig = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])
         T = np.gradient(q, sig, axis=0)
@@ -361,11 +361,10 @@ def main():
             vf = lambda x, gs=gs, u=u: np.sqrt(np.interp(x, gs, u))
             gs = grid_of(sig[-1], lambda x: np.clip(np.minimum(0.25 * wf(x), DT_GRID * vf(x)), 1e-6, 0.05))
             u = plan_speed(*geometry_at(gs, sig, T, K, Kd, feed), V, A, J)
-        g = gs
         tg, v = section_time(gs, u, J)
-        parts.append(dict(sig=sig, q=q, T=T, gs=gs, tg=tg, v=v, dev=dev, n=len(g)))
+        parts.append(dict(sig=sig, q=q, T=T, gs=gs, tg=tg, v=v))
         print(f"run from line {run[0]['line']}: {len(run)} moves, {sig[-1]:.3f} mm, {tg[-1]:.4f} s, "
-              f"smoothed dev {dev * 1000:.2f} um, w {w.min():.4f}..{w.max():.2f} mm, grid {len(g)}",
+              f"smoothed dev {dev * 1000:.2f} um, w {w.min():.4f}..{w.max():.2f} mm, grid {len(gs)}",
               file=sys.stderr, flush=True)
     total = sum(pt["tg"][-1] for pt in parts)
     # 1 kHz samples over the whole program
