@@ -51,11 +51,16 @@ usage: g2_bound.py PROGRAM --jerk J_M_S3 [--tol 0.01] [--vel 100]
 Needs numpy and scipy (linprog, HiGHS). Environment: G2_ONLY=LINE,...
 plans only the runs starting at those program lines; G2_DEBUG=1 prints
 the smoothing's rounds; G2_W0, G2_SLOPE, G2_TWICE=0 change W0, SLOPE and
-turn the polylines' shrink correction off.
+turn the polylines' shrink correction off. G2_SPEED=BINARY replaces the
+linear programs by the controller's speed stage (cnc_core::path_speed,
+`cargo build --release -p cnc_core --example path_speed`, then
+G2_SPEED=target/release/examples/path_speed): the same geometry, every
+1 ms sample's path position from the Rust planner.
 """
 import argparse
 import math
 import os
+import subprocess
 import sys
 import time
 
@@ -77,6 +82,7 @@ RHO = 0.3  # trust region of each linear program
 TWICE = os.environ.get("G2_TWICE", "1") == "1"  # polylines: the smoothing's shrink of arcs made up
 DT_GRID = 0.0003  # s, longest step of the speed grid at the first speeds
 NO_FEED = 1e9  # mm/s, a rapid's feed: the axes' speed limits only
+H_RUST = 0.01  # mm, station spacing handed to the Rust speed stage
 
 
 def runs(segs):
@@ -267,6 +273,25 @@ def plan_speed(sig, T, K, Kd, feed, V, A, J):
     return best[0]
 
 
+def rust_speed(binary, sig, T, K, Kd, feed, V, A, J):
+    """The path position at every 1 ms sample from cnc_core::path_speed,
+    on stations H_RUST apart."""
+    S = sig[-1]
+    n = int(math.ceil(S / H_RUST)) + 1
+    st = np.minimum(np.arange(n) * H_RUST, S)
+    at = lambda arr: np.stack([np.interp(st, sig, arr[:, k]) for k in range(3)], axis=1)
+    rows = np.hstack([at(T), at(K), at(Kd), np.interp(st, sig, feed)[:, None]])
+    head = f"{H_RUST!r} {float(S)!r} 0.001\n" + " ".join(repr(float(x)) for x in [V] * 3 + [A] * 3 + [J] * 3) + "\n"
+    body = "\n".join(" ".join(repr(float(x)) for x in r) for r in rows)
+    if os.environ.get("G2_DUMP"):
+        with open(os.path.join(os.environ["G2_DUMP"], f"run_{S:.3f}.txt"), "w") as f:
+            f.write(head + body)
+    res = subprocess.run([binary], input=head + body, capture_output=True, text=True)
+    if res.returncode != 0:
+        raise SystemExit(f"{binary}: {res.stderr.strip()}")
+    return np.array([float(x) for x in res.stdout.split()])
+
+
 def grid_of(S, spacing):
     """Grid points from 0 to S, each step spacing(x) at the point before;
     no sliver at the end."""
@@ -354,6 +379,13 @@ def main():
         # the speed grid: first spaced by a quarter of the smoothing width
         # (4..50 um), then again where the first speeds take more than
         # DT_GRID a step (starts and stops, slow corners)
+        if os.environ.get("G2_SPEED"):
+            st = rust_speed(os.environ["G2_SPEED"], sig, T, K, Kd, feed, V, A, J)
+            tg = np.arange(len(st)) * 0.001
+            parts.append(dict(sig=sig, q=q, T=T, st=st, tg=tg))
+            print(f"run from line {run[0]['line']}: {len(run)} moves, {sig[-1]:.3f} mm, {tg[-1]:.4f} s (Rust), "
+                  f"smoothed dev {dev * 1000:.2f} um", file=sys.stderr, flush=True)
+            continue
         wf = lambda x: np.interp(x, sig, w)
         gs = grid_of(sig[-1], lambda x: np.clip(0.25 * wf(x), DS, 0.05))
         u = plan_speed(*geometry_at(gs, sig, T, K, Kd, feed), V, A, J)
@@ -374,6 +406,15 @@ def main():
     start = 0.0
     first = segs[0]["a"]
     out[:] = first
+    if parts and "st" in parts[0]:
+        # whole samples per run: each run's positions at its own samples
+        rows = [np.array([first])]
+        for pt in parts:
+            rows.append(hermite(pt["sig"], pt["q"], pt["T"], pt["st"])[1:])
+        out = np.concatenate(rows)
+        nsamp = len(out)
+        tq = np.arange(nsamp) * 0.001
+        parts = []
     for pt in parts:
         end = start + pt["tg"][-1]
         m = (tq >= start) & (tq < end)

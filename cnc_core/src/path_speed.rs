@@ -1,0 +1,548 @@
+//! Jerk-limited speed along a smooth path, one sample at a time.
+//!
+//! This is the speed stage of a planner without setpoint filters (issue 17's
+//! way on; `bench/motion/g2_bound.py` prototypes it with linear programs).
+//! It is not wired into the executor yet: the bench binary
+//! `cnc_core/examples/path_speed.rs` runs it on the prototype's geometry.
+//!
+//! The path is given at stations a fixed arc length apart: the unit tangent
+//! `T`, its derivative along the path `K = dT/ds` (the curvature vector) and
+//! that one's derivative `K' = dK/ds`, and the programmed feed. Between
+//! stations they are interpolated linearly. For a path speed `v = ds/dt`,
+//! acceleration `a` and jerk `σ`, every axis moves with
+//!
+//! ```text
+//! velocity      T v
+//! acceleration  T a + K v²
+//! jerk          T σ + 3 K v a + K' v³
+//! ```
+//!
+//! and each of these stays within that axis's limit at every sample.
+//!
+//! **How the speed is chosen.** The state is `(s, v, a)`; each sample holds
+//! one jerk `σ` for `dt`. A state is *viable* when braking from it, by a
+//! fixed rule (`brake`: the acceleration down to the lowest the axes allow
+//! as fast as the jerk allows, then a landing that brings speed and
+//! acceleration to zero on the same sample), keeps every limit and comes to
+//! rest before the run's end. Each sample takes the largest jerk whose next
+//! state is viable (bisection between the braking rule's jerk, which is
+//! always viable from a viable state, and the largest the axes allow). So
+//! the run never meets a state it cannot leave within the limits, and it
+//! brakes only as late as it must: on a curve the speed is what the axes'
+//! acceleration and jerk leave, on a line what the feed allows.
+//!
+//! The run ends at rest exactly on the path's end: the last braking is
+//! stretched along the path by the little it stops short (a few nm).
+
+/// Per-axis limits (X, Y, Z): velocity mm/s, acceleration mm/s², jerk mm/s³.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AxisLimits {
+    pub v: [f64; 3],
+    pub a: [f64; 3],
+    pub j: [f64; 3],
+}
+
+/// The path's shape at one station.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Station {
+    /// Unit tangent.
+    pub t: [f64; 3],
+    /// `dT/ds`, 1/mm.
+    pub k: [f64; 3],
+    /// `d²T/ds²`, 1/mm².
+    pub kd: [f64; 3],
+    /// Programmed feed, mm/s.
+    pub feed: f64,
+}
+
+/// A run from rest to rest: stations `h` apart from `s = 0`, the last at
+/// `len` (at most `h` after the one before).
+#[derive(Clone, Debug)]
+pub struct Path {
+    h: f64,
+    len: f64,
+    st: Vec<Station>,
+}
+
+/// Why a path or a run was refused.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SpeedError {
+    /// The stations do not describe a path (fewer than two, a spacing or
+    /// length that is not positive and finite, the last station not
+    /// within one spacing of the one before, a value not finite).
+    BadPath(String),
+    /// A limit is not positive and finite.
+    BadLimits,
+    /// The run did not end within `ticks` samples.
+    NoEnd { ticks: usize, s: f64 },
+}
+
+impl std::fmt::Display for SpeedError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SpeedError::BadPath(why) => write!(f, "path: {why}"),
+            SpeedError::BadLimits => write!(f, "every axis limit must be positive and finite"),
+            SpeedError::NoEnd { ticks, s } => {
+                write!(
+                    f,
+                    "the run did not reach its end in {ticks} samples (it is at {s:.6} mm)"
+                )
+            }
+        }
+    }
+}
+
+impl std::error::Error for SpeedError {}
+
+impl Path {
+    pub fn new(h: f64, len: f64, st: Vec<Station>) -> Result<Path, SpeedError> {
+        let bad = |why: &str| Err(SpeedError::BadPath(why.to_string()));
+        if st.len() < 2 {
+            return bad("fewer than two stations");
+        }
+        if !(h > 0.0 && h.is_finite() && len > 0.0 && len.is_finite()) {
+            return bad("spacing and length must be positive and finite");
+        }
+        let before = (st.len() - 2) as f64 * h;
+        if !(len > before && len <= before + h * (1.0 + 1e-9)) {
+            return bad("the last station is not within one spacing of the one before");
+        }
+        let finite = |x: &[f64; 3]| x.iter().all(|c| c.is_finite());
+        if st
+            .iter()
+            .any(|p| !(finite(&p.t) && finite(&p.k) && finite(&p.kd)))
+        {
+            return bad("a station's shape is not finite");
+        }
+        if st.iter().any(|p| p.feed.is_nan() || p.feed <= 0.0) {
+            return bad("a station's feed is not positive");
+        }
+        Ok(Path { h, len, st })
+    }
+
+    pub fn len(&self) -> f64 {
+        self.len
+    }
+
+    /// The shape at `s` (clamped to the path), interpolated.
+    pub fn at(&self, s: f64) -> Station {
+        let n = self.st.len();
+        let s = s.clamp(0.0, self.len);
+        let i = ((s / self.h) as usize).min(n - 2);
+        let s0 = i as f64 * self.h;
+        let s1 = if i + 1 == n - 1 {
+            self.len
+        } else {
+            s0 + self.h
+        };
+        let f = ((s - s0) / (s1 - s0)).clamp(0.0, 1.0);
+        let (p, q) = (&self.st[i], &self.st[i + 1]);
+        let mix = |x: &[f64; 3], y: &[f64; 3]| {
+            [
+                x[0] + f * (y[0] - x[0]),
+                x[1] + f * (y[1] - x[1]),
+                x[2] + f * (y[2] - x[2]),
+            ]
+        };
+        Station {
+            t: mix(&p.t, &q.t),
+            k: mix(&p.k, &q.k),
+            kd: mix(&p.kd, &q.kd),
+            feed: p.feed + f * (q.feed - p.feed),
+        }
+    }
+}
+
+/// Where along the path, how fast, how hard.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct State {
+    pub s: f64,
+    pub v: f64,
+    pub a: f64,
+}
+
+impl State {
+    /// One sample with jerk `sig` held.
+    fn step(self, sig: f64, dt: f64) -> State {
+        State {
+            s: self.s + self.v * dt + self.a * dt * dt / 2.0 + sig * dt * dt * dt / 6.0,
+            v: self.v + self.a * dt + sig * dt * dt / 2.0,
+            a: self.a + sig * dt,
+        }
+    }
+}
+
+/// Speed under this counts as rest, mm/s.
+const REST_V: f64 = 1e-9;
+/// A run that comes to rest this close to its end has reached it, mm.
+const END_TOL: f64 = 1e-5;
+/// The share of each axis's jerk the path acceleration may take up
+/// through the curvature (`3 K v a`); the rest is for changing it.
+const JERK_FOR_A: f64 = 0.9;
+/// The share of the jerk a landing is planned with (the rest absorbs how
+/// the axes' jerk bounds move as the speed falls), and the share whose
+/// landing decides when to start one (less, so that one always fits).
+const LAND_SHARE: f64 = 0.9;
+const TRIGGER_SHARE: f64 = 0.8;
+/// How many landings longer than the shortest conceivable are tried.
+const LAND_MAX: usize = 40;
+/// How far above the lowest acceleration allowed braking aims, as a share
+/// of it (the bound moves as the path turns and the speed falls).
+const A_MARGIN: f64 = 1e-3;
+/// Bisection steps for the largest viable jerk.
+const BISECT: usize = 18;
+/// How far a braking simulation may go, in samples.
+const MAX_BRAKE: usize = 20_000;
+
+/// The speed stage for one path under one set of limits.
+pub struct Planner<'a> {
+    path: &'a Path,
+    lim: AxisLimits,
+    dt: f64,
+    /// Each station's speed cap (`v_cap`).
+    caps: Vec<f64>,
+}
+
+/// The limits at one state: the allowed path acceleration and jerk.
+struct Bounds {
+    a_lo: f64,
+    a_hi: f64,
+    s_lo: f64,
+    s_hi: f64,
+}
+
+impl<'a> Planner<'a> {
+    pub fn new(path: &'a Path, lim: AxisLimits, dt: f64) -> Result<Planner<'a>, SpeedError> {
+        let ok = |x: &[f64; 3]| x.iter().all(|c| *c > 0.0 && c.is_finite());
+        if !(ok(&lim.v) && ok(&lim.a) && ok(&lim.j) && dt > 0.0 && dt.is_finite()) {
+            return Err(SpeedError::BadLimits);
+        }
+        let mut p = Planner {
+            path,
+            lim,
+            dt,
+            caps: Vec::new(),
+        };
+        p.caps = path.st.iter().map(|g| p.v_cap(g)).collect();
+        Ok(p)
+    }
+
+    /// The lowest speed cap of the stations about the path from `s0` to
+    /// `s1` (those of the intervals both ends are in, and all between).
+    fn cap_over(&self, s0: f64, s1: f64) -> f64 {
+        let n = self.caps.len();
+        let (lo, hi) = (s0.min(s1).max(0.0), s0.max(s1).min(self.path.len));
+        let i0 = ((lo / self.path.h) as usize).min(n - 2);
+        let i1 = (((hi / self.path.h) as usize) + 1).min(n - 1);
+        self.caps[i0..=i1]
+            .iter()
+            .fold(f64::INFINITY, |m, c| m.min(*c))
+    }
+
+    /// The speed cap at a station: the feed and every axis's velocity.
+    fn v_cap(&self, g: &Station) -> f64 {
+        let mut cap = g.feed;
+        for i in 0..3 {
+            let t = g.t[i].abs();
+            if t > 1e-12 {
+                cap = cap.min(self.lim.v[i] / t);
+            }
+        }
+        cap
+    }
+
+    /// The path accelerations and jerks every axis allows at `(v, a)`;
+    /// `None` where no jerk does (the curvature terms alone are over).
+    fn bounds(&self, g: &Station, v: f64, a: f64) -> Option<Bounds> {
+        let mut b = Bounds {
+            a_lo: f64::NEG_INFINITY,
+            a_hi: f64::INFINITY,
+            s_lo: f64::NEG_INFINITY,
+            s_hi: f64::INFINITY,
+        };
+        for i in 0..3 {
+            let t = g.t[i];
+            let ca = g.k[i] * v * v;
+            let cj = 3.0 * g.k[i] * v * a + g.kd[i] * v * v * v;
+            let (am, jm) = (self.lim.a[i], self.lim.j[i]);
+            if t.abs() > 1e-12 {
+                let (x, y) = ((-am - ca) / t, (am - ca) / t);
+                b.a_lo = b.a_lo.max(x.min(y));
+                b.a_hi = b.a_hi.min(x.max(y));
+                let (x, y) = ((-jm - cj) / t, (jm - cj) / t);
+                b.s_lo = b.s_lo.max(x.min(y));
+                b.s_hi = b.s_hi.min(x.max(y));
+            } else if ca.abs() > am || cj.abs() > jm {
+                return None;
+            }
+        }
+        let (lo, hi) = self.a_for_jerk(g, v);
+        b.a_lo = b.a_lo.max(lo);
+        b.a_hi = b.a_hi.min(hi);
+        (b.s_lo <= b.s_hi && b.a_lo <= b.a_hi).then_some(b)
+    }
+
+    /// The path accelerations at speed `v` for which some path jerk keeps
+    /// every axis's jerk within `JERK_FOR_A` of its limit (the rest is
+    /// left for changing the acceleration): every axis gives the jerk an
+    /// interval whose ends move with `a` (the `3 K v a` term), and each
+    /// pair of a lower and an upper end bounds `a` (Fourier–Motzkin).
+    fn a_for_jerk(&self, g: &Station, v: f64) -> (f64, f64) {
+        let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
+        // each end of a jerk interval as p + q a
+        let mut lower: [(f64, f64); 3] = [(0.0, 0.0); 3];
+        let mut upper: [(f64, f64); 3] = [(0.0, 0.0); 3];
+        let mut n = 0;
+        for i in 0..3 {
+            let (t, c, d) = (g.t[i], 3.0 * g.k[i] * v, g.kd[i] * v * v * v);
+            let jm = JERK_FOR_A * self.lim.j[i];
+            let (e0, e1) = (-jm - d, jm - d);
+            if t.abs() > 1e-12 {
+                let (a0, a1) = ((e0 / t, -c / t), (e1 / t, -c / t));
+                let (l, u) = if t > 0.0 { (a0, a1) } else { (a1, a0) };
+                lower[n] = l;
+                upper[n] = u;
+                n += 1;
+            } else {
+                // e0 <= c a <= e1
+                bound(&mut lo, &mut hi, c, e0, e1);
+            }
+        }
+        for l in &lower[..n] {
+            for u in &upper[..n] {
+                // l.0 + l.1 a <= u.0 + u.1 a  <=>  (l.1 - u.1) a <= u.0 - l.0
+                bound(&mut lo, &mut hi, l.1 - u.1, f64::NEG_INFINITY, u.0 - l.0);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// The braking rule's jerk at `x`: down to the lowest acceleration the
+    /// axes allow, then, once the speed left is what bringing the
+    /// acceleration back to zero takes, the landing. `None` where the axes
+    /// allow no jerk.
+    fn brake(&self, g: &Station, x: State) -> Option<f64> {
+        let b = self.bounds(g, x.v, x.a)?;
+        let dt = self.dt;
+        // the lowest acceleration allowed here and where the sample ends
+        // (the path turns under the axes), a hair above it
+        let next_v = (x.v + x.a * dt).max(0.0);
+        let ahead = self.path.at(x.s + x.v * dt);
+        let target = self
+            .bounds(&ahead, next_v, x.a)
+            .map_or(b.a_lo, |n| n.a_lo.max(b.a_lo));
+        let target = target + A_MARGIN * target.abs();
+        let down = self.within_both(x, ((target - x.a) / dt).clamp(b.s_lo, b.s_hi), &b);
+        if x.a <= 0.0 && b.s_hi > 0.0 && b.s_lo < 0.0 {
+            // the jerk a landing may use: within the bounds here and at
+            // rest here (the curvature's share of them fades as it lands)
+            let rest = self.bounds(g, 0.0, 0.0).unwrap_or(Bounds {
+                s_lo: b.s_lo,
+                s_hi: b.s_hi,
+                ..b
+            });
+            let (lo, hi) = (b.s_lo.max(rest.s_lo), b.s_hi.min(rest.s_hi));
+            // land now if, after one more sample of braking, bringing the
+            // acceleration back to zero with a share of the jerk would
+            // take more speed than is left
+            let y = x.step(down, dt);
+            let up = TRIGGER_SHARE * hi;
+            if y.a >= 0.0 || y.v <= y.a * y.a / (2.0 * up) {
+                let land = landing(x.v, x.a, LAND_SHARE * lo, LAND_SHARE * hi, dt)?;
+                return Some(self.within_both(x, land.clamp(b.s_lo, b.s_hi), &b));
+            }
+        }
+        Some(down)
+    }
+
+    /// `sig` (within `b`, the bounds at `x`) also within the bounds at the
+    /// end of the sample it is held for, as far as one more look gets.
+    fn within_both(&self, x: State, sig: f64, b: &Bounds) -> f64 {
+        let mut sig = sig;
+        for _ in 0..2 {
+            let y = x.step(sig, self.dt);
+            if let Some(e) = self.bounds(&self.path.at(y.s), y.v.max(0.0), y.a) {
+                let lo = e.s_lo.max(b.s_lo);
+                sig = sig.clamp(lo, e.s_hi.min(b.s_hi).max(lo));
+            }
+        }
+        sig
+    }
+
+    /// Whether `x`, reached from `from` with jerk `sig`, keeps every limit
+    /// (`sig` too, at the sample's end as at its start; the speed cap of
+    /// every station passed) and braking from it by `brake` does too,
+    /// coming to rest by `end`.
+    fn viable(&self, mut from: f64, mut x: State, mut sig: f64, end: f64) -> bool {
+        for _ in 0..MAX_BRAKE {
+            if x.s > end + 1e-9 || x.v < -1e-6 {
+                return false;
+            }
+            if x.v > self.cap_over(from, x.s) * (1.0 + 1e-12) + 1e-12 {
+                return false;
+            }
+            let g = self.path.at(x.s);
+            let Some(b) = self.bounds(&g, x.v.max(0.0), x.a) else {
+                return false;
+            };
+            let slack = 1e-9 * (1.0 + x.a.abs());
+            if x.a < b.a_lo - slack || x.a > b.a_hi + slack {
+                return false;
+            }
+            let slack = 1e-4 * (1.0 + sig.abs());
+            if sig < b.s_lo - slack || sig > b.s_hi + slack {
+                return false;
+            }
+            if x.v <= REST_V && x.a.abs() <= 1e-6 {
+                return true;
+            }
+            let Some(next) = self.brake(&g, x) else {
+                return false;
+            };
+            sig = next;
+            from = x.s;
+            x = x.step(sig, self.dt);
+        }
+        false
+    }
+
+    /// The run from rest at `s = 0` to rest at the end: the path position
+    /// at every sample, the first `0`, the last exactly `len`.
+    pub fn run(&self, max_ticks: usize) -> Result<Vec<f64>, SpeedError> {
+        let end = self.path.len;
+        let mut x = State {
+            s: 0.0,
+            v: 0.0,
+            a: 0.0,
+        };
+        let mut out = vec![0.0];
+        let mut brake_from = 0usize;
+        while out.len() <= max_ticks {
+            let g = self.path.at(x.s);
+            let Some(b) = self.bounds(&g, x.v, x.a) else {
+                return Err(SpeedError::NoEnd {
+                    ticks: out.len(),
+                    s: x.s,
+                });
+            };
+            // staying at rest is always viable, braking from a viable state too
+            let rest = x.v == 0.0 && x.a == 0.0;
+            let safe = if rest {
+                0.0
+            } else {
+                self.brake(&g, x).unwrap_or(b.s_lo)
+            };
+            let top = self.within_both(x, b.s_hi, &b);
+            let sig = if self.viable(x.s, x.step(top, self.dt), top, end) {
+                top
+            } else {
+                let (mut lo, mut hi) = (safe, top);
+                for _ in 0..BISECT {
+                    let mid = 0.5 * (lo + hi);
+                    if self.viable(x.s, x.step(mid, self.dt), mid, end) {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                lo
+            };
+            if x.a >= 0.0 {
+                brake_from = out.len() - 1;
+            }
+            x = x.step(sig, self.dt);
+            if x.v <= REST_V && x.a.abs() <= 1e-6 {
+                x.v = 0.0;
+                x.a = 0.0;
+            }
+            out.push(x.s);
+            if x.v == 0.0 && x.s >= end - END_TOL {
+                stretch(&mut out, brake_from, end);
+                return Ok(out);
+            }
+        }
+        Err(SpeedError::NoEnd {
+            ticks: out.len(),
+            s: x.s,
+        })
+    }
+}
+
+/// Narrows `[lo, hi]` to the `a` with `e0 <= c a <= e1`; empty (lo > hi)
+/// where no `a` does.
+fn bound(lo: &mut f64, hi: &mut f64, c: f64, e0: f64, e1: f64) {
+    if c.abs() <= 1e-12 {
+        if e0 > 0.0 || e1 < 0.0 {
+            *lo = f64::INFINITY;
+            *hi = f64::NEG_INFINITY;
+        }
+        return;
+    }
+    let (x, y) = (e0 / c, e1 / c);
+    *lo = lo.max(x.min(y));
+    *hi = hi.min(x.max(y));
+}
+
+/// The first jerk of a landing from `(v, a)`: the jerk, linear in the
+/// sample, that brings speed and acceleration to zero together after a
+/// whole number of samples, the fewest for which every sample's jerk is
+/// within `[lo, hi]` and the speed never goes below zero. `None` if no
+/// landing within `LAND_MAX` samples of the shortest conceivable does.
+fn landing(v: f64, a: f64, lo: f64, hi: f64, dt: f64) -> Option<f64> {
+    // the bang-bang stop with the larger jerk: t1 down, then up to zero
+    let jm = hi.max(-lo).max(1e-300);
+    let t1 = ((a + (a * a / 2.0 + jm * v.max(0.0)).sqrt()) / jm).max(0.0);
+    let shortest = (2.0 * t1 - a / jm).max(a.abs() / jm) / dt;
+    let first = (shortest.floor() as usize).max(2);
+    for n in first..first + LAND_MAX {
+        let nf = n as f64;
+        // sig_k = al + be * w_k, w_k = n - k - 1/2, k = 0..n-1:
+        // sum sig_k dt = -a, and v + n a dt + dt² sum sig_k w_k = 0
+        let s1 = -a / dt;
+        let s2 = -(v + nf * a * dt) / (dt * dt);
+        let (m11, m12, m22) = (nf, nf * nf / 2.0, nf * (4.0 * nf * nf - 1.0) / 12.0);
+        let det = m11 * m22 - m12 * m12;
+        let al = (s1 * m22 - m12 * s2) / det;
+        let be = (m11 * s2 - m12 * s1) / det;
+        let ends = [al + be * (nf - 0.5), al + be * 0.5];
+        if ends
+            .iter()
+            .any(|x| *x < lo * (1.0 + 1e-9) - 1e-9 || *x > hi * (1.0 + 1e-9) + 1e-9)
+        {
+            continue;
+        }
+        let (mut vv, mut aa) = (v, a);
+        let mut ok = true;
+        for k in 0..n {
+            let sig = al + be * (nf - k as f64 - 0.5);
+            vv += aa * dt + sig * dt * dt / 2.0;
+            aa += sig * dt;
+            if vv < -1e-9 {
+                ok = false;
+                break;
+            }
+        }
+        if ok {
+            return Some(ends[0]);
+        }
+    }
+    None
+}
+
+/// Makes the run end exactly on `end`: the samples from `from` on are
+/// stretched along the path, about `from`, by the little they stop short.
+fn stretch(out: &mut [f64], from: usize, end: f64) {
+    let last = out.len() - 1;
+    let base = out[from];
+    let span = out[last] - base;
+    if span > 0.0 {
+        let k = (end - base) / span;
+        for s in &mut out[from..] {
+            *s = base + (*s - base) * k;
+        }
+    }
+    out[last] = end;
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,217 @@
+use super::*;
+
+const DT: f64 = 0.001;
+
+fn lim(v: f64, a: f64, j: f64) -> AxisLimits {
+    AxisLimits {
+        v: [v; 3],
+        a: [a; 3],
+        j: [j; 3],
+    }
+}
+
+/// Stations `h` apart over `len`, from a shape function of `s`.
+fn path(len: f64, h: f64, shape: impl Fn(f64) -> Station) -> Path {
+    let n = (len / h).ceil() as usize + 1;
+    let st = (0..n).map(|i| shape((i as f64 * h).min(len))).collect();
+    Path::new(h, len, st).expect("a valid path")
+}
+
+fn line_x(feed: f64) -> impl Fn(f64) -> Station {
+    move |_| Station {
+        t: [1.0, 0.0, 0.0],
+        k: [0.0; 3],
+        kd: [0.0; 3],
+        feed,
+    }
+}
+
+fn circle(r: f64, feed: f64) -> impl Fn(f64) -> Station {
+    move |s| {
+        let th = s / r;
+        let (sn, cs) = th.sin_cos();
+        Station {
+            t: [-sn, cs, 0.0],
+            k: [-cs / r, -sn / r, 0.0],
+            kd: [sn / (r * r), -cs / (r * r), 0.0],
+            feed,
+        }
+    }
+}
+
+/// The largest |first|, |second|, |third| finite difference of `x` over
+/// the sample time.
+fn diffs(x: &[f64]) -> [f64; 3] {
+    let d1: Vec<f64> = x.windows(2).map(|w| w[1] - w[0]).collect();
+    let d2: Vec<f64> = d1.windows(2).map(|w| w[1] - w[0]).collect();
+    let d3: Vec<f64> = d2.windows(2).map(|w| w[1] - w[0]).collect();
+    let m = |d: &[f64]| d.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    [m(&d1) / DT, m(&d2) / (DT * DT), m(&d3) / (DT * DT * DT)]
+}
+
+#[test]
+fn a_line_takes_the_rest_to_rest_s_curve_time_and_ends_on_its_end() {
+    // 0 -> 100 mm/s at 1000 mm/s², 50 m/s³: 0.12 s and 6 mm each way,
+    // 38 mm at 100 mm/s: 0.62 s in all
+    let p = path(50.0, 0.05, line_x(100.0));
+    let s = Planner::new(&p, lim(100.0, 1000.0, 5e4), DT)
+        .unwrap()
+        .run(10_000)
+        .unwrap();
+    assert_eq!(s[0], 0.0);
+    assert_eq!(*s.last().unwrap(), 50.0);
+    let ticks = s.len() - 1;
+    assert!((620..=624).contains(&ticks), "{ticks} samples");
+    let [v, a, j] = diffs(&s);
+    assert!(v <= 100.0 + 1e-6 && v > 99.9, "v {v}");
+    assert!(a <= 1000.0 * (1.0 + 1e-6) && a > 990.0, "a {a}");
+    assert!(j <= 5e4 * 1.001, "j {j}");
+    assert!(s.windows(2).all(|w| w[1] >= w[0]), "never backwards");
+}
+
+#[test]
+fn a_short_line_is_run_on_the_jerk_alone() {
+    // rest to rest on the jerk alone: t = (32 L / J)^(1/3) = 40 ms
+    let p = path(0.1, 0.005, line_x(100.0));
+    let s = Planner::new(&p, lim(100.0, 1000.0, 5e4), DT)
+        .unwrap()
+        .run(10_000)
+        .unwrap();
+    let ticks = s.len() - 1;
+    assert!((40..=43).contains(&ticks), "{ticks} samples");
+    assert_eq!(*s.last().unwrap(), 0.1);
+    let [_, a, j] = diffs(&s);
+    assert!(a < 1000.0 && j <= 5e4 * 1.001, "a {a} j {j}");
+}
+
+#[test]
+fn on_a_circle_the_jerk_of_the_axes_sets_the_speed() {
+    // R 2 mm at 50 m/s³: v³/R² <= J gives 58.48 mm/s (the acceleration
+    // would allow 63.2 at 2000 mm/s²)
+    let r = 2.0;
+    let len = 5.0 * std::f64::consts::TAU * r;
+    let p = path(len, 0.01, circle(r, 100.0));
+    let s = Planner::new(&p, lim(100.0, 2000.0, 5e4), DT)
+        .unwrap()
+        .run(100_000)
+        .unwrap();
+    assert_eq!(*s.last().unwrap(), len);
+    let xy: Vec<[f64; 2]> = s
+        .iter()
+        .map(|s| [r * (s / r).cos(), r * (s / r).sin()])
+        .collect();
+    for ax in 0..2 {
+        let x: Vec<f64> = xy.iter().map(|p| p[ax]).collect();
+        let [v, a, j] = diffs(&x);
+        assert!(v <= 100.0 && a <= 2000.0 * 1.001, "axis {ax}: v {v} a {a}");
+        assert!(j <= 5e4 * 1.02 && j > 5e4 * 0.9, "axis {ax}: j {j}");
+    }
+    let mid = &s[s.len() / 3..2 * s.len() / 3];
+    let speeds: Vec<f64> = mid.windows(2).map(|w| (w[1] - w[0]) / DT).collect();
+    let (lo, hi) = speeds
+        .iter()
+        .fold((f64::MAX, 0.0f64), |(l, h), v| (l.min(*v), h.max(*v)));
+    // at a constant speed the bound is 58.48; a speed that swings with
+    // the angle keeps each axis's jerk with a little more (here about 60.2)
+    let bound = (5e4 * r * r).cbrt();
+    assert!(
+        lo > 1.01 * bound && hi <= bound * 1.05,
+        "speed {lo}..{hi}, bound {bound}"
+    );
+}
+
+#[test]
+fn random_feeds_and_jerks_keep_every_limit_and_end_exactly() {
+    // a linear congruential generator (Knuth's MMIX constants), fixed seed
+    let mut seed = 0x5eed_u64;
+    for case in 0..12 {
+        let mut r = || {
+            seed = seed
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let jerk = 2e4 + r() * 1.8e5;
+        let len = 0.2 + r() * 30.0;
+        let (f1, f2, p1, p2) = (0.5 + 3.0 * r(), 2.0 + 9.0 * r(), r() * 6.3, r() * 6.3);
+        let feed = move |s: f64| {
+            let x = s / len;
+            60.0 + 30.0 * (f1 * x * 6.3 + p1).sin() + 20.0 * (f2 * x * 6.3 + p2).sin()
+        };
+        let h = 0.01;
+        let n = (len / h).ceil() as usize + 1;
+        let st = (0..n)
+            .map(|i| Station {
+                t: [0.6, 0.8, 0.0],
+                k: [0.0; 3],
+                kd: [0.0; 3],
+                feed: feed((i as f64 * h).min(len)),
+            })
+            .collect();
+        let p = Path::new(h, len, st).unwrap();
+        let s = Planner::new(&p, lim(100.0, 1000.0, jerk), DT)
+            .unwrap()
+            .run(100_000)
+            .unwrap();
+        assert_eq!(*s.last().unwrap(), len, "case {case}");
+        for (ax, dir) in [0.6, 0.8].into_iter().enumerate() {
+            let x: Vec<f64> = s.iter().map(|s| s * dir).collect();
+            let [v, a, j] = diffs(&x);
+            assert!(v <= 100.0 * (1.0 + 1e-6), "case {case} axis {ax}: v {v}");
+            assert!(a <= 1000.0 * (1.0 + 1e-6), "case {case} axis {ax}: a {a}");
+            assert!(
+                j <= jerk * 1.001,
+                "case {case} axis {ax}: j {j} over {jerk}"
+            );
+        }
+        // the path speed keeps the feed (as the stations give it) at every sample
+        for w in s.windows(2) {
+            let v = (w[1] - w[0]) / DT;
+            let f = |s: f64| p.at(s).feed;
+            let f = f(w[0]).max(f(w[1])).max(f(0.5 * (w[0] + w[1])));
+            assert!(v <= f * 1.001, "case {case}: {v} over {f} at {}", w[0]);
+        }
+    }
+}
+
+#[test]
+fn bad_paths_and_limits_are_refused() {
+    let st = Station {
+        t: [1.0, 0.0, 0.0],
+        k: [0.0; 3],
+        kd: [0.0; 3],
+        feed: 10.0,
+    };
+    assert!(matches!(
+        Path::new(0.1, 0.1, vec![st]),
+        Err(SpeedError::BadPath(_))
+    ));
+    assert!(matches!(
+        Path::new(0.1, 0.5, vec![st, st]),
+        Err(SpeedError::BadPath(_))
+    ));
+    let nan = Station {
+        feed: f64::NAN,
+        ..st
+    };
+    assert!(matches!(
+        Path::new(0.1, 0.1, vec![st, nan]),
+        Err(SpeedError::BadPath(_))
+    ));
+    let p = Path::new(0.1, 0.1, vec![st, st]).unwrap();
+    let e = Planner::new(&p, lim(100.0, 0.0, 5e4), DT).err().unwrap();
+    assert_eq!(
+        e.to_string(),
+        "every axis limit must be positive and finite"
+    );
+    let e = Planner::new(&p, lim(100.0, 1000.0, 5e4), DT)
+        .unwrap()
+        .run(3)
+        .err()
+        .unwrap();
+    assert!(
+        e.to_string()
+            .starts_with("the run did not reach its end in 4 samples"),
+        "{e}"
+    );
+}
