@@ -83,6 +83,7 @@ TWICE = os.environ.get("G2_TWICE", "1") == "1"  # polylines: the smoothing's shr
 DT_GRID = 0.0003  # s, longest step of the speed grid at the first speeds
 NO_FEED = 1e9  # mm/s, a rapid's feed: the axes' speed limits only
 H_RUST = 0.01  # mm, station spacing handed to the Rust speed stage
+RUST_TIME = [0.0]  # s the Rust speed stage took, all runs
 
 
 def runs(segs):
@@ -289,6 +290,7 @@ def rust_speed(binary, sig, T, K, Kd, feed, V, A, J):
     res = subprocess.run([binary], input=head + body, capture_output=True, text=True)
     if res.returncode != 0:
         raise SystemExit(f"{binary}: {res.stderr.strip()}")
+    RUST_TIME[0] += float(res.stderr.split()[-2])
     return np.array([float(x) for x in res.stdout.split()])
 
 
@@ -427,6 +429,9 @@ def main():
     accm = np.abs(np.diff(out, 2, axis=0)).max(axis=0) / dt**2
     jer = np.abs(np.diff(out, 3, axis=0)).max(axis=0) / dt**3
     print(f"total {total:.3f} s ({time.time() - t0:.0f} s to plan)")
+    if os.environ.get("G2_SPEED"):
+        print(f"Rust speed stage: {RUST_TIME[0]:.3f} s for {total:.3f} s of motion "
+              f"({RUST_TIME[0] / total * 1e3:.1f} us per 1 ms sample)")
     print("max |v| mm/s " + " ".join(f"{x:.1f}" for x in vel))
     print("max |a| mm/s^2 " + " ".join(f"{x:.1f}" for x in accm))
     print("max |j| m/s^3 " + " ".join(f"{x / 1000:.1f}" for x in jer))

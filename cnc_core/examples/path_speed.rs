@@ -1,5 +1,6 @@
 //! Runs `cnc_core::path_speed` on a path read from stdin and prints the
-//! path position at every sample, one per line. Used by
+//! path position at every sample, one per line, and on stderr how long the
+//! planning took. Used by
 //! `bench/motion/g2_bound.py` (`G2_SPEED=rust`) to put the speed stage on
 //! the prototype's smoothed geometry.
 //!
@@ -48,7 +49,14 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         })
         .collect();
     let path = Path::new(h, len, st)?;
+    let t0 = std::time::Instant::now();
     let s = Planner::new(&path, lim, dt)?.run(10_000_000)?;
+    // how long planning took (wall time on this thread), for the bench
+    eprintln!(
+        "path_speed: {} samples in {:.3} s",
+        s.len() - 1,
+        t0.elapsed().as_secs_f64()
+    );
     let mut out = std::io::BufWriter::new(std::io::stdout().lock());
     for x in s {
         writeln!(out, "{x:.12e}")?;

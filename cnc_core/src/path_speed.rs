@@ -31,8 +31,8 @@
 //! brakes only as late as it must: on a curve the speed is what the axes'
 //! acceleration and jerk leave, on a line what the feed allows.
 //!
-//! The run ends at rest exactly on the path's end: the last braking is
-//! stretched along the path by the little it stops short (a few nm).
+//! The run ends at rest exactly on the path's end: the little it stops
+//! short (under 0.1 µm) is added over the last braking by a smooth step.
 
 /// Per-axis limits (X, Y, Z): velocity mm/s, acceleration mm/s², jerk mm/s³.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -175,7 +175,13 @@ impl State {
 /// Speed under this counts as rest, mm/s.
 const REST_V: f64 = 1e-9;
 /// A run that comes to rest this close to its end has reached it, mm.
-const END_TOL: f64 = 1e-5;
+const END_TOL: f64 = 1e-4;
+/// Curvature (1/mm) and its change (1/mm²) under this count as straight.
+const STRAIGHT: f64 = 1e-6;
+/// Caps within this share of each other count as one for `clear`.
+const FLAT: f64 = 1e-6;
+/// The fewest samples the last shortfall is spread over.
+const STRETCH_MIN: usize = 50;
 /// The share of each axis's jerk the path acceleration may take up
 /// through the curvature (`3 K v a`); the rest is for changing it.
 const JERK_FOR_A: f64 = 0.9;
@@ -189,8 +195,12 @@ const LAND_MAX: usize = 40;
 /// How far above the lowest acceleration allowed braking aims, as a share
 /// of it (the bound moves as the path turns and the speed falls).
 const A_MARGIN: f64 = 1e-3;
-/// Bisection steps for the largest viable jerk.
-const BISECT: usize = 18;
+/// Bisection steps for the largest viable jerk, at most; it stops once the
+/// bracket is `TOL` of the jerk's range wide.
+const BISECT: usize = 24;
+const TOL: f64 = 1e-3;
+/// The first bracket about the last sample's jerk, as a share of its range.
+const WARM: f64 = 0.01;
 /// How far a braking simulation may go, in samples.
 const MAX_BRAKE: usize = 20_000;
 
@@ -201,6 +211,10 @@ pub struct Planner<'a> {
     dt: f64,
     /// Each station's speed cap (`v_cap`).
     caps: Vec<f64>,
+    /// Per station, how far on (mm) the path stays straight, and the
+    /// lowest speed cap until there: a braking that ends before there
+    /// under that cap keeps every limit.
+    clear: Vec<(f64, f64)>,
 }
 
 /// The limits at one state: the allowed path acceleration and jerk.
@@ -222,9 +236,63 @@ impl<'a> Planner<'a> {
             lim,
             dt,
             caps: Vec::new(),
+            clear: Vec::new(),
         };
         p.caps = path.st.iter().map(|g| p.v_cap(g)).collect();
+        p.clear = p.clear_ahead();
         Ok(p)
+    }
+
+    /// `clear` for every station: stations are grouped into stretches
+    /// that are straight (curvature and its change under `STRAIGHT`) and
+    /// whose caps stay within `FLAT` of the stretch's first; each station
+    /// gets its stretch's end and the lowest cap from it to there.
+    fn clear_ahead(&self) -> Vec<(f64, f64)> {
+        let (st, h, len) = (&self.path.st, self.path.h, self.path.len);
+        let n = st.len();
+        let bent = |g: &Station| g.k.iter().chain(g.kd.iter()).any(|c| c.abs() > STRAIGHT);
+        let mut out = vec![(0.0, 0.0); n];
+        let mut i = 0;
+        while i < n {
+            if bent(&st[i]) {
+                out[i] = (0.0, 0.0);
+                i += 1;
+                continue;
+            }
+            let first = self.caps[i];
+            let mut j = i + 1;
+            while j < n && !bent(&st[j]) && (self.caps[j] - first).abs() <= FLAT * first {
+                j += 1;
+            }
+            // stations i..j; the interval after the last is shared with a
+            // station outside, so the stretch ends at station j - 1
+            let stop = ((j - 1) as f64 * h).min(len);
+            let mut low = f64::INFINITY;
+            for k in (i..j).rev() {
+                low = low.min(self.caps[k]);
+                out[k] = (stop, low);
+            }
+            i = j;
+        }
+        out
+    }
+
+    /// Whether braking from `x` (speed, acceleration; bounds `b` there) on
+    /// a straight stretch certainly ends within it: an upper bound of its
+    /// peak speed within the cap there, an upper bound of its length
+    /// before `clear` and the end.
+    fn clearly_viable(&self, x: State, b: &Bounds, end: f64) -> bool {
+        let i = ((x.s / self.path.h) as usize).min(self.caps.len() - 1);
+        let jm = -b.s_lo;
+        let am = -b.a_lo * (1.0 - 2.0 * A_MARGIN);
+        if !(jm > 0.0 && am > 0.0) {
+            return false;
+        }
+        let up = x.a.max(0.0);
+        let v_peak = x.v + up * up / (2.0 * jm);
+        let t = up / jm + v_peak / am + 2.0 * am / jm + 20.0 * self.dt;
+        let (stop, cap) = self.clear[i];
+        v_peak <= cap && x.s + v_peak * t <= stop.min(end)
     }
 
     /// The lowest speed cap of the stations about the path from `s0` to
@@ -276,9 +344,11 @@ impl<'a> Planner<'a> {
                 return None;
             }
         }
-        let (lo, hi) = self.a_for_jerk(g, v);
-        b.a_lo = b.a_lo.max(lo);
-        b.a_hi = b.a_hi.min(hi);
+        if v * (g.k[0].abs() + g.k[1].abs() + g.k[2].abs()) > 1e-12 {
+            let (lo, hi) = self.a_for_jerk(g, v);
+            b.a_lo = b.a_lo.max(lo);
+            b.a_hi = b.a_hi.min(hi);
+        }
         (b.s_lo <= b.s_hi && b.a_lo <= b.a_hi).then_some(b)
     }
 
@@ -321,38 +391,45 @@ impl<'a> Planner<'a> {
     /// axes allow, then, once the speed left is what bringing the
     /// acceleration back to zero takes, the landing. `None` where the axes
     /// allow no jerk.
-    fn brake(&self, g: &Station, x: State) -> Option<f64> {
-        let b = self.bounds(g, x.v, x.a)?;
+    fn brake(&self, g: &Station, x: State, b: &Bounds) -> Option<f64> {
         let dt = self.dt;
-        // the lowest acceleration allowed here and where the sample ends
-        // (the path turns under the axes), a hair above it
-        let next_v = (x.v + x.a * dt).max(0.0);
-        let ahead = self.path.at(x.s + x.v * dt);
-        let target = self
-            .bounds(&ahead, next_v, x.a)
-            .map_or(b.a_lo, |n| n.a_lo.max(b.a_lo));
-        let target = target + A_MARGIN * target.abs();
-        let down = self.within_both(x, ((target - x.a) / dt).clamp(b.s_lo, b.s_hi), &b);
-        if x.a <= 0.0 && b.s_hi > 0.0 && b.s_lo < 0.0 {
+        // the lowest acceleration allowed here, a hair above it; then, with
+        // the bounds where the sample ends (the path turns under the axes,
+        // the speed changes), the lowest allowed at both ends
+        let aim = |a_lo: f64| a_lo + A_MARGIN * a_lo.abs();
+        let mut down = ((aim(b.a_lo) - x.a) / dt).clamp(b.s_lo, b.s_hi);
+        let y = x.step(down, dt);
+        if let Some(e) = self.bounds(&self.path.at(y.s), y.v.max(0.0), y.a) {
+            let lo = e.s_lo.max(b.s_lo);
+            let hi = e.s_hi.min(b.s_hi).max(lo);
+            down = ((aim(b.a_lo.max(e.a_lo)) - x.a) / dt).clamp(lo, hi);
+        }
+        let down = self.within_both(x, down, b);
+        if b.s_hi > 0.0 && b.s_lo < 0.0 {
             // the jerk a landing may use: within the bounds here and at
             // rest here (the curvature's share of them fades as it lands)
-            let rest = self.bounds(g, 0.0, 0.0).unwrap_or(Bounds {
-                s_lo: b.s_lo,
-                s_hi: b.s_hi,
-                ..b
-            });
-            let (lo, hi) = (b.s_lo.max(rest.s_lo), b.s_hi.min(rest.s_hi));
+            let rest = self.rest_jerk(g);
+            let (lo, hi) = (b.s_lo.max(-rest), b.s_hi.min(rest));
             // land now if, after one more sample of braking, bringing the
             // acceleration back to zero with a share of the jerk would
             // take more speed than is left
             let y = x.step(down, dt);
             let up = TRIGGER_SHARE * hi;
-            if y.a >= 0.0 || y.v <= y.a * y.a / (2.0 * up) {
+            if y.v <= 0.0 || (y.a < 0.0 && y.v <= y.a * y.a / (2.0 * up)) {
                 let land = landing(x.v, x.a, LAND_SHARE * lo, LAND_SHARE * hi, dt)?;
-                return Some(self.within_both(x, land.clamp(b.s_lo, b.s_hi), &b));
+                return Some(self.within_both(x, land.clamp(b.s_lo, b.s_hi), b));
             }
         }
         Some(down)
+    }
+
+    /// The largest path jerk at rest at `g`: each axis's limit over its
+    /// share of the tangent.
+    fn rest_jerk(&self, g: &Station) -> f64 {
+        (0..3)
+            .filter(|i| g.t[*i].abs() > 1e-12)
+            .map(|i| self.lim.j[i] / g.t[i].abs())
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// `sig` (within `b`, the bounds at `x`) also within the bounds at the
@@ -378,7 +455,9 @@ impl<'a> Planner<'a> {
             if x.s > end + 1e-9 || x.v < -1e-6 {
                 return false;
             }
-            if x.v > self.cap_over(from, x.s) * (1.0 + 1e-12) + 1e-12 {
+            // the speed at the sample and over it (the setpoints' difference)
+            let cap = self.cap_over(from, x.s) * (1.0 + 1e-12) + 1e-12;
+            if x.v > cap || x.s - from > cap * self.dt {
                 return false;
             }
             let g = self.path.at(x.s);
@@ -396,7 +475,10 @@ impl<'a> Planner<'a> {
             if x.v <= REST_V && x.a.abs() <= 1e-6 {
                 return true;
             }
-            let Some(next) = self.brake(&g, x) else {
+            if self.clearly_viable(x, &b, end) {
+                return true;
+            }
+            let Some(next) = self.brake(&g, x, &b) else {
                 return false;
             };
             sig = next;
@@ -417,6 +499,7 @@ impl<'a> Planner<'a> {
         };
         let mut out = vec![0.0];
         let mut brake_from = 0usize;
+        let mut last = 0.0f64;
         while out.len() <= max_ticks {
             let g = self.path.at(x.s);
             let Some(b) = self.bounds(&g, x.v, x.a) else {
@@ -430,16 +513,33 @@ impl<'a> Planner<'a> {
             let safe = if rest {
                 0.0
             } else {
-                self.brake(&g, x).unwrap_or(b.s_lo)
+                self.brake(&g, x, &b).unwrap_or(b.s_lo)
             };
+            let ok = |sig: f64| self.viable(x.s, x.step(sig, self.dt), sig, end);
             let top = self.within_both(x, b.s_hi, &b);
-            let sig = if self.viable(x.s, x.step(top, self.dt), top, end) {
+            let sig = if ok(top) {
                 top
             } else {
-                let (mut lo, mut hi) = (safe, top);
+                // bisection, first about the last sample's jerk (the
+                // boundary often moves little from one sample to the next)
+                let (mut lo, mut hi) = (safe, top.max(safe));
+                let width = b.s_hi - b.s_lo;
+                let near = last.clamp(lo, hi);
+                for probe in [near + WARM * width, near - WARM * width] {
+                    if probe > lo && probe < hi {
+                        if ok(probe) {
+                            lo = probe;
+                        } else {
+                            hi = probe;
+                        }
+                    }
+                }
                 for _ in 0..BISECT {
+                    if hi - lo <= TOL * width {
+                        break;
+                    }
                     let mid = 0.5 * (lo + hi);
-                    if self.viable(x.s, x.step(mid, self.dt), mid, end) {
+                    if ok(mid) {
                         lo = mid;
                     } else {
                         hi = mid;
@@ -447,6 +547,7 @@ impl<'a> Planner<'a> {
                 }
                 lo
             };
+            last = sig;
             if x.a >= 0.0 {
                 brake_from = out.len() - 1;
             }
@@ -529,16 +630,19 @@ fn landing(v: f64, a: f64, lo: f64, hi: f64, dt: f64) -> Option<f64> {
     None
 }
 
-/// Makes the run end exactly on `end`: the samples from `from` on are
-/// stretched along the path, about `from`, by the little they stop short.
+/// Makes the run end exactly on `end`: the little it stops short is added
+/// along the samples from `from` on (at least `STRETCH_MIN` before the
+/// end), by a quintic smooth step, which starts and ends with no speed and
+/// no acceleration of its own.
 fn stretch(out: &mut [f64], from: usize, end: f64) {
     let last = out.len() - 1;
-    let base = out[from];
-    let span = out[last] - base;
-    if span > 0.0 {
-        let k = (end - base) / span;
-        for s in &mut out[from..] {
-            *s = base + (*s - base) * k;
+    let from = from.min(last.saturating_sub(STRETCH_MIN));
+    let short = end - out[last];
+    let n = (last - from) as f64;
+    if n > 0.0 {
+        for (k, s) in out[from..].iter_mut().enumerate() {
+            let u = k as f64 / n;
+            *s += short * u * u * u * (10.0 - 15.0 * u + 6.0 * u * u);
         }
     }
     out[last] = end;
