@@ -215,3 +215,153 @@ fn bad_paths_and_limits_are_refused() {
         "{e}"
     );
 }
+
+/// A smooth space curve `P(u)` (sums of sines, a climb in Z), given at
+/// stations `h` apart in its arc length, and its points at any arc length.
+struct Curve {
+    coef: [f64; 7],
+    /// (arc length, u) every `DU`
+    table: Vec<(f64, f64)>,
+}
+
+const DU: f64 = 2e-4;
+
+impl Curve {
+    fn new(coef: [f64; 7], u_end: f64) -> Curve {
+        let mut table = vec![(0.0, 0.0)];
+        let mut s = 0.0;
+        let n = (u_end / DU) as usize;
+        for i in 1..=n {
+            let u = i as f64 * DU;
+            // Simpson's rule on |P'| over [u - DU, u]
+            let d = |u: f64| norm(Curve::d1(&coef, u));
+            s += DU / 6.0 * (d(u - DU) + 4.0 * d(u - DU / 2.0) + d(u));
+            table.push((s, u));
+        }
+        Curve { coef, table }
+    }
+
+    fn p(c: &[f64; 7], u: f64) -> [f64; 3] {
+        [
+            c[0] * u.sin() + c[1] * (3.0 * u + c[2]).sin(),
+            c[3] * u.cos() + c[4] * (2.0 * u + c[5]).cos(),
+            c[6] * u,
+        ]
+    }
+
+    fn d1(c: &[f64; 7], u: f64) -> [f64; 3] {
+        [
+            c[0] * u.cos() + 3.0 * c[1] * (3.0 * u + c[2]).cos(),
+            -c[3] * u.sin() - 2.0 * c[4] * (2.0 * u + c[5]).sin(),
+            c[6],
+        ]
+    }
+
+    fn d2(c: &[f64; 7], u: f64) -> [f64; 3] {
+        [
+            -c[0] * u.sin() - 9.0 * c[1] * (3.0 * u + c[2]).sin(),
+            -c[3] * u.cos() - 4.0 * c[4] * (2.0 * u + c[5]).cos(),
+            0.0,
+        ]
+    }
+
+    fn len(&self) -> f64 {
+        self.table.last().map_or(0.0, |t| t.0)
+    }
+
+    fn u_at(&self, s: f64) -> f64 {
+        let i = self
+            .table
+            .partition_point(|t| t.0 < s)
+            .clamp(1, self.table.len() - 1);
+        let ((s0, u0), (s1, u1)) = (self.table[i - 1], self.table[i]);
+        u0 + (s - s0) / (s1 - s0) * (u1 - u0)
+    }
+
+    fn at(&self, s: f64) -> [f64; 3] {
+        Curve::p(&self.coef, self.u_at(s))
+    }
+
+    /// Tangent and curvature vector at arc length `s`.
+    fn shape(&self, s: f64) -> ([f64; 3], [f64; 3]) {
+        let u = self.u_at(s);
+        let (d1, d2) = (Curve::d1(&self.coef, u), Curve::d2(&self.coef, u));
+        let n = norm(d1);
+        let t = d1.map(|x| x / n);
+        let along = (0..3).map(|i| t[i] * d2[i]).sum::<f64>();
+        let k = [0, 1, 2].map(|i| (d2[i] - t[i] * along) / (n * n));
+        (t, k)
+    }
+}
+
+fn norm(x: [f64; 3]) -> f64 {
+    (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt()
+}
+
+#[test]
+fn random_curves_and_jerks_from_20_to_1000_keep_every_axis_limit() {
+    let mut seed = 0xc0ffee_u64;
+    let mut r = move || {
+        seed = seed
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for case in 0..10 {
+        let coef = [
+            3.0 + 12.0 * r(),
+            0.3 * r(),
+            6.3 * r(),
+            3.0 + 12.0 * r(),
+            0.5 * r(),
+            6.3 * r(),
+            2.0 * r() - 1.0,
+        ];
+        let curve = Curve::new(coef, 1.0 + 1.5 * r());
+        // log-uniform over 20..1000 m/s³
+        let jerk = 2e4 * 50f64.powf(r());
+        let (vmax, amax, feed) = (60.0 + 140.0 * r(), 500.0 + 2500.0 * r(), 20.0 + 130.0 * r());
+        let (h, len) = (0.01, curve.len());
+        let n = (len / h).ceil() as usize + 1;
+        let at = |i: usize| (i as f64 * h).min(len);
+        let shapes: Vec<([f64; 3], [f64; 3])> = (0..n).map(|i| curve.shape(at(i))).collect();
+        let st = (0..n)
+            .map(|i| {
+                let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
+                let ds = at(b) - at(a);
+                let kd = [0, 1, 2].map(|k| (shapes[b].1[k] - shapes[a].1[k]) / ds);
+                Station {
+                    t: shapes[i].0,
+                    k: shapes[i].1,
+                    kd,
+                    feed,
+                }
+            })
+            .collect();
+        let p = Path::new(h, len, st).unwrap();
+        // the planner keeps 0.98 of the jerk and 0.999 of the acceleration,
+        // as the bench does, for what sampling adds
+        let plan = lim(vmax, 0.999 * amax, 0.98 * jerk);
+        let s = Planner::new(&p, plan, DT).unwrap().run(200_000).unwrap();
+        assert_eq!(*s.last().unwrap(), len, "case {case}");
+        assert!(
+            s.windows(2).all(|w| w[1] >= w[0]),
+            "case {case}: never backwards"
+        );
+        let pts: Vec<[f64; 3]> = s.iter().map(|s| curve.at(*s)).collect();
+        for ax in 0..3 {
+            let x: Vec<f64> = pts.iter().map(|p| p[ax]).collect();
+            let [v, a, j] = diffs(&x);
+            let what = format!("case {case} axis {ax} (jerk {jerk:.0}, acc {amax:.0}, vel {vmax:.0}, feed {feed:.0})");
+            assert!(v <= vmax * 1.001 && v <= feed * 1.001, "{what}: v {v}");
+            assert!(a <= amax * 1.001, "{what}: a {a}");
+            assert!(j <= jerk * 1.001, "{what}: j {j}");
+        }
+        // and it keeps moving: at least half the feed on average
+        let mean = len / ((s.len() - 1) as f64 * DT);
+        assert!(
+            mean > 0.3 * feed.min(vmax),
+            "case {case}: mean speed {mean} for feed {feed}"
+        );
+    }
+}
