@@ -53,9 +53,12 @@ plans only the runs starting at those program lines; G2_DEBUG=1 prints
 the smoothing's rounds; G2_W0, G2_SLOPE, G2_TWICE=0 change W0, SLOPE and
 turn the polylines' shrink correction off. G2_SPEED=BINARY replaces the
 linear programs by the controller's speed stage (cnc_core::path_speed,
-`cargo build --release -p cnc_core --example path_speed`, then
-G2_SPEED=target/release/examples/path_speed): the same geometry, every
-1 ms sample's path position from the Rust planner.
+`cargo build --release -p cnc_core --example path_plan`, then
+G2_SPEED=target/release/examples/path_plan): the same geometry, every
+1 ms sample's path position from the Rust planner. G2_PLAN=BINARY
+(the same binary) hands each run's programmed polyline to the Rust
+geometry and speed stages (cnc_core::path_smooth, path_speed) instead:
+this script then only parses, samples the program and judges.
 """
 import argparse
 import math
@@ -84,6 +87,7 @@ DT_GRID = 0.0003  # s, longest step of the speed grid at the first speeds
 NO_FEED = 1e9  # mm/s, a rapid's feed: the axes' speed limits only
 H_RUST = 0.01  # mm, station spacing handed to the Rust speed stage
 RUST_TIME = [0.0]  # s the Rust speed stage took, all runs
+RUST_SMOOTH = [0.0]  # s the Rust geometry stage took, all runs (G2_PLAN)
 
 
 def runs(segs):
@@ -287,11 +291,26 @@ def rust_speed(binary, sig, T, K, Kd, feed, V, A, J):
     if os.environ.get("G2_DUMP"):
         with open(os.path.join(os.environ["G2_DUMP"], f"run_{S:.3f}.txt"), "w") as f:
             f.write(head + body)
-    res = subprocess.run([binary], input=head + body, capture_output=True, text=True)
+    res = subprocess.run([binary, "stations"], input=head + body, capture_output=True, text=True)
     if res.returncode != 0:
         raise SystemExit(f"{binary}: {res.stderr.strip()}")
     RUST_TIME[0] += float(res.stderr.split()[-2])
     return np.array([float(x) for x in res.stdout.split()])
+
+
+def rust_plan(binary, p, feed, tol, mode, V, A, J):
+    """Positions at every 1 ms sample of one run planned wholly by
+    cnc_core (examples/path_plan.rs): smoothing and speed."""
+    head = f"{tol!r} {mode} 0.001 {H_RUST!r}\n" + " ".join(repr(float(x)) for x in [V] * 3 + [A] * 3 + [J] * 3) + "\n"
+    body = "\n".join(f"{x!r} {y!r} {z!r} {float(f)!r}" for (x, y, z), f in zip(p.tolist(), feed))
+    res = subprocess.run([binary], input=head + body, capture_output=True, text=True)
+    if res.returncode != 0:
+        raise SystemExit(f"{binary}: {res.stderr.strip()}")
+    w = res.stderr.split()
+    RUST_TIME[0] += float(w[w.index("speed") + 2])
+    RUST_SMOOTH[0] += float(w[w.index("smoothed") + 2])
+    print("  " + res.stderr.strip(), file=sys.stderr, flush=True)
+    return np.array([float(x) for x in res.stdout.split()]).reshape(-1, 3)
 
 
 def grid_of(S, spacing):
@@ -362,6 +381,15 @@ def main():
         if only and str(run[0]["line"]) not in only.split(","):
             continue
         p, s, feed = dense(run)
+        if os.environ.get("G2_PLAN"):
+            plain = len(run) == 1 and run[0]["kind"] == "line"
+            mode = 0 if plain else (2 if TWICE and s[-1] / len(run) < 1.0 else 1)
+            xyz = rust_plan(os.environ["G2_PLAN"], p, feed, a.tol, mode, V, A, J)
+            tg = np.arange(len(xyz)) * 0.001
+            parts.append(dict(xyz=xyz, tg=tg))
+            print(f"run from line {run[0]['line']}: {len(run)} moves, {s[-1]:.3f} mm programmed, {tg[-1]:.4f} s (Rust)",
+                  file=sys.stderr, flush=True)
+            continue
         if len(run) == 1 and run[0]["kind"] == "line":
             q, w, dev = p, np.full(len(p), W0), 0.0
             su = s
@@ -408,11 +436,12 @@ def main():
     start = 0.0
     first = segs[0]["a"]
     out[:] = first
-    if parts and "st" in parts[0]:
+    if parts and ("st" in parts[0] or "xyz" in parts[0]):
         # whole samples per run: each run's positions at its own samples
         rows = [np.array([first])]
         for pt in parts:
-            rows.append(hermite(pt["sig"], pt["q"], pt["T"], pt["st"])[1:])
+            xyz = pt["xyz"] if "xyz" in pt else hermite(pt["sig"], pt["q"], pt["T"], pt["st"])
+            rows.append(xyz[1:])
         out = np.concatenate(rows)
         nsamp = len(out)
         tq = np.arange(nsamp) * 0.001
@@ -429,7 +458,9 @@ def main():
     accm = np.abs(np.diff(out, 2, axis=0)).max(axis=0) / dt**2
     jer = np.abs(np.diff(out, 3, axis=0)).max(axis=0) / dt**3
     print(f"total {total:.3f} s ({time.time() - t0:.0f} s to plan)")
-    if os.environ.get("G2_SPEED"):
+    if os.environ.get("G2_PLAN"):
+        print(f"Rust geometry stage: {RUST_SMOOTH[0]:.3f} s")
+    if os.environ.get("G2_SPEED") or os.environ.get("G2_PLAN"):
         print(f"Rust speed stage: {RUST_TIME[0]:.3f} s for {total:.3f} s of motion "
               f"({RUST_TIME[0] / total * 1e3:.1f} us per 1 ms sample)")
     print("max |v| mm/s " + " ".join(f"{x:.1f}" for x in vel))

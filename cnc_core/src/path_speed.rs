@@ -3,7 +3,7 @@
 //! This is the speed stage of a planner without setpoint filters (issue 17's
 //! way on; `bench/motion/g2_bound.py` prototypes it with linear programs).
 //! It is not wired into the executor yet: the bench binary
-//! `cnc_core/examples/path_speed.rs` runs it on the prototype's geometry.
+//! `cnc_core/examples/path_plan.rs` runs it on the prototype's geometry.
 //!
 //! The path is given at stations a fixed arc length apart: the unit tangent
 //! `T`, its derivative along the path `K = dT/ds` (the curvature vector) and

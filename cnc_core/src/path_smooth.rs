@@ -1,0 +1,401 @@
+//! The geometry stage of a planner without setpoint filters (issue 17;
+//! `bench/motion/g2_bound.py` prototypes it in Python): a run of moves
+//! between rests, given as a dense polyline on the programmed path, becomes
+//! a smooth path within the path tolerance P, independent of speed, and
+//! then the stations `path_speed` plans on. Not wired into the executor
+//! yet; it works on a whole run in memory (the look-ahead will need it
+//! over a window).
+//!
+//! **The smoothing.** A moving average in arc length, taken twice, turns
+//! a kink into a curvature ramp and a curvature step into a smooth one
+//! (two averages make the curvature continuous). Its width `w(s)` is as
+//! large as P allows at each place:
+//! - at most `W0`;
+//! - narrowed, in rounds, by a fifth wherever the smoothed path is further
+//!   than `TARGET`·P from the programmed one, until no point is further
+//!   than `DONE`·P;
+//! - made regular after every round, always from the requirement: it may
+//!   change by at most `SLOPE` mm per mm, then it takes its least over
+//!   ±0.5 mm and is averaged twice over 0.5 mm, so that it changes
+//!   smoothly and the smoothed path's curvature change stays bounded.
+//!
+//! On CAM polylines the average's shrink of curves is made up by twicing
+//! (`2·B − B·B`, B two averages), so that it can be wide enough to even
+//! out the polyline's vertices.
+
+/// Spacing of the fine grid the smoothing works on, mm.
+pub const DS: f64 = 0.004;
+/// The widest average, mm.
+pub const W0: f64 = 3.0;
+/// The share of P the smoothed path may use.
+const TARGET: f64 = 0.95;
+/// The smoothing is done once no point is further off than this share of P.
+const DONE: f64 = 0.98;
+/// How fast the width may change, mm per mm.
+const SLOPE: f64 = 0.5;
+/// Rounds of narrowing, at most.
+const ROUNDS: usize = 300;
+
+/// A run's programmed path as a polyline: points in order, no two further
+/// apart than about `DS` (arcs sampled), and the feed at each point.
+pub struct Polyline {
+    pub p: Vec<[f64; 3]>,
+    pub feed: Vec<f64>,
+}
+
+/// The smoothed path on its fine grid.
+pub struct Smoothed {
+    /// Points, `DS` or less apart along the programmed path.
+    pub q: Vec<[f64; 3]>,
+    /// Arc length of the smoothed path at each point.
+    pub sig: Vec<f64>,
+    /// Unit tangent at each point.
+    pub t: Vec<[f64; 3]>,
+    /// Curvature vector and its derivative at each point.
+    pub k: Vec<[f64; 3]>,
+    pub kd: Vec<[f64; 3]>,
+    /// The feed at each point.
+    pub feed: Vec<f64>,
+    /// The width of the average at each point, mm.
+    pub w: Vec<f64>,
+    /// The largest distance from the programmed path, mm.
+    pub dev: f64,
+}
+
+/// Why a run could not be smoothed.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SmoothError {
+    /// Fewer than two points, a point or feed that is not finite, or no
+    /// length.
+    BadRun(&'static str),
+    /// The narrowing did not get within P in `ROUNDS` rounds.
+    NoConvergence { dev: f64 },
+}
+
+impl std::fmt::Display for SmoothError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SmoothError::BadRun(why) => write!(f, "run: {why}"),
+            SmoothError::NoConvergence { dev } => write!(
+                f,
+                "the smoothing did not get within the tolerance ({:.2} µm off after {ROUNDS} rounds)",
+                dev * 1000.0
+            ),
+        }
+    }
+}
+
+impl std::error::Error for SmoothError {}
+
+/// A piecewise linear function of arc length: values at `s` (ascending),
+/// with its running integral for exact averages.
+struct Pl<'a> {
+    s: &'a [f64],
+    p: &'a [[f64; 3]],
+    c: Vec<[f64; 3]>,
+    uniform: Option<f64>,
+}
+
+impl<'a> Pl<'a> {
+    fn new(s: &'a [f64], p: &'a [[f64; 3]], uniform: Option<f64>) -> Pl<'a> {
+        let mut c = vec![[0.0; 3]; s.len()];
+        for j in 1..s.len() {
+            let h = s[j] - s[j - 1];
+            c[j] = [0, 1, 2].map(|k| c[j - 1][k] + 0.5 * (p[j][k] + p[j - 1][k]) * h);
+        }
+        Pl { s, p, c, uniform }
+    }
+
+    fn seg(&self, y: f64) -> usize {
+        let n = self.s.len();
+        match self.uniform {
+            Some(h) => ((y / h).max(0.0) as usize).min(n - 2),
+            None => self.s.partition_point(|x| *x <= y).clamp(1, n - 1) - 1,
+        }
+    }
+
+    fn value(&self, y: f64) -> [f64; 3] {
+        let j = self.seg(y);
+        let f = ((y - self.s[j]) / (self.s[j + 1] - self.s[j])).clamp(0.0, 1.0);
+        [0, 1, 2].map(|k| self.p[j][k] + f * (self.p[j + 1][k] - self.p[j][k]))
+    }
+
+    fn integral(&self, y: f64) -> [f64; 3] {
+        let j = self.seg(y);
+        let h = self.s[j + 1] - self.s[j];
+        let tau = y - self.s[j];
+        [0, 1, 2].map(|k| {
+            let slope = (self.p[j + 1][k] - self.p[j][k]) / h;
+            self.c[j][k] + self.p[j][k] * tau + slope * 0.5 * tau * tau
+        })
+    }
+
+    /// The average over `[x - w/2, x + w/2]`, the window shrunk evenly at
+    /// the ends, at each `x`.
+    fn boxed(&self, w: &[f64], x: &[f64]) -> Vec<[f64; 3]> {
+        let (first, last) = (self.s[0], self.s[self.s.len() - 1]);
+        x.iter()
+            .zip(w)
+            .map(|(&x, &w)| {
+                let half = (0.5 * w).min(x - first).min(last - x);
+                if half > 1e-9 {
+                    let (a, b) = (self.integral(x + half), self.integral(x - half));
+                    [0, 1, 2].map(|k| (a[k] - b[k]) / (2.0 * half))
+                } else {
+                    self.value(x)
+                }
+            })
+            .collect()
+    }
+}
+
+/// A width under `req` everywhere that changes slowly and smoothly (see
+/// the module's text).
+fn regular(req: &[f64]) -> Vec<f64> {
+    let n = req.len();
+    let step = SLOPE * DS;
+    // the largest function under req with slope at most SLOPE
+    let mut w = req.to_vec();
+    for i in 1..n {
+        w[i] = w[i].min(w[i - 1] + step);
+    }
+    for i in (0..n - 1).rev() {
+        w[i] = w[i].min(w[i + 1] + step);
+    }
+    let m = ((0.5 / DS) as usize) | 1;
+    let w = window(&w, m, f64::INFINITY, f64::min);
+    let w = mean(&w, m / 2);
+    mean(&w, m / 2)
+}
+
+/// `f` over `x[i - r ..= i + r]` with the ends repeated, for every `i`
+/// (a sliding minimum for `f = min`).
+fn window(x: &[f64], r: usize, start: f64, f: fn(f64, f64) -> f64) -> Vec<f64> {
+    let n = x.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (i.saturating_sub(r), (i + r).min(n - 1));
+            x[a..=b].iter().fold(start, |m, v| f(m, *v))
+        })
+        .collect()
+}
+
+/// The mean over `x[i - r ..= i + r]`, the ends repeated, for every `i`.
+fn mean(x: &[f64], r: usize) -> Vec<f64> {
+    let n = x.len() as isize;
+    let at = |i: isize| x[i.clamp(0, n - 1) as usize];
+    let mut out = Vec::with_capacity(x.len());
+    let ri = r as isize;
+    let mut sum: f64 = (-ri..=ri).map(at).sum();
+    for i in 0..n {
+        out.push(sum / (2 * r + 1) as f64);
+        sum += at(i + ri + 1) - at(i - ri);
+    }
+    out
+}
+
+fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+/// Derivative of `f` on the grid `x` as numpy's `gradient` takes it:
+/// second order inside, first order at the ends.
+fn gradient(f: &[[f64; 3]], x: &[f64]) -> Vec<[f64; 3]> {
+    let n = f.len();
+    (0..n)
+        .map(|i| {
+            if i == 0 {
+                let h = x[1] - x[0];
+                [0, 1, 2].map(|k| (f[1][k] - f[0][k]) / h)
+            } else if i == n - 1 {
+                let h = x[n - 1] - x[n - 2];
+                [0, 1, 2].map(|k| (f[n - 1][k] - f[n - 2][k]) / h)
+            } else {
+                let (h1, h2) = (x[i] - x[i - 1], x[i + 1] - x[i]);
+                let a = -h2 / (h1 * (h1 + h2));
+                let b = (h2 - h1) / (h1 * h2);
+                let c = h1 / (h2 * (h1 + h2));
+                [0, 1, 2].map(|k| a * f[i - 1][k] + b * f[i][k] + c * f[i + 1][k])
+            }
+        })
+        .collect()
+}
+
+/// Smooths one run within `tol` (P, mm); `twice` makes up the averages'
+/// shrink of curves (for CAM polylines).
+pub fn smooth(run: &Polyline, tol: f64, twice: bool) -> Result<Smoothed, SmoothError> {
+    let p0 = &run.p;
+    let s0 = arc_length(run)?;
+    let len = s0[s0.len() - 1];
+    let n = ((len / DS).ceil() as usize).max(1) + 1;
+    let h = len / (n - 1) as f64;
+    let s: Vec<f64> = (0..n)
+        .map(|i| if i + 1 == n { len } else { i as f64 * h })
+        .collect();
+    let path = Pl::new(&s0, p0, None);
+    let p: Vec<[f64; 3]> = s.iter().map(|x| path.value(*x)).collect();
+    let feed_line: Vec<[f64; 3]> = run.feed.iter().map(|f| [*f, 0.0, 0.0]).collect();
+    let feed_pl = Pl::new(&s0, &feed_line, None);
+    let feed: Vec<f64> = s.iter().map(|x| feed_pl.value(*x)[0]).collect();
+    let mut req = vec![W0; n];
+    let mut w = regular(&req);
+    let mut worst = f64::INFINITY;
+    for _ in 0..ROUNDS {
+        let b1 = path.boxed(&w, &s);
+        let b = Pl::new(&s, &b1, Some(h)).boxed(&w, &s);
+        let q = if twice {
+            let bb1 = Pl::new(&s, &b, Some(h)).boxed(&w, &s);
+            let bb = Pl::new(&s, &bb1, Some(h)).boxed(&w, &s);
+            (0..n)
+                .map(|i| [0, 1, 2].map(|k| 2.0 * b[i][k] - bb[i][k]))
+                .collect()
+        } else {
+            b
+        };
+        // the distance from the programmed path, where it may matter: the
+        // nearest programmed point within the average's reach
+        let far: Vec<usize> = (0..n)
+            .filter(|i| dist(&q[*i], &p[*i]) > TARGET * tol)
+            .collect();
+        let reach = (far.iter().fold(0.0, |m: f64, i| m.max(w[*i])) / h).ceil() as usize + 2;
+        let mut dev = vec![0.0; n];
+        for &i in &far {
+            let (a, b) = (i.saturating_sub(reach), (i + reach).min(n - 1));
+            dev[i] = p[a..=b]
+                .iter()
+                .fold(f64::INFINITY, |m, x| m.min(dist(&q[i], x)));
+        }
+        worst = dev.iter().fold(0.0, |m: f64, d| m.max(*d));
+        if worst <= DONE * tol {
+            return Ok(finish(q, w, feed, worst));
+        }
+        for i in 0..n {
+            if dev[i] > TARGET * tol {
+                req[i] = req[i].min(0.8 * w[i]);
+            }
+        }
+        w = regular(&req);
+    }
+    Err(SmoothError::NoConvergence { dev: worst })
+}
+
+/// A run taken as it is, not smoothed (a single line).
+pub fn plain(run: &Polyline) -> Result<Smoothed, SmoothError> {
+    arc_length(run)?;
+    Ok(finish(
+        run.p.clone(),
+        vec![W0; run.p.len()],
+        run.feed.clone(),
+        0.0,
+    ))
+}
+
+/// The run's arc length at each point, once the run is checked: two
+/// points or more, each finite and apart from the one before, one
+/// positive feed per point.
+fn arc_length(run: &Polyline) -> Result<Vec<f64>, SmoothError> {
+    let p0 = &run.p;
+    if p0.len() < 2 || run.feed.len() != p0.len() {
+        return Err(SmoothError::BadRun(
+            "fewer than two points, or not one feed per point",
+        ));
+    }
+    if p0.iter().any(|p| p.iter().any(|c| !c.is_finite()))
+        || run.feed.iter().any(|f| f.is_nan() || *f <= 0.0)
+    {
+        return Err(SmoothError::BadRun(
+            "a point that is not finite or a feed that is not positive",
+        ));
+    }
+    let mut s0 = vec![0.0; p0.len()];
+    for j in 1..p0.len() {
+        let d = dist(&p0[j], &p0[j - 1]);
+        if d <= 0.0 {
+            return Err(SmoothError::BadRun("no length, or two points in one place"));
+        }
+        s0[j] = s0[j - 1] + d;
+    }
+    Ok(s0)
+}
+
+/// The smoothed points' own arc length, tangent, curvature and its change.
+fn finish(q: Vec<[f64; 3]>, w: Vec<f64>, feed: Vec<f64>, dev: f64) -> Smoothed {
+    let mut sig = vec![0.0; q.len()];
+    for j in 1..q.len() {
+        // points the smoothing put in one place keep the grid's order
+        sig[j] = sig[j - 1] + dist(&q[j], &q[j - 1]).max(1e-12);
+    }
+    let mut t = gradient(&q, &sig);
+    for v in &mut t {
+        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-300);
+        *v = v.map(|c| c / n);
+    }
+    let k = gradient(&t, &sig);
+    let kd = gradient(&k, &sig);
+    Smoothed {
+        q,
+        sig,
+        t,
+        k,
+        kd,
+        feed,
+        w,
+        dev,
+    }
+}
+
+impl Smoothed {
+    /// The path's length.
+    pub fn len(&self) -> f64 {
+        self.sig[self.sig.len() - 1]
+    }
+
+    /// Stations `h` apart for `path_speed`, the last at the end.
+    pub fn stations(&self, h: f64) -> Vec<crate::path_speed::Station> {
+        let len = self.len();
+        let n = (len / h).ceil() as usize + 1;
+        let sig = &self.sig;
+        let (tl, kl, dl) = (
+            Pl::new(sig, &self.t, None),
+            Pl::new(sig, &self.k, None),
+            Pl::new(sig, &self.kd, None),
+        );
+        let fl: Vec<[f64; 3]> = self.feed.iter().map(|f| [*f, 0.0, 0.0]).collect();
+        let fl = Pl::new(sig, &fl, None);
+        (0..n)
+            .map(|i| {
+                let x = (i as f64 * h).min(len);
+                crate::path_speed::Station {
+                    t: tl.value(x),
+                    k: kl.value(x),
+                    kd: dl.value(x),
+                    feed: fl.value(x)[0],
+                }
+            })
+            .collect()
+    }
+
+    /// The point at arc length `x`: cubic Hermite between grid points, from
+    /// their positions and tangents.
+    pub fn point(&self, x: f64) -> [f64; 3] {
+        let sig = &self.sig;
+        let n = sig.len();
+        let j = sig.partition_point(|y| *y <= x).clamp(1, n - 1) - 1;
+        let h = sig[j + 1] - sig[j];
+        let u = ((x - sig[j]) / h).clamp(0.0, 1.0);
+        let (h00, h10) = (
+            2.0 * u * u * u - 3.0 * u * u + 1.0,
+            u * u * u - 2.0 * u * u + u,
+        );
+        let (h01, h11) = (-2.0 * u * u * u + 3.0 * u * u, u * u * u - u * u);
+        [0, 1, 2].map(|k| {
+            h00 * self.q[j][k]
+                + h10 * h * self.t[j][k]
+                + h01 * self.q[j + 1][k]
+                + h11 * h * self.t[j + 1][k]
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,117 @@
+use super::*;
+
+/// A polyline through `corners`, points at most `DS` apart, one feed.
+fn polyline(corners: &[[f64; 3]], feed: f64) -> Polyline {
+    let mut p = vec![corners[0]];
+    for w in corners.windows(2) {
+        let n = (dist(&w[0], &w[1]) / DS).ceil().max(1.0) as usize;
+        for i in 1..=n {
+            let f = i as f64 / n as f64;
+            p.push([0, 1, 2].map(|k| w[0][k] + f * (w[1][k] - w[0][k])));
+        }
+    }
+    let feed = vec![feed; p.len()];
+    Polyline { p, feed }
+}
+
+/// Distance from `x` to the polyline through `corners`.
+fn off(corners: &[[f64; 3]], x: &[f64; 3]) -> f64 {
+    corners
+        .windows(2)
+        .map(|w| {
+            let d = [0, 1, 2].map(|k| w[1][k] - w[0][k]);
+            let r = [0, 1, 2].map(|k| x[k] - w[0][k]);
+            let l2: f64 = d.iter().map(|c| c * c).sum();
+            let f = (r.iter().zip(&d).map(|(a, b)| a * b).sum::<f64>() / l2).clamp(0.0, 1.0);
+            dist(x, &[0, 1, 2].map(|k| w[0][k] + f * d[k]))
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+#[test]
+fn a_square_corner_becomes_a_curve_within_the_tolerance_with_continuous_curvature() {
+    let corners = [[0.0, 0.0, 0.0], [20.0, 0.0, 0.0], [20.0, 20.0, 0.0]];
+    let sm = smooth(&polyline(&corners, 100.0), 0.01, false).unwrap();
+    // every point within P (the rounds stop at 0.98 P), measured exactly
+    let worst = sm.q.iter().map(|q| off(&corners, q)).fold(0.0, f64::max);
+    assert!(worst <= 0.0098 + 1e-9 && worst > 0.009, "{worst}");
+    assert!((sm.dev - worst).abs() < 1e-4, "{} vs {worst}", sm.dev);
+    // the corner is cut: the path is shorter, by about what a blend of
+    // the width there takes
+    assert!(
+        sm.len() < 40.0 - 0.005 && sm.len() > 40.0 - 0.1,
+        "{}",
+        sm.len()
+    );
+    // at the corner the average is about 54 µm wide: a blend about
+    // 0.1 mm long whose curvature (up to about 48 /mm) rises and falls
+    // over many grid points, never in a step
+    let wmin = sm.w.iter().cloned().fold(f64::INFINITY, f64::min);
+    assert!(wmin > 0.04 && wmin < 0.07, "{wmin}");
+    let kmax = sm.k.iter().map(norm).fold(0.0, f64::max);
+    assert!(kmax > 30.0 && kmax < 70.0, "{kmax}");
+    let step =
+        sm.k.windows(2)
+            .map(|w| dist(&w[0], &w[1]))
+            .fold(0.0, f64::max);
+    assert!(step < kmax / 4.0, "curvature step {step} of {kmax}");
+    let high = sm.k.iter().filter(|k| norm(k) > kmax / 2.0).count();
+    assert!(high >= 8, "{high} points over half the peak");
+    // far from the corner the width is the widest and the path straight
+    assert_eq!(sm.w[0], W0);
+    let mid = sm.q.len() / 4;
+    assert!(
+        norm(&sm.k[mid]) < 1e-6 && (sm.q[mid][1]).abs() < 1e-12,
+        "{:?}",
+        sm.q[mid]
+    );
+}
+
+#[test]
+fn a_straight_run_stays_itself() {
+    let corners = [[0.0, 0.0, 0.0], [3.0, 4.0, 0.0]];
+    let sm = smooth(&polyline(&corners, 50.0), 0.001, true).unwrap();
+    assert!((sm.len() - 5.0).abs() < 1e-9, "{}", sm.len());
+    assert!(sm.dev == 0.0);
+    let p = sm.point(2.5);
+    assert!(
+        (p[0] - 1.5).abs() < 1e-9 && (p[1] - 2.0).abs() < 1e-9,
+        "{p:?}"
+    );
+    let st = sm.stations(0.01);
+    assert_eq!(st.len(), 501);
+    // straight to rounding (path_speed's STRAIGHT is 1e-6 /mm)
+    assert!(st
+        .iter()
+        .all(|s| (s.t[0] - 0.6).abs() < 1e-9 && norm(&s.k) < 1e-7 && s.feed == 50.0));
+}
+
+fn norm(x: &[f64; 3]) -> f64 {
+    (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt()
+}
+
+#[test]
+fn bad_runs_are_refused() {
+    let one = Polyline {
+        p: vec![[0.0; 3]],
+        feed: vec![1.0],
+    };
+    assert!(matches!(
+        smooth(&one, 0.01, false),
+        Err(SmoothError::BadRun(_))
+    ));
+    let nan = Polyline {
+        p: vec![[0.0; 3], [f64::NAN, 0.0, 0.0]],
+        feed: vec![1.0; 2],
+    };
+    assert!(matches!(
+        smooth(&nan, 0.01, false),
+        Err(SmoothError::BadRun(_))
+    ));
+    let same = Polyline {
+        p: vec![[0.0; 3], [0.0; 3]],
+        feed: vec![1.0; 2],
+    };
+    let e = smooth(&same, 0.01, false).err().unwrap();
+    assert_eq!(e.to_string(), "run: no length, or two points in one place");
+}
