@@ -303,6 +303,9 @@ def rust_plan(binary, p, feed, tol, mode, V, A, J):
     cnc_core (examples/path_plan.rs): smoothing and speed."""
     head = f"{tol!r} {mode} 0.001 {H_RUST!r}\n" + " ".join(repr(float(x)) for x in [V] * 3 + [A] * 3 + [J] * 3) + "\n"
     body = "\n".join(f"{x!r} {y!r} {z!r} {float(f)!r}" for (x, y, z), f in zip(p.tolist(), feed))
+    if os.environ.get("G2_DUMP"):
+        with open(os.path.join(os.environ["G2_DUMP"], f"poly_{len(p)}.txt"), "w") as f:
+            f.write(head + body)
     res = subprocess.run([binary], input=head + body, capture_output=True, text=True)
     if res.returncode != 0:
         raise SystemExit(f"{binary}: {res.stderr.strip()}")
