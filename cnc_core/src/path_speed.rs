@@ -307,13 +307,22 @@ impl<'a> Planner<'a> {
             .fold(f64::INFINITY, |m, c| m.min(*c))
     }
 
-    /// The speed cap at a station: the feed and every axis's velocity.
+    /// The speed cap at a station: the feed, every axis's velocity, and
+    /// the speed at which the curvature alone takes an axis's whole
+    /// acceleration.
     fn v_cap(&self, g: &Station) -> f64 {
         let mut cap = g.feed;
         for i in 0..3 {
             let t = g.t[i].abs();
             if t > 1e-12 {
                 cap = cap.min(self.lim.v[i] / t);
+            }
+            // the curvature's own acceleration within the axis's limit:
+            // as a cap of the stations a sample passes (`cap_over`), it
+            // holds where the curvature peaks between two samples
+            let k = g.k[i].abs();
+            if k > 1e-12 {
+                cap = cap.min((self.lim.a[i] / k).sqrt());
             }
         }
         cap
