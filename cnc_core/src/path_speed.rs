@@ -176,6 +176,8 @@ impl State {
 const REST_V: f64 = 1e-9;
 /// A run that comes to rest this close to its end has reached it, mm.
 const END_TOL: f64 = 1e-4;
+/// How many `bounds_at` answers are remembered.
+const MEMO: usize = 4;
 /// Curvature (1/mm) and its change (1/mm²) under this count as straight.
 const STRAIGHT: f64 = 1e-6;
 /// Caps within this share of each other count as one for `clear`.
@@ -215,9 +217,12 @@ pub struct Planner<'a> {
     /// lowest speed cap until there: a braking that ends before there
     /// under that cap keeps every limit.
     clear: Vec<(f64, f64)>,
+    /// The last few `bounds_at` answers.
+    memo: std::cell::RefCell<[([u64; 3], Option<Bounds>); MEMO]>,
 }
 
 /// The limits at one state: the allowed path acceleration and jerk.
+#[derive(Clone, Copy)]
 struct Bounds {
     a_lo: f64,
     a_hi: f64,
@@ -237,6 +242,7 @@ impl<'a> Planner<'a> {
             dt,
             caps: Vec::new(),
             clear: Vec::new(),
+            memo: std::cell::RefCell::new([([u64::MAX; 3], None); MEMO]),
         };
         p.caps = path.st.iter().map(|g| p.v_cap(g)).collect();
         p.clear = p.clear_ahead();
@@ -328,6 +334,22 @@ impl<'a> Planner<'a> {
         cap
     }
 
+    /// `bounds` at arc length `s`, remembered for the last few states it
+    /// was asked for: the braking rule asks for the bounds where its sample
+    /// ends, and the next step of the braking asks again for the same
+    /// state (the same bits, so the same answer).
+    fn bounds_at(&self, s: f64, v: f64, a: f64) -> Option<Bounds> {
+        let key = [s.to_bits(), v.to_bits(), a.to_bits()];
+        let mut memo = self.memo.borrow_mut();
+        if let Some((_, b)) = memo.iter().find(|(k, _)| *k == key) {
+            return *b;
+        }
+        let b = self.bounds(&self.path.at(s), v, a);
+        memo.rotate_right(1);
+        memo[0] = (key, b);
+        b
+    }
+
     /// The path accelerations and jerks every axis allows at `(v, a)`;
     /// `None` where no jerk does (the curvature terms alone are over).
     fn bounds(&self, g: &Station, v: f64, a: f64) -> Option<Bounds> {
@@ -408,7 +430,7 @@ impl<'a> Planner<'a> {
         let aim = |a_lo: f64| a_lo + A_MARGIN * a_lo.abs();
         let mut down = ((aim(b.a_lo) - x.a) / dt).clamp(b.s_lo, b.s_hi);
         let y = x.step(down, dt);
-        if let Some(e) = self.bounds(&self.path.at(y.s), y.v.max(0.0), y.a) {
+        if let Some(e) = self.bounds_at(y.s, y.v.max(0.0), y.a) {
             let lo = e.s_lo.max(b.s_lo);
             let hi = e.s_hi.min(b.s_hi).max(lo);
             down = ((aim(b.a_lo.max(e.a_lo)) - x.a) / dt).clamp(lo, hi);
@@ -447,7 +469,7 @@ impl<'a> Planner<'a> {
         let mut sig = sig;
         for _ in 0..2 {
             let y = x.step(sig, self.dt);
-            if let Some(e) = self.bounds(&self.path.at(y.s), y.v.max(0.0), y.a) {
+            if let Some(e) = self.bounds_at(y.s, y.v.max(0.0), y.a) {
                 let lo = e.s_lo.max(b.s_lo);
                 sig = sig.clamp(lo, e.s_hi.min(b.s_hi).max(lo));
             }
@@ -470,7 +492,7 @@ impl<'a> Planner<'a> {
                 return false;
             }
             let g = self.path.at(x.s);
-            let Some(b) = self.bounds(&g, x.v.max(0.0), x.a) else {
+            let Some(b) = self.bounds_at(x.s, x.v.max(0.0), x.a) else {
                 return false;
             };
             let slack = 1e-9 * (1.0 + x.a.abs());
