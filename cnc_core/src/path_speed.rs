@@ -365,10 +365,11 @@ impl<'a> Planner<'a> {
             let cj = 3.0 * g.k[i] * v * a + g.kd[i] * v * v * v;
             let (am, jm) = (self.lim.a[i], self.lim.j[i]);
             if t.abs() > 1e-12 {
-                let (x, y) = ((-am - ca) / t, (am - ca) / t);
+                let r = 1.0 / t;
+                let (x, y) = ((-am - ca) * r, (am - ca) * r);
                 b.a_lo = b.a_lo.max(x.min(y));
                 b.a_hi = b.a_hi.min(x.max(y));
-                let (x, y) = ((-jm - cj) / t, (jm - cj) / t);
+                let (x, y) = ((-jm - cj) * r, (jm - cj) * r);
                 b.s_lo = b.s_lo.max(x.min(y));
                 b.s_hi = b.s_hi.min(x.max(y));
             } else if ca.abs() > am || cj.abs() > jm {
@@ -399,7 +400,8 @@ impl<'a> Planner<'a> {
             let jm = JERK_FOR_A * self.lim.j[i];
             let (e0, e1) = (-jm - d, jm - d);
             if t.abs() > 1e-12 {
-                let (a0, a1) = ((e0 / t, -c / t), (e1 / t, -c / t));
+                let r = 1.0 / t;
+                let (a0, a1) = ((e0 * r, -c * r), (e1 * r, -c * r));
                 let (l, u) = if t > 0.0 { (a0, a1) } else { (a1, a0) };
                 lower[n] = l;
                 upper[n] = u;
@@ -409,10 +411,21 @@ impl<'a> Planner<'a> {
                 bound(&mut lo, &mut hi, c, e0, e1);
             }
         }
-        for l in &lower[..n] {
-            for u in &upper[..n] {
+        for (i, l) in lower[..n].iter().enumerate() {
+            for (j, u) in upper[..n].iter().enumerate() {
+                // an axis's own pair always holds: its interval is 2 jm wide
+                if i == j {
+                    continue;
+                }
                 // l.0 + l.1 a <= u.0 + u.1 a  <=>  (l.1 - u.1) a <= u.0 - l.0
-                bound(&mut lo, &mut hi, l.1 - u.1, f64::NEG_INFINITY, u.0 - l.0);
+                let (c, e) = (l.1 - u.1, u.0 - l.0);
+                if c > 1e-12 {
+                    hi = hi.min(e / c);
+                } else if c < -1e-12 {
+                    lo = lo.max(e / c);
+                } else if e < 0.0 {
+                    return (f64::INFINITY, f64::NEG_INFINITY);
+                }
             }
         }
         (lo, hi)
