@@ -85,7 +85,7 @@ RHO = 0.3  # trust region of each linear program
 TWICE = os.environ.get("G2_TWICE", "1") == "1"  # polylines: the smoothing's shrink of arcs made up
 DT_GRID = 0.0003  # s, longest step of the speed grid at the first speeds
 NO_FEED = 1e9  # mm/s, a rapid's feed: the axes' speed limits only
-H_RUST = 0.01  # mm, station spacing handed to the Rust speed stage
+H_RUST = 0.004  # mm, station spacing handed to the Rust speed stage (the geometry grid: narrow blends resolved)
 RUST_TIME = [0.0]  # s the Rust speed stage took, all runs
 RUST_SMOOTH = [0.0]  # s the Rust geometry stage took, all runs (G2_PLAN)
 
