@@ -134,16 +134,35 @@ impl<'a> Pl<'a> {
         })
     }
 
-    /// The average over `[x - w/2, x + w/2]`, the window shrunk evenly at
-    /// the ends, at each `x`.
+    /// The running integral continued past the ends by point reflection
+    /// (`p(L + u) = 2 p(L) - p(L - u)`, and so at the start), so that an
+    /// average at an end is the end point itself and the path leaves it
+    /// with no curvature.
+    fn integral_ext(&self, y: f64) -> [f64; 3] {
+        let (first, last) = (self.s[0], self.s[self.s.len() - 1]);
+        if y > last {
+            let (c, pl) = (self.integral(2.0 * last - y), self.p[self.p.len() - 1]);
+            [0, 1, 2].map(|k| c[k] + 2.0 * pl[k] * (y - last))
+        } else if y < first {
+            let (c, pf) = (self.integral(2.0 * first - y), self.p[0]);
+            [0, 1, 2].map(|k| c[k] - 2.0 * pf[k] * (first - y))
+        } else {
+            self.integral(y)
+        }
+    }
+
+    /// The average over `[x - w/2, x + w/2]` at each `x`, the path
+    /// continued past its ends by point reflection (`integral_ext`; the
+    /// window at most half the run).
     fn boxed(&self, w: &[f64], x: &[f64]) -> Vec<[f64; 3]> {
         let (first, last) = (self.s[0], self.s[self.s.len() - 1]);
+        let most = 0.5 * (last - first);
         x.iter()
             .zip(w)
             .map(|(&x, &w)| {
-                let half = (0.5 * w).min(x - first).min(last - x);
+                let half = (0.5 * w).min(most);
                 if half > 1e-9 {
-                    let (a, b) = (self.integral(x + half), self.integral(x - half));
+                    let (a, b) = (self.integral_ext(x + half), self.integral_ext(x - half));
                     [0, 1, 2].map(|k| (a[k] - b[k]) / (2.0 * half))
                 } else {
                     self.value(x)
