@@ -26,6 +26,11 @@
 //! On CAM polylines the average's shrink of curves is made up by twicing
 //! (`2·B − B·B`, B two averages), so that it can be wide enough to even
 //! out the polyline's vertices.
+//!
+//! Past a run's ends the path is continued by point reflection about the
+//! end point, so an average there is the end point itself: the smoothed
+//! path starts and ends exactly where the run does, with no curvature, and
+//! a run that stops on a curve stops smoothly.
 
 /// Spacing of the fine grid the smoothing works on, mm.
 pub const DS: f64 = 0.004;

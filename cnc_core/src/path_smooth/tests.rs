@@ -137,3 +137,34 @@ fn the_sliding_minimum_is_the_plain_one() {
         assert_eq!(sliding_min(&v, r), plain, "r {r}");
     }
 }
+
+#[test]
+fn a_run_that_ends_on_an_arc_ends_on_its_end_point_with_no_curvature() {
+    // a quarter circle of R 5 mm, points 4 µm apart
+    let r = 5.0;
+    let n = (std::f64::consts::FRAC_PI_2 * r / DS).ceil() as usize;
+    let p: Vec<[f64; 3]> = (0..=n)
+        .map(|i| {
+            let a = std::f64::consts::FRAC_PI_2 * i as f64 / n as f64;
+            [r * a.cos(), r * a.sin(), 0.0]
+        })
+        .collect();
+    let last = p[n];
+    let sm = smooth(
+        &Polyline {
+            feed: vec![80.0; p.len()],
+            p,
+        },
+        0.01,
+        false,
+    )
+    .unwrap();
+    assert!(dist(&sm.q[0], &[r, 0.0, 0.0]) < 1e-9, "{:?}", sm.q[0]);
+    assert!(dist(&sm.q[sm.q.len() - 1], &last) < 1e-9);
+    let k = |i: usize| norm(&sm.k[i]);
+    let m = sm.q.len();
+    // no curvature at the ends, the arc's 0.2 /mm in the middle
+    assert!(k(0) < 0.01 && k(m - 1) < 0.01, "{} {}", k(0), k(m - 1));
+    assert!((k(m / 2) - 1.0 / r).abs() < 0.01, "{}", k(m / 2));
+    assert!(sm.dev <= 0.0098 + 1e-9, "{}", sm.dev);
+}
