@@ -314,8 +314,9 @@ pub fn smooth(run: &Polyline, tol: f64, twice: bool) -> Result<Smoothed, SmoothE
         };
         // the distance from the programmed path where it may matter: to
         // the nearest programmed point within reach of the averages that
-        // made the point (±w), the search
-        // stopping at one within TARGET (such a point does not matter)
+        // made the point (±w), the search stopping at one within TARGET
+        // (such a point does not matter); the points are DS apart, so this
+        // is at most a fraction of a µm over the distance to the path
         let mut dev = vec![0.0; n];
         for i in (0..n).filter(|i| dist(&q[*i], &p[*i]) > TARGET * tol) {
             dev[i] = nearest(&q[i], &p, i, (w[i] / h).ceil() as usize + 2, TARGET * tol);
