@@ -90,7 +90,7 @@ fn plan(nums: &[f64]) -> Res<()> {
     };
     let t1 = Instant::now();
     let path = Path::new(h, sm.len(), sm.stations(h))?;
-    let s = Planner::new(&path, lim, dt)?.run(10_000_000)?;
+    let s = Planner::new(path, lim, dt)?.run(10_000_000)?;
     let t2 = Instant::now();
     let wmin = sm.w.iter().cloned().fold(f64::INFINITY, f64::min);
     eprintln!(
@@ -123,7 +123,7 @@ fn speed_only(nums: &[f64]) -> Res<()> {
         .collect();
     let path = Path::new(h, len, st)?;
     let t0 = Instant::now();
-    let s = Planner::new(&path, lim, dt)?.run(10_000_000)?;
+    let s = Planner::new(path, lim, dt)?.run(10_000_000)?;
     eprintln!(
         "path_plan: {} samples; speed in {:.3} s",
         s.len() - 1,

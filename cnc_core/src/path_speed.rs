@@ -39,6 +39,13 @@
 //! The run ends at rest exactly on the path's end: the little it stops
 //! short (under 0.1 µm) is added over the last braking by a smooth step.
 //!
+//! **As the path comes.** The stations may be given all at once
+//! (`Path::new`) or one by one (`push`, then `finish` with the run's end);
+//! `next_sample` decides a sample only once every braking it tries stays
+//! within the stations given, so the samples are those of the whole run
+//! bit for bit, and it forgets the stations behind. Samples come
+//! `STRETCH_MIN` behind the planning: the end's smooth step may move them.
+//!
 //! **What it costs.** About ten braking simulations a sample, each tens of
 //! samples long on curves. Two things cut it without changing a bit of
 //! the result: on a straight stretch with no lower cap ahead, a braking
@@ -53,124 +60,9 @@ pub struct AxisLimits {
     pub j: [f64; 3],
 }
 
-/// The path's shape at one station.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Station {
-    /// Unit tangent.
-    pub t: [f64; 3],
-    /// `dT/ds`, 1/mm.
-    pub k: [f64; 3],
-    /// `d²T/ds²`, 1/mm².
-    pub kd: [f64; 3],
-    /// Programmed feed, mm/s.
-    pub feed: f64,
-}
-
-/// A run from rest to rest: stations `h` apart from `s = 0`, the last at
-/// `len` (at most `h` after the one before).
-#[derive(Clone, Debug)]
-pub struct Path {
-    h: f64,
-    len: f64,
-    st: Vec<Station>,
-}
-
-/// Why a path or a run was refused.
-#[derive(Clone, Debug, PartialEq)]
-pub enum SpeedError {
-    /// The stations do not describe a path (fewer than two, a spacing or
-    /// length that is not positive and finite, the last station not
-    /// within one spacing of the one before, a value not finite).
-    BadPath(String),
-    /// A limit is not positive and finite.
-    BadLimits,
-    /// The run did not end within `ticks` samples.
-    NoEnd { ticks: usize, s: f64 },
-    /// At `s` no path jerk keeps every axis within its limits: the
-    /// curvature's terms alone are over (a path sharper than its stations
-    /// let the planner see).
-    Stuck { s: f64, v: f64 },
-}
-
-impl std::fmt::Display for SpeedError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            SpeedError::BadPath(why) => write!(f, "path: {why}"),
-            SpeedError::BadLimits => write!(f, "every axis limit must be positive and finite"),
-            SpeedError::Stuck { s, v } => write!(
-                f,
-                "at {s:.6} mm ({v:.3} mm/s) no jerk keeps every axis within its limits"
-            ),
-            SpeedError::NoEnd { ticks, s } => {
-                write!(
-                    f,
-                    "the run did not reach its end in {ticks} samples (it is at {s:.6} mm)"
-                )
-            }
-        }
-    }
-}
-
-impl std::error::Error for SpeedError {}
-
-impl Path {
-    pub fn new(h: f64, len: f64, st: Vec<Station>) -> Result<Path, SpeedError> {
-        let bad = |why: &str| Err(SpeedError::BadPath(why.to_string()));
-        if st.len() < 2 {
-            return bad("fewer than two stations");
-        }
-        if !(h > 0.0 && h.is_finite() && len > 0.0 && len.is_finite()) {
-            return bad("spacing and length must be positive and finite");
-        }
-        let before = (st.len() - 2) as f64 * h;
-        if !(len > before && len <= before + h * (1.0 + 1e-9)) {
-            return bad("the last station is not within one spacing of the one before");
-        }
-        let finite = |x: &[f64; 3]| x.iter().all(|c| c.is_finite());
-        if st
-            .iter()
-            .any(|p| !(finite(&p.t) && finite(&p.k) && finite(&p.kd)))
-        {
-            return bad("a station's shape is not finite");
-        }
-        if st.iter().any(|p| p.feed.is_nan() || p.feed <= 0.0) {
-            return bad("a station's feed is not positive");
-        }
-        Ok(Path { h, len, st })
-    }
-
-    pub fn len(&self) -> f64 {
-        self.len
-    }
-
-    /// The shape at `s` (clamped to the path), interpolated.
-    pub fn at(&self, s: f64) -> Station {
-        let n = self.st.len();
-        let s = s.clamp(0.0, self.len);
-        let i = ((s / self.h) as usize).min(n - 2);
-        let s0 = i as f64 * self.h;
-        let s1 = if i + 1 == n - 1 {
-            self.len
-        } else {
-            s0 + self.h
-        };
-        let f = ((s - s0) / (s1 - s0)).clamp(0.0, 1.0);
-        let (p, q) = (&self.st[i], &self.st[i + 1]);
-        let mix = |x: &[f64; 3], y: &[f64; 3]| {
-            [
-                x[0] + f * (y[0] - x[0]),
-                x[1] + f * (y[1] - x[1]),
-                x[2] + f * (y[2] - x[2]),
-            ]
-        };
-        Station {
-            t: mix(&p.t, &q.t),
-            k: mix(&p.k, &q.k),
-            kd: mix(&p.kd, &q.kd),
-            feed: p.feed + f * (q.feed - p.feed),
-        }
-    }
-}
+mod path;
+pub use path::{Path, SpeedError, Station};
+use std::collections::VecDeque;
 
 /// Where along the path, how fast, how hard.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -201,7 +93,8 @@ const MEMO: usize = 4;
 const STRAIGHT: f64 = 1e-6;
 /// Caps within this share of each other count as one for `clear`.
 const FLAT: f64 = 1e-6;
-/// The fewest samples the last shortfall is spread over.
+/// The samples the last shortfall is spread over, and so how many the
+/// planner holds back.
 const STRETCH_MIN: usize = 50;
 /// The share of each axis's jerk the path acceleration may take up
 /// through the curvature (`3 K v a`); the rest is for changing it.
@@ -225,19 +118,39 @@ const WARM: f64 = 0.01;
 /// How far a braking simulation may go, in samples.
 const MAX_BRAKE: usize = 20_000;
 
-/// The speed stage for one path under one set of limits.
-pub struct Planner<'a> {
-    path: &'a Path,
+/// The speed stage for one run under one set of limits: it owns the run's
+/// path, which may still be growing (`push`, `finish`), and gives one
+/// sample at a time (`next`).
+pub struct Planner {
+    path: Path,
     lim: AxisLimits,
     dt: f64,
-    /// Each station's speed cap (`v_cap`).
-    caps: Vec<f64>,
-    /// Per station, how far on (mm) the path stays straight, and the
+    /// Each kept station's speed cap (`v_cap`).
+    caps: VecDeque<f64>,
+    /// Per kept station, how far on (mm) the path stays straight, and the
     /// lowest speed cap until there: a braking that ends before there
-    /// under that cap keeps every limit.
-    clear: Vec<(f64, f64)>,
+    /// under that cap keeps every limit. `(0, 0)` while unknown.
+    clear: VecDeque<(f64, f64)>,
+    /// The first station of the straight stretch not closed yet, and its
+    /// cap.
+    open: Option<(usize, f64)>,
+    /// Where the run is, the last sample's jerk, and whether it is over.
+    x: State,
+    last: f64,
+    arrived: bool,
+    /// Samples held back (for the end's smooth step), oldest first.
+    out: VecDeque<f64>,
     /// The last few `bounds_at` answers.
     memo: std::cell::RefCell<[([u64; 3], Option<Bounds>); MEMO]>,
+}
+
+/// What a braking simulation found.
+#[derive(Clone, Copy, PartialEq)]
+enum Verdict {
+    Yes,
+    No,
+    /// It needs stations that have not come yet.
+    Unknown,
 }
 
 /// The limits at one state: the allowed path acceleration and jerk.
@@ -249,57 +162,89 @@ struct Bounds {
     s_hi: f64,
 }
 
-impl<'a> Planner<'a> {
-    pub fn new(path: &'a Path, lim: AxisLimits, dt: f64) -> Result<Planner<'a>, SpeedError> {
+impl Planner {
+    pub fn new(path: Path, lim: AxisLimits, dt: f64) -> Result<Planner, SpeedError> {
         let ok = |x: &[f64; 3]| x.iter().all(|c| *c > 0.0 && c.is_finite());
         if !(ok(&lim.v) && ok(&lim.a) && ok(&lim.j) && dt > 0.0 && dt.is_finite()) {
             return Err(SpeedError::BadLimits);
         }
         let mut p = Planner {
-            path,
+            path: Path::open(path.h)?,
             lim,
             dt,
-            caps: Vec::new(),
-            clear: Vec::new(),
+            caps: VecDeque::new(),
+            clear: VecDeque::new(),
+            open: None,
+            x: State {
+                s: 0.0,
+                v: 0.0,
+                a: 0.0,
+            },
+            last: 0.0,
+            arrived: false,
+            out: VecDeque::from([0.0]),
             memo: std::cell::RefCell::new([([u64::MAX; 3], None); MEMO]),
         };
-        p.caps = path.st.iter().map(|g| p.v_cap(g)).collect();
-        p.clear = p.clear_ahead();
+        for st in path.st {
+            p.push(st)?;
+        }
+        if path.finished {
+            p.finish(path.len)?;
+        }
         Ok(p)
     }
 
-    /// `clear` for every station: stations are grouped into stretches
-    /// that are straight (curvature and its change under `STRAIGHT`) and
-    /// whose caps stay within `FLAT` of the stretch's first; each station
-    /// gets its stretch's end and the lowest cap from it to there.
-    fn clear_ahead(&self) -> Vec<(f64, f64)> {
-        let (st, h, len) = (&self.path.st, self.path.h, self.path.len);
-        let n = st.len();
-        let bent = |g: &Station| g.k.iter().chain(g.kd.iter()).any(|c| c.abs() > STRAIGHT);
-        let mut out = vec![(0.0, 0.0); n];
-        let mut i = 0;
-        while i < n {
-            if bent(&st[i]) {
-                out[i] = (0.0, 0.0);
-                i += 1;
-                continue;
+    /// The path as far as it has come.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The next station of the run.
+    pub fn push(&mut self, st: Station) -> Result<(), SpeedError> {
+        self.path.push(st)?;
+        let i = self.path.count() - 1;
+        self.caps.push_back(self.v_cap(&st));
+        self.clear.push_back((0.0, 0.0));
+        // stations are grouped into stretches that are straight (curvature
+        // and its change under `STRAIGHT`) with caps within `FLAT` of the
+        // stretch's first; a station that does not join the open stretch
+        // closes it
+        let c = self.cap(i);
+        let starts = (!bent(&st)).then_some((i, c));
+        match self.open {
+            Some((_, c0)) if !bent(&st) && (c - c0).abs() <= FLAT * c0 => {}
+            Some((f, _)) => {
+                self.close(f, i);
+                self.open = starts;
             }
-            let first = self.caps[i];
-            let mut j = i + 1;
-            while j < n && !bent(&st[j]) && (self.caps[j] - first).abs() <= FLAT * first {
-                j += 1;
-            }
-            // stations i..j; the interval after the last is shared with a
-            // station outside, so the stretch ends at station j - 1
-            let stop = ((j - 1) as f64 * h).min(len);
-            let mut low = f64::INFINITY;
-            for k in (i..j).rev() {
-                low = low.min(self.caps[k]);
-                out[k] = (stop, low);
-            }
-            i = j;
+            None => self.open = starts,
         }
-        out
+        Ok(())
+    }
+
+    /// The run ends at `len` (the last station's place).
+    pub fn finish(&mut self, len: f64) -> Result<(), SpeedError> {
+        self.path.finish(len)?;
+        if let Some((f, _)) = self.open.take() {
+            self.close(f, self.path.count());
+        }
+        Ok(())
+    }
+
+    fn cap(&self, i: usize) -> f64 {
+        self.caps[i - self.path.base]
+    }
+
+    /// Closes the stretch of stations `f..j`: each gets the stretch's end
+    /// (the last station's place: the interval after it is shared with a
+    /// station outside) and the lowest cap from it to there.
+    fn close(&mut self, f: usize, j: usize) {
+        let stop = self.path.place(j - 1);
+        let mut low = f64::INFINITY;
+        for k in (f.max(self.path.base)..j).rev() {
+            low = low.min(self.cap(k));
+            self.clear[k - self.path.base] = (stop, low);
+        }
     }
 
     /// Whether braking from `x` (speed, acceleration; bounds `b` there) on
@@ -307,7 +252,7 @@ impl<'a> Planner<'a> {
     /// peak speed within the cap there, an upper bound of its length
     /// before `clear` and the end.
     fn clearly_viable(&self, x: State, b: &Bounds, end: f64) -> bool {
-        let i = ((x.s / self.path.h) as usize).min(self.caps.len() - 1);
+        let i = ((x.s / self.path.h) as usize).clamp(self.path.base, self.path.count() - 1);
         let jm = -b.s_lo;
         let am = -b.a_lo * (1.0 - 2.0 * A_MARGIN);
         if !(jm > 0.0 && am > 0.0) {
@@ -316,20 +261,18 @@ impl<'a> Planner<'a> {
         let up = x.a.max(0.0);
         let v_peak = x.v + up * up / (2.0 * jm);
         let t = up / jm + v_peak / am + 2.0 * am / jm + 20.0 * self.dt;
-        let (stop, cap) = self.clear[i];
+        let (stop, cap) = self.clear[i - self.path.base];
         v_peak <= cap && x.s + v_peak * t <= stop.min(end)
     }
 
     /// The lowest speed cap of the stations about the path from `s0` to
     /// `s1` (those of the intervals both ends are in, and all between).
     fn cap_over(&self, s0: f64, s1: f64) -> f64 {
-        let n = self.caps.len();
-        let (lo, hi) = (s0.min(s1).max(0.0), s0.max(s1).min(self.path.len));
-        let i0 = ((lo / self.path.h) as usize).min(n - 2);
-        let i1 = (((hi / self.path.h) as usize) + 1).min(n - 1);
-        self.caps[i0..=i1]
-            .iter()
-            .fold(f64::INFINITY, |m, c| m.min(*c))
+        let (base, n) = (self.path.base, self.path.count());
+        let (lo, hi) = (s0.min(s1).max(0.0), s0.max(s1));
+        let i0 = ((lo / self.path.h) as usize).clamp(base, n - 2);
+        let i1 = (((hi / self.path.h) as usize) + 1).clamp(base, n - 1);
+        (i0..=i1).fold(f64::INFINITY, |m, i| m.min(self.cap(i)))
     }
 
     /// The speed cap at a station: the feed, every axis's velocity, and
@@ -513,120 +456,173 @@ impl<'a> Planner<'a> {
     /// (`sig` too, at the sample's end as at its start; the speed cap of
     /// every station passed) and braking from it by `brake` does too,
     /// coming to rest by `end`.
-    fn viable(&self, mut from: f64, mut x: State, mut sig: f64, end: f64) -> bool {
+    fn viable(&self, mut from: f64, mut x: State, mut sig: f64) -> Verdict {
+        use Verdict::{No, Unknown, Yes};
+        let end = self.path.len().unwrap_or(f64::INFINITY);
         for _ in 0..MAX_BRAKE {
             if x.s > end + 1e-9 || x.v < -1e-6 {
-                return false;
+                return No;
+            }
+            if !self.path.finished && (x.s.max(0.0) / self.path.h) as usize + 1 >= self.path.count()
+            {
+                return Unknown;
             }
             // the speed at the sample and over it (the setpoints' difference)
             let cap = self.cap_over(from, x.s) * (1.0 + 1e-12) + 1e-12;
             if x.v > cap || x.s - from > cap * self.dt {
-                return false;
+                return No;
             }
             let g = self.path.at(x.s);
             let Some(b) = self.bounds_at(x.s, x.v.max(0.0), x.a) else {
-                return false;
+                return No;
             };
             let slack = 1e-9 * (1.0 + x.a.abs());
             if x.a < b.a_lo - slack || x.a > b.a_hi + slack {
-                return false;
+                return No;
             }
             let slack = 1e-4 * (1.0 + sig.abs());
             if sig < b.s_lo - slack || sig > b.s_hi + slack {
-                return false;
+                return No;
             }
             if x.v <= REST_V && x.a.abs() <= 1e-6 {
-                return true;
+                return Yes;
             }
             if self.clearly_viable(x, &b, end) {
-                return true;
+                return Yes;
             }
             let Some(next) = self.brake(&g, x, &b) else {
-                return false;
+                return No;
             };
             sig = next;
             from = x.s;
             x = x.step(sig, self.dt);
         }
-        false
+        No
     }
 
-    /// The run from rest at `s = 0` to rest at the end: the path position
-    /// at every sample, the first `0`, the last exactly `len`.
-    pub fn run(&self, max_ticks: usize) -> Result<Vec<f64>, SpeedError> {
-        let end = self.path.len;
-        let mut x = State {
-            s: 0.0,
-            v: 0.0,
-            a: 0.0,
+    /// One sample: the largest jerk whose next state is viable. `None`
+    /// while that needs stations that have not come yet (nothing moves).
+    fn tick(&mut self) -> Result<Option<()>, SpeedError> {
+        if self.path.count() < 2 {
+            return Ok(None);
+        }
+        let x = self.x;
+        let g = self.path.at(x.s);
+        let Some(b) = self.bounds(&g, x.v, x.a) else {
+            return Err(SpeedError::Stuck { s: x.s, v: x.v });
         };
-        let mut out = vec![0.0];
-        let mut brake_from = 0usize;
-        let mut last = 0.0f64;
-        while out.len() <= max_ticks {
-            let g = self.path.at(x.s);
-            let Some(b) = self.bounds(&g, x.v, x.a) else {
-                return Err(SpeedError::Stuck { s: x.s, v: x.v });
-            };
-            // staying at rest is always viable, braking from a viable state too
-            let rest = x.v == 0.0 && x.a == 0.0;
-            let safe = if rest {
-                0.0
-            } else {
-                self.brake(&g, x, &b).unwrap_or(b.s_lo)
-            };
-            let ok = |sig: f64| self.viable(x.s, x.step(sig, self.dt), sig, end);
-            let top = self.within_both(x, b.s_hi, &b);
-            let sig = if ok(top) {
-                top
-            } else {
-                // bisection, first about the last sample's jerk (the
-                // boundary often moves little from one sample to the next)
-                let (mut lo, mut hi) = (safe, top.max(safe));
-                let width = b.s_hi - b.s_lo;
-                let near = last.clamp(lo, hi);
-                for probe in [near + WARM * width, near - WARM * width] {
-                    if probe > lo && probe < hi {
-                        if ok(probe) {
-                            lo = probe;
-                        } else {
-                            hi = probe;
-                        }
-                    }
-                }
-                for _ in 0..BISECT {
-                    if hi - lo <= TOL * width {
-                        break;
-                    }
-                    let mid = 0.5 * (lo + hi);
-                    if ok(mid) {
-                        lo = mid;
+        // staying at rest is always viable, braking from a viable state too
+        let rest = x.v == 0.0 && x.a == 0.0;
+        let safe = if rest {
+            0.0
+        } else {
+            self.brake(&g, x, &b).unwrap_or(b.s_lo)
+        };
+        let mut unknown = false;
+        let mut ok = |sig: f64| match self.viable(x.s, x.step(sig, self.dt), sig) {
+            Verdict::Yes => true,
+            Verdict::No => false,
+            Verdict::Unknown => {
+                unknown = true;
+                false
+            }
+        };
+        let top = self.within_both(x, b.s_hi, &b);
+        let sig = if ok(top) {
+            top
+        } else {
+            // bisection, first about the last sample's jerk (the
+            // boundary often moves little from one sample to the next)
+            let (mut lo, mut hi) = (safe, top.max(safe));
+            let width = b.s_hi - b.s_lo;
+            let near = self.last.clamp(lo, hi);
+            for probe in [near + WARM * width, near - WARM * width] {
+                if probe > lo && probe < hi {
+                    if ok(probe) {
+                        lo = probe;
                     } else {
-                        hi = mid;
+                        hi = probe;
                     }
                 }
-                lo
-            };
-            last = sig;
-            if x.a >= 0.0 {
-                brake_from = out.len() - 1;
             }
-            x = x.step(sig, self.dt);
-            if x.v <= REST_V && x.a.abs() <= 1e-6 {
-                x.v = 0.0;
-                x.a = 0.0;
+            for _ in 0..BISECT {
+                if hi - lo <= TOL * width {
+                    break;
+                }
+                let mid = 0.5 * (lo + hi);
+                if ok(mid) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
             }
-            out.push(x.s);
+            lo
+        };
+        if unknown {
+            return Ok(None);
+        }
+        self.last = sig;
+        let mut x = x.step(sig, self.dt);
+        if x.v <= REST_V && x.a.abs() <= 1e-6 {
+            x.v = 0.0;
+            x.a = 0.0;
+        }
+        self.x = x;
+        self.out.push_back(x.s);
+        let gone = self.path.forget_before(x.s.min(self.path.known()));
+        self.caps.drain(..gone);
+        self.clear.drain(..gone);
+        if let Some(end) = self.path.len() {
             if x.v == 0.0 && x.s >= end - END_TOL {
-                stretch(&mut out, brake_from, end);
-                return Ok(out);
+                stretch(self.out.make_contiguous(), end);
+                self.arrived = true;
+            }
+        }
+        Ok(Some(()))
+    }
+
+    /// The path position at the next sample (the first is 0, the last
+    /// exactly the run's end); `None` when the run is over or, before
+    /// `finish`, when it needs more stations. Samples come about
+    /// `STRETCH_MIN` behind the planning (the end's smooth step may
+    /// still move them).
+    pub fn next_sample(&mut self) -> Result<Option<f64>, SpeedError> {
+        loop {
+            if self.arrived || self.out.len() > STRETCH_MIN + 1 {
+                return Ok(self.out.pop_front());
+            }
+            if self.tick()?.is_none() {
+                return Ok(None);
+            }
+        }
+    }
+
+    /// Whether the run has come to rest on its end.
+    pub fn arrived(&self) -> bool {
+        self.arrived
+    }
+
+    /// The whole run of a finished path: the path position at every
+    /// sample, at most `max_ticks` of them.
+    pub fn run(mut self, max_ticks: usize) -> Result<Vec<f64>, SpeedError> {
+        let mut out = Vec::new();
+        while out.len() <= max_ticks {
+            match self.next_sample()? {
+                Some(s) => out.push(s),
+                None if self.arrived => return Ok(out),
+                None => break,
             }
         }
         Err(SpeedError::NoEnd {
             ticks: out.len(),
-            s: x.s,
+            s: self.x.s,
         })
     }
+}
+
+/// Whether a station bends: curvature or its change over `STRAIGHT`.
+fn bent(g: &Station) -> bool {
+    g.k.iter().chain(g.kd.iter()).any(|c| c.abs() > STRAIGHT)
 }
 
 /// Narrows `[lo, hi]` to the `a` with `e0 <= c a <= e1`; empty (lo > hi)
@@ -691,12 +687,12 @@ fn landing(v: f64, a: f64, lo: f64, hi: f64, dt: f64) -> Option<f64> {
 }
 
 /// Makes the run end exactly on `end`: the little it stops short is added
-/// along the samples from `from` on (at least `STRETCH_MIN` before the
-/// end), by a quintic smooth step, which starts and ends with no speed and
-/// no acceleration of its own.
-fn stretch(out: &mut [f64], from: usize, end: f64) {
+/// along the last `STRETCH_MIN` samples (all of them if there are fewer),
+/// by a quintic smooth step, which starts and ends with no speed and no
+/// acceleration of its own.
+fn stretch(out: &mut [f64], end: f64) {
     let last = out.len() - 1;
-    let from = from.min(last.saturating_sub(STRETCH_MIN));
+    let from = last.saturating_sub(STRETCH_MIN);
     let short = end - out[last];
     let n = (last - from) as f64;
     if n > 0.0 {

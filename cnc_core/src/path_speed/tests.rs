@@ -54,7 +54,7 @@ fn a_line_takes_the_rest_to_rest_s_curve_time_and_ends_on_its_end() {
     // 0 -> 100 mm/s at 1000 mm/s², 50 m/s³: 0.12 s and 6 mm each way,
     // 38 mm at 100 mm/s: 0.62 s in all
     let p = path(50.0, 0.05, line_x(100.0));
-    let s = Planner::new(&p, lim(100.0, 1000.0, 5e4), DT)
+    let s = Planner::new(p.clone(), lim(100.0, 1000.0, 5e4), DT)
         .unwrap()
         .run(10_000)
         .unwrap();
@@ -73,7 +73,7 @@ fn a_line_takes_the_rest_to_rest_s_curve_time_and_ends_on_its_end() {
 fn a_short_line_is_run_on_the_jerk_alone() {
     // rest to rest on the jerk alone: t = (32 L / J)^(1/3) = 40 ms
     let p = path(0.1, 0.005, line_x(100.0));
-    let s = Planner::new(&p, lim(100.0, 1000.0, 5e4), DT)
+    let s = Planner::new(p.clone(), lim(100.0, 1000.0, 5e4), DT)
         .unwrap()
         .run(10_000)
         .unwrap();
@@ -91,7 +91,7 @@ fn on_a_circle_the_jerk_of_the_axes_sets_the_speed() {
     let r = 2.0;
     let len = 5.0 * std::f64::consts::TAU * r;
     let p = path(len, 0.01, circle(r, 100.0));
-    let s = Planner::new(&p, lim(100.0, 2000.0, 5e4), DT)
+    let s = Planner::new(p.clone(), lim(100.0, 2000.0, 5e4), DT)
         .unwrap()
         .run(100_000)
         .unwrap();
@@ -149,7 +149,7 @@ fn random_feeds_and_jerks_keep_every_limit_and_end_exactly() {
             })
             .collect();
         let p = Path::new(h, len, st).unwrap();
-        let s = Planner::new(&p, lim(100.0, 1000.0, jerk), DT)
+        let s = Planner::new(p.clone(), lim(100.0, 1000.0, jerk), DT)
             .unwrap()
             .run(100_000)
             .unwrap();
@@ -172,6 +172,39 @@ fn random_feeds_and_jerks_keep_every_limit_and_end_exactly() {
             assert!(v <= f * 1.001, "case {case}: {v} over {f} at {}", w[0]);
         }
     }
+}
+
+#[test]
+fn a_growing_path_refuses_what_a_run_cannot_be() {
+    let st = Station {
+        t: [1.0, 0.0, 0.0],
+        k: [0.0; 3],
+        kd: [0.0; 3],
+        feed: 10.0,
+    };
+    let mut p = Path::open(0.1).unwrap();
+    assert_eq!(p.shape_at(0.0), None);
+    p.push(st).unwrap();
+    let e = p.finish(0.1).err().unwrap();
+    assert_eq!(e.to_string(), "path: fewer than two stations");
+    p.push(st).unwrap();
+    assert_eq!(p.len(), None);
+    let e = p.finish(0.25).err().unwrap();
+    assert_eq!(
+        e.to_string(),
+        "path: the last station is not within one spacing of the one before"
+    );
+    p.finish(0.08).unwrap();
+    assert_eq!(p.len(), Some(0.08));
+    let e = p.push(st).err().unwrap();
+    assert_eq!(e.to_string(), "path: a station after the run's end");
+    assert!(Path::open(0.0).is_err());
+    // a planner on it runs the 0.08 mm and ends there
+    let s = Planner::new(p, lim(100.0, 1000.0, 5e4), DT)
+        .unwrap()
+        .run(1000)
+        .unwrap();
+    assert_eq!((s[0], *s.last().unwrap()), (0.0, 0.08));
 }
 
 #[test]
@@ -199,12 +232,14 @@ fn bad_paths_and_limits_are_refused() {
         Err(SpeedError::BadPath(_))
     ));
     let p = Path::new(0.1, 0.1, vec![st, st]).unwrap();
-    let e = Planner::new(&p, lim(100.0, 0.0, 5e4), DT).err().unwrap();
+    let e = Planner::new(p.clone(), lim(100.0, 0.0, 5e4), DT)
+        .err()
+        .unwrap();
     assert_eq!(
         e.to_string(),
         "every axis limit must be positive and finite"
     );
-    let e = Planner::new(&p, lim(100.0, 1000.0, 5e4), DT)
+    let e = Planner::new(p.clone(), lim(100.0, 1000.0, 5e4), DT)
         .unwrap()
         .run(3)
         .err()
@@ -342,7 +377,10 @@ fn random_curves_and_jerks_from_20_to_1000_keep_every_axis_limit() {
         // the planner keeps 0.98 of the jerk and 0.999 of the acceleration,
         // as the bench does, for what sampling adds
         let plan = lim(vmax, 0.999 * amax, 0.98 * jerk);
-        let s = Planner::new(&p, plan, DT).unwrap().run(200_000).unwrap();
+        let s = Planner::new(p.clone(), plan, DT)
+            .unwrap()
+            .run(200_000)
+            .unwrap();
         assert_eq!(*s.last().unwrap(), len, "case {case}");
         assert!(
             s.windows(2).all(|w| w[1] >= w[0]),
@@ -364,4 +402,80 @@ fn random_curves_and_jerks_from_20_to_1000_keep_every_axis_limit() {
             "case {case}: mean speed {mean} for feed {feed}"
         );
     }
+}
+
+#[test]
+fn stations_given_as_they_come_give_the_same_samples_bit_for_bit_in_bounded_memory() {
+    // 80 mm of line, a circle of R 4 mm, 80 mm of line again
+    let (r, l) = (4.0, 80.0);
+    let arc = std::f64::consts::TAU * r;
+    let len = 2.0 * l + arc;
+    let h = 0.01;
+    let shape = move |s: f64| {
+        if s < l {
+            Station {
+                t: [1.0, 0.0, 0.0],
+                k: [0.0; 3],
+                kd: [0.0; 3],
+                feed: 100.0,
+            }
+        } else if s < l + arc {
+            let mut st = circle(r, 100.0)(s - l);
+            // the circle starts heading +X
+            let (t, k, kd) = (st.t, st.k, st.kd);
+            st.t = [t[1], -t[0], 0.0];
+            st.k = [k[1], -k[0], 0.0];
+            st.kd = [kd[1], -kd[0], 0.0];
+            st
+        } else {
+            Station {
+                t: [1.0, 0.0, 0.0],
+                k: [0.0; 3],
+                kd: [0.0; 3],
+                feed: 60.0,
+            }
+        }
+    };
+    let n = (len / h).ceil() as usize + 1;
+    let all: Vec<Station> = (0..n).map(|i| shape((i as f64 * h).min(len))).collect();
+    let limits = lim(100.0, 1000.0, 5e4);
+    let batch = Planner::new(Path::new(h, len, all.clone()).unwrap(), limits, DT)
+        .unwrap()
+        .run(100_000)
+        .unwrap();
+    // the same stations in chunks of 1 to 400, each given only when the
+    // planner asks for more
+    let mut seed = 7u64;
+    let mut p = Planner::new(Path::open(h).unwrap(), limits, DT).unwrap();
+    let (mut given, mut got, mut most) = (0, Vec::new(), 0);
+    loop {
+        match p.next_sample().unwrap() {
+            Some(s) => got.push(s),
+            None if p.arrived() => break,
+            None if given < n => {
+                seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+                let chunk = 1 + (seed >> 33) as usize % 400;
+                for st in &all[given..(given + chunk).min(n)] {
+                    p.push(*st).unwrap();
+                }
+                given = (given + chunk).min(n);
+                if given == n {
+                    p.finish(len).unwrap();
+                }
+            }
+            None => panic!("asks for more with every station given"),
+        }
+        most = most.max(p.path().kept());
+    }
+    assert_eq!(got.len(), batch.len());
+    assert!(
+        got.iter()
+            .zip(&batch)
+            .all(|(a, b)| a.to_bits() == b.to_bits()),
+        "samples differ"
+    );
+    assert_eq!(*got.last().unwrap(), len);
+    // what the planner keeps is its look-ahead (a braking from 100 mm/s
+    // takes 6 mm) and the last chunk, not the 24,000 stations of the run
+    assert!(most < 1500, "{most} stations kept");
 }
