@@ -14,6 +14,9 @@
 //! x y z feed             (one line per point of the run's polyline)
 //! ```
 //!
+//! With `PATH_PLAN_CHUNK=C,M` the geometry is worked out C mm of the run at
+//! a time, with M mm on either side (`path_smooth::smooth_chunked`).
+//!
 //! `path_plan stations` (`G2_SPEED`): the speed stage alone on stations
 //! the caller smoothed; prints the path position at every sample. Input:
 //!
@@ -83,10 +86,21 @@ fn plan(nums: &[f64]) -> Res<()> {
         feed: pts.chunks(4).map(|c| c[3]).collect(),
     };
     let t0 = Instant::now();
+    // PATH_PLAN_CHUNK=C,M: the geometry worked out C mm at a time with M mm
+    // on either side (`smooth_chunked`)
+    let (chunk, margin) = match std::env::var("PATH_PLAN_CHUNK") {
+        Ok(v) => {
+            let mut it = v.split(',').map(str::parse::<f64>);
+            match (it.next(), it.next()) {
+                (Some(Ok(c)), Some(Ok(m))) => (c, m),
+                _ => return Err(format!("PATH_PLAN_CHUNK={v}: want CHUNK,MARGIN in mm").into()),
+            }
+        }
+        Err(_) => (f64::INFINITY, 0.0),
+    };
     let sm = match mode as i64 {
         0 => path_smooth::plain(&run)?,
-        1 => path_smooth::smooth(&run, tol, false)?,
-        _ => path_smooth::smooth(&run, tol, true)?,
+        m => path_smooth::smooth_chunked(&run, tol, m > 1, chunk, margin)?,
     };
     let t1 = Instant::now();
     let path = Path::new(h, sm.len(), sm.stations(h))?;

@@ -118,7 +118,7 @@ impl<'a> Pl<'a> {
     fn seg(&self, y: f64) -> usize {
         let n = self.s.len();
         match self.uniform {
-            Some(h) => ((y / h).max(0.0) as usize).min(n - 2),
+            Some(h) => (((y - self.s[0]) / h).max(0.0) as usize).min(n - 2),
             None => self.s.partition_point(|x| *x <= y).clamp(1, n - 1) - 1,
         }
     }
@@ -284,6 +284,21 @@ fn gradient(f: &[[f64; 3]], x: &[f64]) -> Vec<[f64; 3]> {
 /// Smooths one run within `tol` (P, mm); `twice` makes up the averages'
 /// shrink of curves (for CAM polylines).
 pub fn smooth(run: &Polyline, tol: f64, twice: bool) -> Result<Smoothed, SmoothError> {
+    smooth_chunked(run, tol, twice, f64::INFINITY, 0.0)
+}
+
+/// `smooth`, worked out `chunk` mm of the run at a time, each with
+/// `margin` mm of the run on either side, and the chunks' middles put
+/// together: a point's smoothed place depends on the path near it only
+/// (the averages, the width's regularisation and the rounds reach about
+/// ±20 mm), which is what a look-ahead over a moving window needs.
+pub fn smooth_chunked(
+    run: &Polyline,
+    tol: f64,
+    twice: bool,
+    chunk: f64,
+    margin: f64,
+) -> Result<Smoothed, SmoothError> {
     let p0 = &run.p;
     let s0 = arc_length(run)?;
     let len = s0[s0.len() - 1];
@@ -297,15 +312,55 @@ pub fn smooth(run: &Polyline, tol: f64, twice: bool) -> Result<Smoothed, SmoothE
     let feed_line: Vec<[f64; 3]> = run.feed.iter().map(|f| [*f, 0.0, 0.0]).collect();
     let feed_pl = Pl::new(&s0, &feed_line, None);
     let feed: Vec<f64> = s.iter().map(|x| feed_pl.value(*x)[0]).collect();
+    let per = if chunk.is_finite() {
+        ((chunk / h).ceil() as usize).max(1)
+    } else {
+        n
+    };
+    let extra = (margin / h).ceil() as usize;
+    let (mut q, mut w) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    let mut i0 = 0;
+    while i0 < n {
+        let i1 = (i0 + per).min(n);
+        let (a, b) = (i0.saturating_sub(extra), (i1 + extra).min(n));
+        let (cq, cw) = smooth_range(&path, &s[a..b], &p[a..b], h, tol, twice)?;
+        q.extend_from_slice(&cq[i0 - a..i1 - a]);
+        w.extend_from_slice(&cw[i0 - a..i1 - a]);
+        i0 = i1;
+    }
+    // the largest distance, exactly: each point's search may stop at a
+    // programmed point nearer than the largest found so far
+    let mut exact = 0.0f64;
+    for i in 0..n {
+        let reach = (w[i] / h).ceil() as usize + 2;
+        exact = exact.max(nearest(&q[i], &p, i, reach, exact));
+    }
+    Ok(finish(q, w, feed, exact))
+}
+
+/// The smoothed points and widths on the grid `s` (a stretch of the run's
+/// grid, `h` apart; `p` the programmed path there): the rounds of the
+/// module's text. The first average reads the whole run (`path`); the
+/// others read what the stretch has, continued past its ends by
+/// reflection.
+fn smooth_range(
+    path: &Pl,
+    s: &[f64],
+    p: &[[f64; 3]],
+    h: f64,
+    tol: f64,
+    twice: bool,
+) -> Result<(Vec<[f64; 3]>, Vec<f64>), SmoothError> {
+    let n = s.len();
     let mut req = vec![W0; n];
     let mut w = regular(&req);
     let mut worst = f64::INFINITY;
     for _ in 0..ROUNDS {
-        let b1 = path.boxed(&w, &s);
-        let b = Pl::new(&s, &b1, Some(h)).boxed(&w, &s);
-        let q = if twice {
-            let bb1 = Pl::new(&s, &b, Some(h)).boxed(&w, &s);
-            let bb = Pl::new(&s, &bb1, Some(h)).boxed(&w, &s);
+        let b1 = path.boxed(&w, s);
+        let b = Pl::new(s, &b1, Some(h)).boxed(&w, s);
+        let q: Vec<[f64; 3]> = if twice {
+            let bb1 = Pl::new(s, &b, Some(h)).boxed(&w, s);
+            let bb = Pl::new(s, &bb1, Some(h)).boxed(&w, s);
             (0..n)
                 .map(|i| [0, 1, 2].map(|k| 2.0 * b[i][k] - bb[i][k]))
                 .collect()
@@ -319,18 +374,11 @@ pub fn smooth(run: &Polyline, tol: f64, twice: bool) -> Result<Smoothed, SmoothE
         // is at most a fraction of a µm over the distance to the path
         let mut dev = vec![0.0; n];
         for i in (0..n).filter(|i| dist(&q[*i], &p[*i]) > TARGET * tol) {
-            dev[i] = nearest(&q[i], &p, i, (w[i] / h).ceil() as usize + 2, TARGET * tol);
+            dev[i] = nearest(&q[i], p, i, (w[i] / h).ceil() as usize + 2, TARGET * tol);
         }
         worst = dev.iter().fold(0.0, |m: f64, d| m.max(*d));
         if worst <= DONE * tol {
-            // the largest distance, exactly: each point's search may stop
-            // at a programmed point nearer than the largest found so far
-            let mut exact = 0.0f64;
-            for i in 0..n {
-                let reach = (w[i] / h).ceil() as usize + 2;
-                exact = exact.max(nearest(&q[i], &p, i, reach, exact));
-            }
-            return Ok(finish(q, w, feed, exact));
+            return Ok((q, w));
         }
         for i in 0..n {
             if dev[i] > TARGET * tol {

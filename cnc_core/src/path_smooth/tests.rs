@@ -168,3 +168,33 @@ fn a_run_that_ends_on_an_arc_ends_on_its_end_point_with_no_curvature() {
     assert!((k(m / 2) - 1.0 / r).abs() < 0.01, "{}", k(m / 2));
     assert!(sm.dev <= 0.0098 + 1e-9, "{}", sm.dev);
 }
+
+#[test]
+fn worked_out_20_mm_at_a_time_with_20_mm_either_side_the_path_is_the_whole_runs() {
+    // a CAM-like polyline: a wave of 0.5 mm chords, and a square corner
+    let mut corners: Vec<[f64; 3]> = (0..=160)
+        .map(|i| {
+            let x = i as f64 * 0.5;
+            [x, 3.0 * (x / 7.0).sin(), 0.0]
+        })
+        .collect();
+    let end = corners[160];
+    corners.push([end[0], end[1] + 30.0, 0.0]);
+    let run = polyline(&corners, 100.0);
+    let whole = smooth(&run, 0.01, true).unwrap();
+    let parts = smooth_chunked(&run, 0.01, true, 20.0, 20.0).unwrap();
+    assert_eq!(whole.q.len(), parts.q.len());
+    let apart = |a: &Smoothed, b: &Smoothed| {
+        a.q.iter()
+            .zip(&b.q)
+            .map(|(a, b)| dist(a, b))
+            .fold(0.0, f64::max)
+    };
+    // within a nanometre of the whole run's path
+    let most = apart(&whole, &parts);
+    assert!(most < 1e-6, "{most}");
+    assert!(parts.dev <= 0.0098 + 1e-9, "{}", parts.dev);
+    // with 5 mm either side the chunks' ends show
+    let near = smooth_chunked(&run, 0.01, true, 20.0, 5.0).unwrap();
+    assert!(apart(&whole, &near) > 1e-4, "{}", apart(&whole, &near));
+}
