@@ -278,6 +278,22 @@ def plan_speed(sig, T, K, Kd, feed, V, A, J):
     return best[0]
 
 
+def run_rust(binary, args, head, body, dump_name, V, A, J):
+    """Runs examples/path_plan.rs on one run: the header line, the limits
+    line, the records; writes the input to G2_DUMP if set; adds the speed
+    stage's time to RUST_TIME; returns the numbers printed and stderr."""
+    text = head + "\n" + " ".join(repr(float(x)) for x in [V] * 3 + [A] * 3 + [J] * 3) + "\n" + body
+    if os.environ.get("G2_DUMP"):
+        with open(os.path.join(os.environ["G2_DUMP"], dump_name), "w") as f:
+            f.write(text)
+    res = subprocess.run([binary] + args, input=text, capture_output=True, text=True)
+    if res.returncode != 0:
+        raise SystemExit(f"{binary}: {res.stderr.strip()}")
+    w = res.stderr.split()
+    RUST_TIME[0] += float(w[w.index("speed") + 2])
+    return np.array([float(x) for x in res.stdout.split()]), w
+
+
 def rust_speed(binary, sig, T, K, Kd, feed, V, A, J):
     """The path position at every 1 ms sample from cnc_core::path_speed,
     on stations H_RUST apart."""
@@ -286,34 +302,19 @@ def rust_speed(binary, sig, T, K, Kd, feed, V, A, J):
     st = np.minimum(np.arange(n) * H_RUST, S)
     at = lambda arr: np.stack([np.interp(st, sig, arr[:, k]) for k in range(3)], axis=1)
     rows = np.hstack([at(T), at(K), at(Kd), np.interp(st, sig, feed)[:, None]])
-    head = f"{H_RUST!r} {float(S)!r} 0.001\n" + " ".join(repr(float(x)) for x in [V] * 3 + [A] * 3 + [J] * 3) + "\n"
     body = "\n".join(" ".join(repr(float(x)) for x in r) for r in rows)
-    if os.environ.get("G2_DUMP"):
-        with open(os.path.join(os.environ["G2_DUMP"], f"run_{S:.3f}.txt"), "w") as f:
-            f.write(head + body)
-    res = subprocess.run([binary, "stations"], input=head + body, capture_output=True, text=True)
-    if res.returncode != 0:
-        raise SystemExit(f"{binary}: {res.stderr.strip()}")
-    RUST_TIME[0] += float(res.stderr.split()[-2])
-    return np.array([float(x) for x in res.stdout.split()])
+    s, _ = run_rust(binary, ["stations"], f"{H_RUST!r} {float(S)!r} 0.001", body, f"run_{S:.3f}.txt", V, A, J)
+    return s
 
 
 def rust_plan(binary, p, feed, tol, mode, V, A, J):
     """Positions at every 1 ms sample of one run planned wholly by
     cnc_core (examples/path_plan.rs): smoothing and speed."""
-    head = f"{tol!r} {mode} 0.001 {H_RUST!r}\n" + " ".join(repr(float(x)) for x in [V] * 3 + [A] * 3 + [J] * 3) + "\n"
     body = "\n".join(f"{x!r} {y!r} {z!r} {float(f)!r}" for (x, y, z), f in zip(p.tolist(), feed))
-    if os.environ.get("G2_DUMP"):
-        with open(os.path.join(os.environ["G2_DUMP"], f"poly_{len(p)}.txt"), "w") as f:
-            f.write(head + body)
-    res = subprocess.run([binary], input=head + body, capture_output=True, text=True)
-    if res.returncode != 0:
-        raise SystemExit(f"{binary}: {res.stderr.strip()}")
-    w = res.stderr.split()
-    RUST_TIME[0] += float(w[w.index("speed") + 2])
+    xyz, w = run_rust(binary, [], f"{tol!r} {mode} 0.001 {H_RUST!r}", body, f"poly_{len(p)}.txt", V, A, J)
     RUST_SMOOTH[0] += float(w[w.index("smoothed") + 2])
-    print("  " + res.stderr.strip(), file=sys.stderr, flush=True)
-    return np.array([float(x) for x in res.stdout.split()]).reshape(-1, 3)
+    print("  " + " ".join(w), file=sys.stderr, flush=True)
+    return xyz.reshape(-1, 3)
 
 
 def grid_of(S, spacing):

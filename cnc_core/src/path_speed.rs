@@ -203,13 +203,13 @@ impl Planner {
     pub fn push(&mut self, st: Station) -> Result<(), SpeedError> {
         self.path.push(st)?;
         let i = self.path.count() - 1;
-        self.caps.push_back(self.v_cap(&st));
+        let c = self.v_cap(&st);
+        self.caps.push_back(c);
         self.clear.push_back((0.0, 0.0));
         // stations are grouped into stretches that are straight (curvature
         // and its change under `STRAIGHT`) with caps within `FLAT` of the
         // stretch's first; a station that does not join the open stretch
         // closes it
-        let c = self.cap(i);
         let starts = (!bent(&st)).then_some((i, c));
         match self.open {
             Some((_, c0)) if !bent(&st) && (c - c0).abs() <= FLAT * c0 => {}
@@ -472,7 +472,6 @@ impl Planner {
             if x.v > cap || x.s - from > cap * self.dt {
                 return No;
             }
-            let g = self.path.at(x.s);
             let Some(b) = self.bounds_at(x.s, x.v.max(0.0), x.a) else {
                 return No;
             };
@@ -490,7 +489,7 @@ impl Planner {
             if self.clearly_viable(x, &b, end) {
                 return Yes;
             }
-            let Some(next) = self.brake(&g, x, &b) else {
+            let Some(next) = self.brake(&self.path.at(x.s), x, &b) else {
                 return No;
             };
             sig = next;

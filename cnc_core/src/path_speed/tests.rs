@@ -39,6 +39,11 @@ fn circle(r: f64, feed: f64) -> impl Fn(f64) -> Station {
     }
 }
 
+/// The whole run of `p` under `l`: the path position at every sample.
+fn run(p: Path, l: AxisLimits) -> Vec<f64> {
+    Planner::new(p, l, DT).unwrap().run(200_000).unwrap()
+}
+
 /// The largest |first|, |second|, |third| finite difference of `x` over
 /// the sample time.
 fn diffs(x: &[f64]) -> [f64; 3] {
@@ -54,10 +59,7 @@ fn a_line_takes_the_rest_to_rest_s_curve_time_and_ends_on_its_end() {
     // 0 -> 100 mm/s at 1000 mm/s², 50 m/s³: 0.12 s and 6 mm each way,
     // 38 mm at 100 mm/s: 0.62 s in all
     let p = path(50.0, 0.05, line_x(100.0));
-    let s = Planner::new(p.clone(), lim(100.0, 1000.0, 5e4), DT)
-        .unwrap()
-        .run(10_000)
-        .unwrap();
+    let s = run(p, lim(100.0, 1000.0, 5e4));
     assert_eq!(s[0], 0.0);
     assert_eq!(*s.last().unwrap(), 50.0);
     let ticks = s.len() - 1;
@@ -73,10 +75,7 @@ fn a_line_takes_the_rest_to_rest_s_curve_time_and_ends_on_its_end() {
 fn a_short_line_is_run_on_the_jerk_alone() {
     // rest to rest on the jerk alone: t = (32 L / J)^(1/3) = 40 ms
     let p = path(0.1, 0.005, line_x(100.0));
-    let s = Planner::new(p.clone(), lim(100.0, 1000.0, 5e4), DT)
-        .unwrap()
-        .run(10_000)
-        .unwrap();
+    let s = run(p, lim(100.0, 1000.0, 5e4));
     let ticks = s.len() - 1;
     assert!((40..=43).contains(&ticks), "{ticks} samples");
     assert_eq!(*s.last().unwrap(), 0.1);
@@ -91,10 +90,7 @@ fn on_a_circle_the_jerk_of_the_axes_sets_the_speed() {
     let r = 2.0;
     let len = 5.0 * std::f64::consts::TAU * r;
     let p = path(len, 0.01, circle(r, 100.0));
-    let s = Planner::new(p.clone(), lim(100.0, 2000.0, 5e4), DT)
-        .unwrap()
-        .run(100_000)
-        .unwrap();
+    let s = run(p, lim(100.0, 2000.0, 5e4));
     assert_eq!(*s.last().unwrap(), len);
     let xy: Vec<[f64; 2]> = s
         .iter()
@@ -149,10 +145,7 @@ fn random_feeds_and_jerks_keep_every_limit_and_end_exactly() {
             })
             .collect();
         let p = Path::new(h, len, st).unwrap();
-        let s = Planner::new(p.clone(), lim(100.0, 1000.0, jerk), DT)
-            .unwrap()
-            .run(100_000)
-            .unwrap();
+        let s = run(p.clone(), lim(100.0, 1000.0, jerk));
         assert_eq!(*s.last().unwrap(), len, "case {case}");
         for (ax, dir) in [0.6, 0.8].into_iter().enumerate() {
             let x: Vec<f64> = s.iter().map(|s| s * dir).collect();
@@ -200,10 +193,7 @@ fn a_growing_path_refuses_what_a_run_cannot_be() {
     assert_eq!(e.to_string(), "path: a station after the run's end");
     assert!(Path::open(0.0).is_err());
     // a planner on it runs the 0.08 mm and ends there
-    let s = Planner::new(p, lim(100.0, 1000.0, 5e4), DT)
-        .unwrap()
-        .run(1000)
-        .unwrap();
+    let s = run(p, lim(100.0, 1000.0, 5e4));
     assert_eq!((s[0], *s.last().unwrap()), (0.0, 0.08));
 }
 
@@ -377,10 +367,7 @@ fn random_curves_and_jerks_from_20_to_1000_keep_every_axis_limit() {
         // the planner keeps 0.98 of the jerk and 0.999 of the acceleration,
         // as the bench does, for what sampling adds
         let plan = lim(vmax, 0.999 * amax, 0.98 * jerk);
-        let s = Planner::new(p.clone(), plan, DT)
-            .unwrap()
-            .run(200_000)
-            .unwrap();
+        let s = run(p, plan);
         assert_eq!(*s.last().unwrap(), len, "case {case}");
         assert!(
             s.windows(2).all(|w| w[1] >= w[0]),
@@ -439,10 +426,7 @@ fn stations_given_as_they_come_give_the_same_samples_bit_for_bit_in_bounded_memo
     let n = (len / h).ceil() as usize + 1;
     let all: Vec<Station> = (0..n).map(|i| shape((i as f64 * h).min(len))).collect();
     let limits = lim(100.0, 1000.0, 5e4);
-    let batch = Planner::new(Path::new(h, len, all.clone()).unwrap(), limits, DT)
-        .unwrap()
-        .run(100_000)
-        .unwrap();
+    let batch = run(Path::new(h, len, all.clone()).unwrap(), limits);
     // the same stations in chunks of 1 to 400, each given only when the
     // planner asks for more
     let mut seed = 7u64;
