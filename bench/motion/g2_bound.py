@@ -57,8 +57,9 @@ linear programs by the controller's speed stage (cnc_core::path_speed,
 G2_SPEED=target/release/examples/path_plan): the same geometry, every
 1 ms sample's path position from the Rust planner. G2_PLAN=BINARY
 (the same binary) hands each run's programmed polyline to the Rust
-geometry and speed stages (cnc_core::path_smooth, path_speed) instead:
-this script then only parses, samples the program and judges.
+geometry and speed stages (cnc_core::path_smooth, path_speed) instead,
+streamed as a look-ahead would (PATH_PLAN_CHUNK=C,M: the geometry C mm
+at a time with M mm either side; without it, each run whole): this script then only parses, samples the program and judges.
 """
 import argparse
 import math

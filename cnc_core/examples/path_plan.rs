@@ -14,8 +14,11 @@
 //! x y z feed             (one line per point of the run's polyline)
 //! ```
 //!
-//! With `PATH_PLAN_CHUNK=C,M` the geometry is worked out C mm of the run at
-//! a time, with M mm on either side (`path_smooth::smooth_chunked`).
+//! Modes 1 and 2 run both stages as a look-ahead would
+//! (`path_smooth::Stream` into `path_speed::Planner`, the points a batch
+//! at a time, each stage forgetting what lies behind the samples). With
+//! `PATH_PLAN_CHUNK=C,M` the geometry is worked out C mm of the run at a
+//! time, with M mm on either side; without it, the whole run at its end.
 //!
 //! `path_plan stations` (`G2_SPEED`): the speed stage alone on stations
 //! the caller smoothed; prints the path position at every sample. Input:
@@ -26,7 +29,7 @@
 //! tx ty tz kx ky kz k'x k'y k'z feed      (one line per station)
 //! ```
 
-use cnc_core::path_smooth::{self, Polyline};
+use cnc_core::path_smooth::{self, Polyline, Stream};
 use cnc_core::path_speed::{AxisLimits, Path, Planner, Station};
 use std::io::{Read, Write};
 use std::time::Instant;
@@ -98,28 +101,91 @@ fn plan(nums: &[f64]) -> Res<()> {
         }
         Err(_) => (f64::INFINITY, 0.0),
     };
-    let sm = match mode as i64 {
-        0 => path_smooth::plain(&run)?,
-        m => path_smooth::smooth_chunked(&run, tol, m > 1, chunk, margin)?,
-    };
-    let t1 = Instant::now();
-    let path = Path::new(h, sm.len(), sm.stations(h))?;
-    let s = Planner::new(path, lim, dt)?.run(10_000_000)?;
-    let t2 = Instant::now();
-    let wmin = sm.w.iter().cloned().fold(f64::INFINITY, f64::min);
-    eprintln!(
-        "path_plan: {} samples; smoothed in {:.3} s (dev {:.2} um, w from {:.4} mm), speed in {:.3} s",
-        s.len() - 1,
-        (t1 - t0).as_secs_f64(),
-        sm.dev * 1000.0,
-        wmin,
-        (t2 - t1).as_secs_f64()
-    );
-    let mut out = std::io::BufWriter::new(std::io::stdout().lock());
-    for x in s {
-        let p = sm.point(x);
-        writeln!(out, "{:.12e} {:.12e} {:.12e}", p[0], p[1], p[2])?;
+    if mode as i64 == 0 {
+        let sm = path_smooth::plain(&run)?;
+        let t1 = Instant::now();
+        let path = Path::new(h, sm.len(), sm.stations(h))?;
+        let s = Planner::new(path, lim, dt)?.run(10_000_000)?;
+        eprintln!(
+            "path_plan: {} samples; smoothed in {:.3} s (as programmed), speed in {:.3} s",
+            s.len() - 1,
+            (t1 - t0).as_secs_f64(),
+            t1.elapsed().as_secs_f64()
+        );
+        let mut out = std::io::BufWriter::new(std::io::stdout().lock());
+        for x in s {
+            let p = sm.point(x);
+            writeln!(out, "{:.12e} {:.12e} {:.12e}", p[0], p[1], p[2])?;
+        }
+        return Ok(());
     }
+    streamed(&run, [tol, mode, dt, h, chunk, margin], lim)
+}
+
+/// Both stages as a look-ahead runs them: the run's points come a batch at
+/// a time, the geometry hands the speed stage the stations it has worked
+/// out, the samples come out as soon as they are decided, and each stage
+/// forgets what lies behind them.
+fn streamed(
+    run: &Polyline,
+    [tol, mode, dt, h, chunk, margin]: [f64; 6],
+    lim: AxisLimits,
+) -> Res<()> {
+    const BATCH: usize = 256;
+    let mut geo = Stream::new(tol, mode > 1.5, chunk, margin, h)?;
+    let mut speed = Planner::new(Path::open(h)?, lim, dt)?;
+    let mut out = std::io::BufWriter::new(std::io::stdout().lock());
+    let (mut stations, mut xs) = (Vec::new(), Vec::new());
+    // samples, the most grid points and stations kept, each stage's time
+    let (mut samples, mut most, mut took) = (0usize, (0usize, 0usize), (0.0, 0.0));
+    let n = run.p.len();
+    for i in (0..n).step_by(BATCH) {
+        let t0 = Instant::now();
+        for (p, f) in run.p[i..(i + BATCH).min(n)].iter().zip(&run.feed[i..]) {
+            geo.push(*p, *f)?;
+        }
+        if i + BATCH >= n {
+            geo.finish()?;
+        }
+        geo.advance(&mut stations)?;
+        let t1 = Instant::now();
+        for st in stations.drain(..) {
+            speed.push(st)?;
+        }
+        if let Some(len) = geo.len() {
+            speed.finish(len)?;
+        }
+        while let Some(x) = speed.next_sample()? {
+            xs.push(x);
+        }
+        let t2 = Instant::now();
+        for x in &xs {
+            let p = geo
+                .point(*x)
+                .ok_or("a sample before the geometry has two points")?;
+            writeln!(out, "{:.12e} {:.12e} {:.12e}", p[0], p[1], p[2])?;
+        }
+        samples += xs.len();
+        most = (most.0.max(geo.kept()), most.1.max(speed.path().kept()));
+        if let Some(x) = xs.last() {
+            geo.forget_before(*x);
+        }
+        xs.clear();
+        took.0 += (t1 - t0).as_secs_f64();
+        took.1 += (t2 - t1).as_secs_f64();
+    }
+    if !speed.arrived() {
+        return Err("the run did not come to rest on its end".into());
+    }
+    eprintln!(
+        "path_plan: {} samples; smoothed in {:.3} s (dev {:.2} um, streamed: at most {} grid points and {} stations kept), speed in {:.3} s",
+        samples - 1,
+        took.0,
+        geo.dev() * 1000.0,
+        most.0,
+        most.1,
+        took.1
+    );
     Ok(())
 }
 

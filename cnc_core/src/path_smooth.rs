@@ -3,8 +3,8 @@
 //! between rests, given as a dense polyline on the programmed path, becomes
 //! a smooth path within the path tolerance P, independent of speed, and
 //! then the stations `path_speed` plans on. Not wired into the executor
-//! yet; it works on a whole run in memory (the look-ahead will need it
-//! over a window).
+//! yet; `Stream` (`stream.rs`) works a run out over a moving window, as
+//! a look-ahead has it.
 //!
 //! **The smoothing.** A moving average in arc length, taken twice, turns
 //! a kink into a curvature ramp and a curvature step into a smooth one
@@ -258,29 +258,6 @@ fn nearest(x: &[f64; 3], p: &[[f64; 3]], i: usize, reach: usize, enough: f64) ->
     best.sqrt()
 }
 
-/// Derivative of `f` on the grid `x` as numpy's `gradient` takes it:
-/// second order inside, first order at the ends.
-fn gradient(f: &[[f64; 3]], x: &[f64]) -> Vec<[f64; 3]> {
-    let n = f.len();
-    (0..n)
-        .map(|i| {
-            if i == 0 {
-                let h = x[1] - x[0];
-                [0, 1, 2].map(|k| (f[1][k] - f[0][k]) / h)
-            } else if i == n - 1 {
-                let h = x[n - 1] - x[n - 2];
-                [0, 1, 2].map(|k| (f[n - 1][k] - f[n - 2][k]) / h)
-            } else {
-                let (h1, h2) = (x[i] - x[i - 1], x[i + 1] - x[i]);
-                let a = -h2 / (h1 * (h1 + h2));
-                let b = (h2 - h1) / (h1 * h2);
-                let c = h1 / (h2 * (h1 + h2));
-                [0, 1, 2].map(|k| a * f[i - 1][k] + b * f[i][k] + c * f[i + 1][k])
-            }
-        })
-        .collect()
-}
-
 /// Smooths one run within `tol` (P, mm); `twice` makes up the averages'
 /// shrink of curves (for CAM polylines).
 pub fn smooth(run: &Polyline, tol: f64, twice: bool) -> Result<Smoothed, SmoothError> {
@@ -299,43 +276,16 @@ pub fn smooth_chunked(
     chunk: f64,
     margin: f64,
 ) -> Result<Smoothed, SmoothError> {
-    let p0 = &run.p;
-    let s0 = arc_length(run)?;
-    let len = s0[s0.len() - 1];
-    let n = ((len / DS).ceil() as usize).max(1) + 1;
-    let h = len / (n - 1) as f64;
-    let s: Vec<f64> = (0..n)
-        .map(|i| if i + 1 == n { len } else { i as f64 * h })
-        .collect();
-    let path = Pl::new(&s0, p0, None);
-    let p: Vec<[f64; 3]> = s.iter().map(|x| path.value(*x)).collect();
-    let feed_line: Vec<[f64; 3]> = run.feed.iter().map(|f| [*f, 0.0, 0.0]).collect();
-    let feed_pl = Pl::new(&s0, &feed_line, None);
-    let feed: Vec<f64> = s.iter().map(|x| feed_pl.value(*x)[0]).collect();
-    let per = if chunk.is_finite() {
-        ((chunk / h).ceil() as usize).max(1)
-    } else {
-        n
-    };
-    let extra = (margin / h).ceil() as usize;
-    let (mut q, mut w) = (Vec::with_capacity(n), Vec::with_capacity(n));
-    let mut i0 = 0;
-    while i0 < n {
-        let i1 = (i0 + per).min(n);
-        let (a, b) = (i0.saturating_sub(extra), (i1 + extra).min(n));
-        let (cq, cw) = smooth_range(&path, &s[a..b], &p[a..b], h, tol, twice)?;
-        q.extend_from_slice(&cq[i0 - a..i1 - a]);
-        w.extend_from_slice(&cw[i0 - a..i1 - a]);
-        i0 = i1;
+    if run.feed.len() != run.p.len() {
+        return Err(SmoothError::BadRun(
+            "fewer than two points, or not one feed per point",
+        ));
     }
-    // the largest distance, exactly: each point's search may stop at a
-    // programmed point nearer than the largest found so far
-    let mut exact = 0.0f64;
-    for i in 0..n {
-        let reach = (w[i] / h).ceil() as usize + 2;
-        exact = exact.max(nearest(&q[i], &p, i, reach, exact));
+    let mut st = Stream::new(tol, twice, chunk, margin, 1.0)?;
+    for (p, f) in run.p.iter().zip(&run.feed) {
+        st.push(*p, *f)?;
     }
-    Ok(finish(q, w, feed, exact))
+    st.into_smoothed()
 }
 
 /// The smoothed points and widths on the grid `s` (a stretch of the run's
@@ -437,13 +387,10 @@ fn finish(q: Vec<[f64; 3]>, w: Vec<f64>, feed: Vec<f64>, dev: f64) -> Smoothed {
         // points the smoothing put in one place keep the grid's order
         sig[j] = sig[j - 1] + dist(&q[j], &q[j - 1]).max(1e-12);
     }
-    let mut t = gradient(&q, &sig);
-    for v in &mut t {
-        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-300);
-        *v = v.map(|c| c / n);
-    }
-    let k = gradient(&t, &sig);
-    let kd = gradient(&k, &sig);
+    let (mut t, mut k, mut kd) = (Vec::new(), Vec::new(), Vec::new());
+    stream::extend(&mut t, &q, &sig, true, true);
+    stream::extend(&mut k, &t, &sig, true, false);
+    stream::extend(&mut kd, &k, &sig, true, false);
     Smoothed {
         q,
         sig,
@@ -490,24 +437,12 @@ impl Smoothed {
     /// The point at arc length `x`: cubic Hermite between grid points, from
     /// their positions and tangents.
     pub fn point(&self, x: f64) -> [f64; 3] {
-        let sig = &self.sig;
-        let n = sig.len();
-        let j = sig.partition_point(|y| *y <= x).clamp(1, n - 1) - 1;
-        let h = sig[j + 1] - sig[j];
-        let u = ((x - sig[j]) / h).clamp(0.0, 1.0);
-        let (h00, h10) = (
-            2.0 * u * u * u - 3.0 * u * u + 1.0,
-            u * u * u - 2.0 * u * u + u,
-        );
-        let (h01, h11) = (-2.0 * u * u * u + 3.0 * u * u, u * u * u - u * u);
-        [0, 1, 2].map(|k| {
-            h00 * self.q[j][k]
-                + h10 * h * self.t[j][k]
-                + h01 * self.q[j + 1][k]
-                + h11 * h * self.t[j + 1][k]
-        })
+        stream::hermite(&self.sig, &self.q, &self.t, x)
     }
 }
+
+mod stream;
+pub use stream::Stream;
 
 #[cfg(test)]
 mod tests;

@@ -140,6 +140,9 @@ pub struct Planner {
     arrived: bool,
     /// Samples held back (for the end's smooth step), oldest first.
     out: VecDeque<f64>,
+    /// How many stations the last sample tried needed (no sample is
+    /// tried again before they have come).
+    need: usize,
     /// The last few `bounds_at` answers.
     memo: std::cell::RefCell<[([u64; 3], Option<Bounds>); MEMO]>,
 }
@@ -149,8 +152,8 @@ pub struct Planner {
 enum Verdict {
     Yes,
     No,
-    /// It needs stations that have not come yet.
-    Unknown,
+    /// It needs stations that have not come yet: this many in all.
+    Unknown(usize),
 }
 
 /// The limits at one state: the allowed path acceleration and jerk.
@@ -184,6 +187,7 @@ impl Planner {
             arrived: false,
             out: VecDeque::from([0.0]),
             memo: std::cell::RefCell::new([([u64::MAX; 3], None); MEMO]),
+            need: 0,
         };
         for st in path.st {
             p.push(st)?;
@@ -463,9 +467,9 @@ impl Planner {
             if x.s > end + 1e-9 || x.v < -1e-6 {
                 return No;
             }
-            if !self.path.finished && (x.s.max(0.0) / self.path.h) as usize + 1 >= self.path.count()
-            {
-                return Unknown;
+            let i = (x.s.max(0.0) / self.path.h) as usize;
+            if !self.path.finished && i + 1 >= self.path.count() {
+                return Unknown(i + 2);
             }
             // the speed at the sample and over it (the setpoints' difference)
             let cap = self.cap_over(from, x.s) * (1.0 + 1e-12) + 1e-12;
@@ -502,7 +506,7 @@ impl Planner {
     /// One sample: the largest jerk whose next state is viable. `None`
     /// while that needs stations that have not come yet (nothing moves).
     fn tick(&mut self) -> Result<Option<()>, SpeedError> {
-        if self.path.count() < 2 {
+        if self.path.count() < 2 || (!self.path.finished && self.path.count() < self.need) {
             return Ok(None);
         }
         let x = self.x;
@@ -517,19 +521,18 @@ impl Planner {
         } else {
             self.brake(&g, x, &b).unwrap_or(b.s_lo)
         };
-        let mut unknown = false;
-        let mut ok = |sig: f64| match self.viable(x.s, x.step(sig, self.dt), sig) {
-            Verdict::Yes => true,
-            Verdict::No => false,
-            Verdict::Unknown => {
-                unknown = true;
-                false
-            }
+        // a probe that needs stations still to come ends the try: the
+        // sample is tried again, from the start, once they have come
+        let ok = |sig: f64| match self.viable(x.s, x.step(sig, self.dt), sig) {
+            Verdict::Yes => Ok(true),
+            Verdict::No => Ok(false),
+            Verdict::Unknown(n) => Err(n),
         };
         let top = self.within_both(x, b.s_hi, &b);
-        let sig = if ok(top) {
-            top
-        } else {
+        let choose = || -> Result<f64, usize> {
+            if ok(top)? {
+                return Ok(top);
+            }
             // bisection, first about the last sample's jerk (the
             // boundary often moves little from one sample to the next)
             let (mut lo, mut hi) = (safe, top.max(safe));
@@ -537,7 +540,7 @@ impl Planner {
             let near = self.last.clamp(lo, hi);
             for probe in [near + WARM * width, near - WARM * width] {
                 if probe > lo && probe < hi {
-                    if ok(probe) {
+                    if ok(probe)? {
                         lo = probe;
                     } else {
                         hi = probe;
@@ -549,17 +552,21 @@ impl Planner {
                     break;
                 }
                 let mid = 0.5 * (lo + hi);
-                if ok(mid) {
+                if ok(mid)? {
                     lo = mid;
                 } else {
                     hi = mid;
                 }
             }
-            lo
+            Ok(lo)
         };
-        if unknown {
-            return Ok(None);
-        }
+        let sig = match choose() {
+            Ok(sig) => sig,
+            Err(n) => {
+                self.need = n;
+                return Ok(None);
+            }
+        };
         self.last = sig;
         let mut x = x.step(sig, self.dt);
         if x.v <= REST_V && x.a.abs() <= 1e-6 {

@@ -198,3 +198,93 @@ fn worked_out_20_mm_at_a_time_with_20_mm_either_side_the_path_is_the_whole_runs(
     let near = smooth_chunked(&run, 0.01, true, 20.0, 5.0).unwrap();
     assert!(apart(&whole, &near) > 1e-4, "{}", apart(&whole, &near));
 }
+
+/// A CAM-like run 200 mm long: a wave of 0.5 mm chords, then a square
+/// corner and a straight.
+fn long_wave() -> Polyline {
+    let mut corners: Vec<[f64; 3]> = (0..=340)
+        .map(|i| {
+            let x = i as f64 * 0.5;
+            [x, 3.0 * (x / 7.0).sin(), 0.1 * (x / 11.0).cos()]
+        })
+        .collect();
+    let end = corners[340];
+    corners.push([end[0], end[1] + 30.0, end[2]]);
+    polyline(&corners, 100.0)
+}
+
+#[test]
+fn streamed_point_by_point_the_stations_are_the_chunked_runs_and_the_window_stays_small() {
+    let run = long_wave();
+    let h = 0.05;
+    let whole = smooth(&run, 0.01, true).unwrap();
+    let chunked = smooth_chunked(&run, 0.01, true, 40.0, 20.0).unwrap();
+    let want = chunked.stations(h);
+    let mut st = Stream::new(0.01, true, 40.0, 20.0, h).unwrap();
+    let mut got = Vec::new();
+    let (mut most_kept, mut most_off, mut checked) = (0, 0.0f64, 0);
+    for (i, (p, f)) in run.p.iter().zip(&run.feed).enumerate() {
+        st.push(*p, *f).unwrap();
+        if i % 100 == 99 {
+            st.advance(&mut got).unwrap();
+            // the samples lag 10 mm behind the stations
+            let x = (got.len() as f64 * h - 10.0).max(0.0);
+            if x > 0.0 {
+                // where the samples are, the point is the whole run's
+                let q = st.point(x).unwrap();
+                most_off = most_off.max(dist(&q, &whole.point(x)));
+                checked += 1;
+            }
+            st.forget_before(x);
+            most_kept = most_kept.max(st.kept());
+        }
+    }
+    st.finish().unwrap();
+    st.advance(&mut got).unwrap();
+    assert!(checked > 100, "{checked}");
+    assert!(most_off < 1e-6, "{most_off} mm from the whole run's path");
+    // the window: the chunk, its margins and the lag, not the run
+    // (about 50 000 grid points)
+    let total = whole.q.len();
+    assert!(total > 49_000, "{total}");
+    assert!(most_kept < total / 2, "{most_kept} of {total}");
+    // the stations, bit for bit but for rounding
+    assert_eq!(got.len(), want.len());
+    let mut worst = 0.0f64;
+    for (a, b) in got.iter().zip(&want) {
+        worst = worst
+            .max(dist(&a.t, &b.t))
+            .max(dist(&a.k, &b.k) / 100.0)
+            .max(dist(&a.kd, &b.kd) / 1e4)
+            .max((a.feed - b.feed).abs() / 100.0);
+    }
+    assert!(worst < 1e-9, "{worst}");
+    assert!((st.len().unwrap() - chunked.len()).abs() < 1e-9);
+    assert!((st.dev() - chunked.dev).abs() < 1e-12 && st.dev() <= 0.0098 + 1e-9);
+    // the last station is the path's end
+    assert_eq!(got.len(), (chunked.len() / h).ceil() as usize + 1);
+}
+
+#[test]
+fn a_stream_refuses_bad_points_and_a_run_too_short() {
+    let err = |r: Result<(), SmoothError>| format!("{}", r.unwrap_err());
+    assert!(Stream::new(0.0, false, 40.0, 20.0, 0.05).is_err());
+    assert!(Stream::new(0.01, false, 40.0, 20.0, f64::NAN).is_err());
+    let mut st = Stream::new(0.01, false, 40.0, 20.0, 0.05).unwrap();
+    st.push([0.0; 3], 100.0).unwrap();
+    assert!(err(st.finish()).contains("fewer than two points"));
+    assert!(err(st.push([f64::NAN, 0.0, 0.0], 100.0)).contains("not finite"));
+    assert!(err(st.push([1.0, 0.0, 0.0], 0.0)).contains("not positive"));
+    assert!(err(st.push([0.0; 3], 100.0)).contains("two points in one place"));
+    st.push([1.0, 0.0, 0.0], 100.0).unwrap();
+    st.finish().unwrap();
+    assert!(err(st.push([2.0, 0.0, 0.0], 100.0)).contains("after the run's end"));
+    let mut out = Vec::new();
+    st.advance(&mut out).unwrap();
+    // a 1 mm straight: stations every 0.05 mm, the last on its end
+    assert_eq!(out.len(), 21);
+    assert!((st.len().unwrap() - 1.0).abs() < 1e-9);
+    assert!(out
+        .iter()
+        .all(|s| (s.t[0] - 1.0).abs() < 1e-9 && s.feed == 100.0));
+}
