@@ -11,6 +11,7 @@ use crate::interp::Interpreter;
 use crate::limits::MovePrep;
 use crate::machine::Machine;
 use crate::parse::{parse_words, Appended, Word};
+use crate::path_run::RunLimits;
 use crate::pipeline::{Estimate, Front, Totals};
 use crate::plan::PlanLimits;
 use crate::source::{ProgramSource, SourceError, SourcePos};
@@ -82,7 +83,7 @@ const IN_FLIGHT: usize = 4;
 pub fn check<S: ProgramSource>(source: S, dialect: Dialect, machine: &Machine) -> CheckReport {
     let lim = PlanLimits::from_machine(machine);
     let mut interp = Interpreter::new(source, dialect, machine).with_loop_scan();
-    let mut plan = Estimate::new(lim);
+    let mut plan = Estimate::new(lim, path_limits(machine));
     let mut first = VecDeque::with_capacity(FIRST_EVENTS);
     if interp.fill(&mut first, FIRST_EVENTS) {
         return check_concurrently(interp, plan, first, dialect, machine);
@@ -107,12 +108,18 @@ fn one_thread<S: ProgramSource>(
     }
 }
 
+/// The path planner's limits and the path tolerance at the start, on a
+/// machine that plans with it.
+fn path_limits(machine: &Machine) -> Option<(RunLimits, f64)> {
+    RunLimits::for_machine(machine).map(|l| (l, machine.planner.path_tolerance_mm))
+}
+
 fn report<T: ProgramSource>(
     interp: &Interpreter<T, Front>,
     totals: Totals,
     lim: PlanLimits,
 ) -> CheckReport {
-    CheckReport {
+    let mut r = CheckReport {
         blocks: interp.blocks(),
         moves: totals.moves,
         duration_s: totals.tl.group_k0 as f64 * lim.dt,
@@ -120,7 +127,19 @@ fn report<T: ProgramSource>(
         bbox: interp.path_bbox(),
         errors: interp.errors().to_vec(),
         error_count: interp.error_count(),
+    };
+    if let Some((line, why)) = totals.path_error {
+        // (a program the path planner cannot plan, though every block is
+        // right: nothing of it may run)
+        r.errors.push(Diagnostic::new(
+            line,
+            1,
+            1,
+            format!("the path planner cannot plan this: {why}"),
+        ));
+        r.error_count += 1;
     }
+    r
 }
 
 /// The source of an interpreter whose lines come from the check's reader.
@@ -360,7 +379,7 @@ fn check_concurrently<S: ProgramSource>(
                 }
                 one_thread(
                     Interpreter::new(source, dialect, machine).with_loop_scan(),
-                    Estimate::new(lim),
+                    Estimate::new(lim, path_limits(machine)),
                     lim,
                 )
             }
@@ -413,7 +432,16 @@ mod tests {
             ended |= ev.is_none();
         }
         let moves = moves - planner.split_extra();
-        report(&interp, Totals { tl, moves, ended }, lim)
+        report(
+            &interp,
+            Totals {
+                tl,
+                moves,
+                ended,
+                path_error: None,
+            },
+            lim,
+        )
     }
 
     /// A long program of every kind of block, errors included: arcs

@@ -44,6 +44,7 @@ use crate::geom::V3;
 use crate::interp::Modal;
 use crate::jerk::{PathFilter, Smoother};
 use crate::machine::Machine;
+use crate::path_run::Step;
 use crate::pipeline::Pipeline;
 use crate::plan::{Item, PlanLimits, PlannedMove};
 use crate::source::ProgramSource;
@@ -114,6 +115,15 @@ enum Cur {
     Thread(ThreadRun),
     /// a controlled stop along a thread block, then the end
     Stop(StopRun),
+}
+
+/// What the path planner hands the executor next.
+// one value at a time: boxing would only add an allocation
+#[allow(clippy::large_enum_variant)]
+enum PathOut {
+    Item(Option<Item>),
+    /// a sample to hand out (`None`: the run is over)
+    Sample(Option<Sample>),
 }
 
 #[derive(Clone, Copy)]
@@ -250,6 +260,8 @@ pub struct Executor<S> {
     accel_lag: V3,
     /// the spindle acceleration that lead multiplies, averaged
     lead_acc: LeadAccel,
+    /// with the path planner: the last sample's path position in its run
+    path_x: f64,
 }
 
 /// The σ nearest `bad` within `ok`, by bisection between `bad` (where
@@ -287,8 +299,11 @@ struct SpindleNow {
 impl<S: ProgramSource> Executor<S> {
     pub fn new(source: S, dialect: Dialect, machine: &Machine) -> Self {
         let lim = PlanLimits::from_machine(machine);
+        let pipe = Pipeline::new(source, dialect, machine);
+        // (the path planner's samples keep every limit themselves)
+        let filters = !pipe.path_planner();
         Executor {
-            pipe: Pipeline::new(source, dialect, machine),
+            pipe,
             dt: lim.dt,
             k: 0,
             vk: 0.0,
@@ -320,8 +335,10 @@ impl<S: ProgramSource> Executor<S> {
             halt: false,
             thread_v: 0.0,
             // (a path filter of one sample is none: the raw point's bits)
-            path: (lim.jerk.m_s > 1).then(|| PathFilter::new(lim.jerk.m_s, 0.0, machine.home())),
-            smooth: (lim.jerk.m_f > 1).then(|| Smoother::new(lim.jerk.m_f, machine.home())),
+            path: (filters && lim.jerk.m_s > 1)
+                .then(|| PathFilter::new(lim.jerk.m_s, 0.0, machine.home())),
+            smooth: (filters && lim.jerk.m_f > 1)
+                .then(|| Smoother::new(lim.jerk.m_f, machine.home())),
             filters: (lim.jerk.m_s, lim.jerk.m_f),
             filters_now: (lim.jerk.m_s, lim.jerk.m_f),
             own_m: 0,
@@ -338,6 +355,7 @@ impl<S: ProgramSource> Executor<S> {
             servo_lag: machine.servo_lag_s(),
             accel_lag: machine.servo_accel_lag_s2() * machine.interpolation.thread_accel_lead,
             lead_acc: LeadAccel::new(lim.dt),
+            path_x: 0.0,
         }
     }
 
@@ -963,7 +981,14 @@ impl<S: ProgramSource> Executor<S> {
                 return Some(self.still_sample());
             }
             if self.cur.is_none() {
-                let item = self.next_item();
+                let item = if self.pipe.path_planner() {
+                    match self.path_step() {
+                        PathOut::Item(item) => item,
+                        PathOut::Sample(s) => return s,
+                    }
+                } else {
+                    self.next_item()
+                };
                 if self.fault.is_some() && !matches!(item, Some(Item::Move(_))) {
                     // stopped (what is not a move comes after a stop): the
                     // run ends here
@@ -1105,6 +1130,38 @@ impl<S: ProgramSource> Executor<S> {
                     return Some(s);
                 }
                 None => {}
+            }
+        }
+    }
+
+    /// With the path planner: the next planned item, or the sample to hand
+    /// out (a run's; the end, after an error).
+    fn path_step(&mut self) -> PathOut {
+        loop {
+            match self.pipe.path_step() {
+                Ok(Some(Step::Sample { x, pos, src, last })) => {
+                    self.src = src;
+                    self.pos = pos;
+                    if last {
+                        // at rest on the run's end: this tick is the first
+                        // of what follows
+                        self.path_x = 0.0;
+                        let k = self.vk.round() as u64;
+                        self.pipe.timeline.finish_group_at(k);
+                        continue;
+                    }
+                    let speed = (x - self.path_x) / self.dt;
+                    self.path_x = x;
+                    let s = self.sample(pos, speed, false);
+                    self.advance(1.0);
+                    return PathOut::Sample(Some(s));
+                }
+                Ok(Some(Step::Item(item))) => return PathOut::Item(Some(item)),
+                Ok(None) => return PathOut::Item(None),
+                Err(why) => {
+                    self.fault = Some(format!("line {}: {why}", self.src.line));
+                    return PathOut::Sample(self.end_at(self.pos));
+                }
             }
         }
     }

@@ -26,6 +26,7 @@ pub mod jerk;
 pub mod limits;
 pub mod machine;
 pub mod parse;
+pub mod path_run;
 pub mod path_smooth;
 pub mod path_speed;
 pub mod pipeline;

@@ -110,6 +110,27 @@ pub struct PlannerConfig {
     /// programs set it with `G64 P<mm>`)
     #[serde(default)]
     pub path_tolerance_mm: f64,
+    /// how the path is planned: `"filters"` (the look-ahead of
+    /// trapezoidal profiles, corner blends and jerk filters) or `"path"`
+    /// (runs smoothed within P and planned sample by sample under every
+    /// axis's jerk limit, `crate::path_run`)
+    #[serde(default)]
+    pub method: PlanMethod,
+}
+
+/// How the path is planned ([`PlannerConfig::method`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PlanMethod {
+    #[default]
+    Filters,
+    Path,
+}
+
+impl PlanMethod {
+    pub fn is_path(self) -> bool {
+        self == PlanMethod::Path
+    }
 }
 
 fn default_exact_stop() -> f64 {
@@ -125,6 +146,7 @@ impl Default for PlannerConfig {
             exact_stop_angle_deg: default_exact_stop(),
             lookahead_blocks: default_lookahead(),
             path_tolerance_mm: 0.0,
+            method: PlanMethod::Filters,
         }
     }
 }

@@ -2,9 +2,9 @@
 //! `bench/motion/g2_bound.py` prototypes it in Python): a run of moves
 //! between rests, given as a dense polyline on the programmed path, becomes
 //! a smooth path within the path tolerance P, independent of speed, and
-//! then the stations `path_speed` plans on. Not wired into the executor
-//! yet; `Stream` (`stream.rs`) works a run out over a moving window, as
-//! a look-ahead has it.
+//! then the stations `path_speed` plans on: the path planner's geometry
+//! (`crate::path_run`). `Stream` (`stream.rs`) works a run out over a
+//! moving window, as the path planner has it.
 //!
 //! **The smoothing.** A moving average in arc length, taken twice, turns
 //! a kink into a curvature ramp and a curvature step into a smooth one
@@ -39,7 +39,7 @@ pub const W0: f64 = 3.0;
 /// The share of P the smoothed path may use.
 const TARGET: f64 = 0.95;
 /// The smoothing is done once no point is further off than this share of P.
-const DONE: f64 = 0.98;
+const DONE: f64 = TARGET;
 /// How fast the width may change, mm per mm.
 const SLOPE: f64 = 0.5;
 /// Rounds of narrowing, at most.

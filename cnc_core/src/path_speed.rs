@@ -1,9 +1,9 @@
 //! Jerk-limited speed along a smooth path, one sample at a time.
 //!
-//! This is the speed stage of a planner without setpoint filters (issue 17's
-//! way on; `bench/motion/g2_bound.py` prototypes it with linear programs).
-//! It is not wired into the executor yet: the bench binary
-//! `cnc_core/examples/path_plan.rs` runs it on the prototype's geometry.
+//! This is the speed stage of the path planner (`crate::path_run`, a
+//! machine's `[planner] method = "path"`; `bench/motion/g2_bound.py`
+//! prototypes it with linear programs, and the bench binary
+//! `cnc_core/examples/path_plan.rs` runs it on the prototype's geometry).
 //!
 //! The path is given at stations a fixed arc length apart: the unit tangent
 //! `T`, its derivative along the path `K = dT/ds` (the curvature vector) and
@@ -51,6 +51,16 @@
 //! the result: on a straight stretch with no lower cap ahead, a braking
 //! that certainly ends within it is not simulated (`clearly_viable`), and
 //! the last few bounds are remembered by their state's bits.
+
+/// The point at a path position, for the samples' own check.
+pub type Point<'a> = &'a dyn Fn(f64) -> [f64; 3];
+
+/// Lower jerks tried where the planner's does not keep the samples' own
+/// check (`check_samples`): these shares of the way down to the braking
+/// rule's.
+const SAMPLED_TRIES: [f64; 10] = [
+    0.004, 0.016, 0.031, 0.063, 0.125, 0.25, 0.375, 0.5, 0.75, 1.0,
+];
 
 /// Per-axis limits (X, Y, Z): velocity mm/s, acceleration mm/s², jerk mm/s³.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -143,6 +153,9 @@ pub struct Planner {
     /// How many stations the last sample tried needed (no sample is
     /// tried again before they have come).
     need: usize,
+    /// The samples' own check (`check_samples`): the axes' limits, and the
+    /// last three positions decided (once the first is known).
+    sampled: Option<(AxisLimits, Option<[[f64; 3]; 3]>)>,
     /// The last few `bounds_at` answers.
     memo: std::cell::RefCell<[([u64; 3], Option<Bounds>); MEMO]>,
 }
@@ -188,6 +201,7 @@ impl Planner {
             out: VecDeque::from([0.0]),
             memo: std::cell::RefCell::new([([u64::MAX; 3], None); MEMO]),
             need: 0,
+            sampled: None,
         };
         for st in path.st {
             p.push(st)?;
@@ -505,7 +519,7 @@ impl Planner {
 
     /// One sample: the largest jerk whose next state is viable. `None`
     /// while that needs stations that have not come yet (nothing moves).
-    fn tick(&mut self) -> Result<Option<()>, SpeedError> {
+    fn tick(&mut self, point: Option<Point>) -> Result<Option<()>, SpeedError> {
         if self.path.count() < 2 || (!self.path.finished && self.path.count() < self.need) {
             return Ok(None);
         }
@@ -567,6 +581,10 @@ impl Planner {
                 return Ok(None);
             }
         };
+        let sig = match point {
+            Some(pt) => self.sampled_choice(x, sig, safe, pt),
+            None => sig,
+        };
         self.last = sig;
         let mut x = x.step(sig, self.dt);
         if x.v <= REST_V && x.a.abs() <= 1e-6 {
@@ -575,6 +593,9 @@ impl Planner {
         }
         self.x = x;
         self.out.push_back(x.s);
+        if let (Some(pt), Some((_, Some(h)))) = (point, self.sampled.as_mut()) {
+            *h = [h[1], h[2], pt(x.s)];
+        }
         let gone = self.path.forget_before(x.s.min(self.path.known()));
         self.caps.drain(..gone);
         self.clear.drain(..gone);
@@ -593,19 +614,78 @@ impl Planner {
     /// `STRETCH_MIN` behind the planning (the end's smooth step may
     /// still move them).
     pub fn next_sample(&mut self) -> Result<Option<f64>, SpeedError> {
+        self.next_sample_of(None)
+    }
+
+    /// `next_sample`, each sample also checked on the path's points
+    /// (`check_samples`): `point` gives the point at a path position.
+    pub fn next_sample_on(&mut self, point: Point) -> Result<Option<f64>, SpeedError> {
+        self.next_sample_of(Some(point))
+    }
+
+    fn next_sample_of(&mut self, point: Option<Point>) -> Result<Option<f64>, SpeedError> {
+        if let (Some(pt), Some((_, h @ None))) = (point, self.sampled.as_mut()) {
+            let p0 = pt(0.0);
+            *h = Some([p0; 3]);
+        }
         loop {
             if self.arrived || self.out.len() > STRETCH_MIN + 1 {
                 return Ok(self.out.pop_front());
             }
-            if self.tick()?.is_none() {
+            if self.tick(point)?.is_none() {
                 return Ok(None);
             }
         }
     }
 
+    /// Checks every sample (`next_sample_on`) on the points themselves:
+    /// the second and third differences of each axis's positions within
+    /// `lim` (the machine's own limits; the planner keeps a margin under
+    /// them). Where the jerk the planner chose does not keep them (the
+    /// stations are the path's derivatives at grid points, linear between:
+    /// a narrow blend's curvature may peak between two samples), the
+    /// largest of a few lower ones down to the braking rule's that keeps
+    /// them and stays viable is taken instead; none does: the planner's.
+    pub fn check_samples(&mut self, lim: AxisLimits) {
+        self.sampled = Some((lim, None));
+    }
+
+    /// The jerk for the next sample under the samples' own check (see
+    /// `check_samples`): `sig` the planner's, `safe` the braking rule's.
+    fn sampled_choice(&self, x: State, sig: f64, safe: f64, pt: Point) -> f64 {
+        let Some((lim, Some(h))) = self.sampled else {
+            return sig;
+        };
+        let dt = self.dt;
+        let fits = |sg: f64| {
+            let p1 = pt(x.step(sg, dt).s);
+            (0..3).all(|i| {
+                let a = (p1[i] - 2.0 * h[2][i] + h[1][i]) / (dt * dt);
+                let j = (p1[i] - 3.0 * h[2][i] + 3.0 * h[1][i] - h[0][i]) / (dt * dt * dt);
+                a.abs() <= lim.a[i] && j.abs() <= lim.j[i]
+            })
+        };
+        if fits(sig) {
+            return sig;
+        }
+        for f in SAMPLED_TRIES {
+            let c = sig + (safe - sig) * f;
+            if fits(c) && self.viable(x.s, x.step(c, dt), c) == Verdict::Yes {
+                return c;
+            }
+        }
+        sig
+    }
+
     /// Whether the run has come to rest on its end.
     pub fn arrived(&self) -> bool {
         self.arrived
+    }
+
+    /// Whether every sample of the run has been handed out (the last one
+    /// at rest on its end).
+    pub fn over(&self) -> bool {
+        self.arrived && self.out.is_empty()
     }
 
     /// The whole run of a finished path: the path position at every

@@ -23,6 +23,7 @@ use crate::interp::{Interpreter, Modal};
 use crate::jerk::JerkBudget;
 use crate::limits::{MoveLimits, MovePrep};
 use crate::machine::Machine;
+use crate::path_run::{RunLimits, Runner, Step};
 use crate::plan::{Item, ItemSink, Lookahead, PlanLimits, Planner};
 use crate::profile::Profile;
 use crate::source::ProgramSource;
@@ -47,6 +48,9 @@ pub struct Front {
     scratch: VecDeque<Event>,
     /// commands ready for the planner
     out: VecDeque<Event>,
+    /// the path planner plans the moves (`path_run`): no corner blends
+    /// (its geometry keeps within P), and every change of P handed on
+    path_planner: bool,
 }
 
 impl Front {
@@ -74,6 +78,7 @@ impl Front {
             bbox: None,
             scratch: VecDeque::new(),
             out: VecDeque::with_capacity(8),
+            path_planner: machine.planner.method.is_path(),
         }
     }
 
@@ -86,6 +91,10 @@ impl Front {
     /// The last stage: corner blending within the path tolerance.
     #[inline]
     fn pass(&mut self, ev: Event) {
+        if self.path_planner {
+            self.out.push_back(ev);
+            return;
+        }
         if self.tolerance > 0.0 || self.blend.holds() {
             self.blend.push(ev, self.tolerance, &mut self.out);
         } else {
@@ -152,6 +161,16 @@ impl Canon for Front {
     }
 
     fn set_path_tolerance(&mut self, mm: f64) {
+        if self.path_planner {
+            // (the path planner's runs end where P changes)
+            if mm != self.tolerance {
+                self.tolerance = mm;
+                let mut errors = Vec::new();
+                self.command(Event::Tolerance { mm }, &mut errors);
+                debug_assert!(errors.is_empty());
+            }
+            return;
+        }
         self.tolerance = mm;
         // the jerk filters follow the tolerance: where their budget
         // changes, every stage behind changes it at an exact stop
@@ -278,6 +297,8 @@ impl<S: ProgramSource> Interpreter<S, Front> {
 pub struct Pipeline<S> {
     interp: Interpreter<S, Front>,
     planner: Planner,
+    /// the path planner, on a machine that plans with it
+    runner: Option<Runner>,
     /// shared with the sampling (stops, dwells and threads on ticks)
     pub timeline: Timeline,
 }
@@ -285,10 +306,39 @@ pub struct Pipeline<S> {
 impl<S: ProgramSource> Pipeline<S> {
     pub fn new(source: S, dialect: Dialect, machine: &Machine) -> Self {
         let lim = PlanLimits::from_machine(machine);
+        let runner = RunLimits::for_machine(machine)
+            .map(|l| Runner::new(l, machine.planner.path_tolerance_mm));
         Pipeline {
             interp: Interpreter::new(source, dialect, machine),
             planner: Planner::new(lim),
-            timeline: Timeline::for_limits(&lim),
+            timeline: timeline_for(&lim, runner.is_some()),
+            runner,
+        }
+    }
+
+    /// Whether the path planner plans the moves ([`Pipeline::path_step`]
+    /// instead of [`Pipeline::next_item`]).
+    pub fn path_planner(&self) -> bool {
+        self.runner.is_some()
+    }
+
+    /// With the path planner: the next sample or planned item, pulling
+    /// commands through as the runs need them; `None` after the last.
+    pub fn path_step(&mut self) -> Result<Option<Step>, String> {
+        let Some(runner) = self.runner.as_mut() else {
+            return Err("the machine does not plan with the path planner".into());
+        };
+        loop {
+            if let Some(step) = runner.step(true)? {
+                return Ok(Some(step));
+            }
+            if runner.closed() {
+                return Ok(None);
+            }
+            match self.interp.next() {
+                Some(ev) => runner.push(ev),
+                None => runner.close(),
+            }
         }
     }
 
@@ -321,12 +371,28 @@ impl<S: ProgramSource> Pipeline<S> {
     }
 }
 
+/// The timeline of a planner with these limits; the path planner's has no
+/// hold after a stop (no filter settles).
+fn timeline_for(lim: &PlanLimits, path_planner: bool) -> Timeline {
+    let mut tl = Timeline::for_limits(lim);
+    if path_planner {
+        tl.set_hold(0);
+    }
+    tl
+}
+
 /// The check's half of the pipeline after the interpreter: look-ahead and
 /// timeline, fed events in program order, adding up the profiles'
-/// durations (nothing is sampled).
+/// durations (nothing is sampled). With the path planner, its runs
+/// planned as the executor plans them, their samples counted.
 pub(crate) struct Estimate {
     look: Lookahead<()>,
     sink: Settle,
+    runner: Option<Runner>,
+    /// the run in progress's samples so far
+    run_ticks: u64,
+    /// why the path planner could not plan the program, and at which line
+    failed: Option<(u32, String)>,
 }
 
 /// Most moves whose profiles wait in [`Settle`].
@@ -390,6 +456,8 @@ pub(crate) struct Totals {
     pub(crate) tl: Timeline,
     pub(crate) moves: u64,
     pub(crate) ended: bool,
+    /// why the path planner could not plan the program, and at which line
+    pub(crate) path_error: Option<(u32, String)>,
 }
 
 impl Totals {
@@ -418,17 +486,46 @@ impl Totals {
 }
 
 impl Estimate {
-    pub(crate) fn new(lim: PlanLimits) -> Self {
+    /// `path`: the path planner's limits and the path tolerance at the
+    /// start, on a machine that plans with it.
+    pub(crate) fn new(lim: PlanLimits, path: Option<(RunLimits, f64)>) -> Self {
         Estimate {
             look: Lookahead::new(lim),
             sink: Settle {
                 totals: Totals {
-                    tl: Timeline::for_limits(&lim),
+                    tl: timeline_for(&lim, path.is_some()),
                     moves: 0,
                     ended: false,
+                    path_error: None,
                 },
                 waiting: ArrayVec::new(),
             },
+            runner: path.map(|(l, tol)| Runner::new(l, tol)),
+            run_ticks: 0,
+            failed: None,
+        }
+    }
+
+    /// With the path planner: what the runner has for the commands so far.
+    fn drain_runs(&mut self) {
+        let Some(runner) = self.runner.as_mut() else {
+            return;
+        };
+        while self.failed.is_none() && !self.sink.totals.ended {
+            match runner.step(false) {
+                Ok(Some(Step::Sample { last, .. })) => {
+                    if last {
+                        let tl = &mut self.sink.totals.tl;
+                        tl.finish_group_at(tl.group_k0.saturating_add(self.run_ticks));
+                        self.run_ticks = 0;
+                    } else {
+                        self.run_ticks += 1;
+                    }
+                }
+                Ok(Some(Step::Item(item))) => self.sink.totals.item(item),
+                Ok(None) => return,
+                Err(e) => self.failed = Some((runner.line(), e)),
+            }
         }
     }
 
@@ -436,6 +533,13 @@ impl Estimate {
     /// what [`PlanLimits::prepare`] makes of the moves among them, in
     /// order, as far as it has been computed already.
     pub(crate) fn run(&mut self, events: &VecDeque<Event>, preps: &[MovePrep]) {
+        if let Some(runner) = self.runner.as_mut() {
+            for ev in events {
+                runner.push(*ev);
+            }
+            self.drain_runs();
+            return;
+        }
         let mut preps = preps.iter();
         for ev in events {
             if self.sink.totals.ended {
@@ -452,6 +556,15 @@ impl Estimate {
     /// After the last event: plans what is left (the interpreter always
     /// ends with an `End` event, so this is a safeguard).
     pub(crate) fn finish(mut self) -> Totals {
+        if let Some(runner) = self.runner.as_mut() {
+            runner.close();
+            self.drain_runs();
+            let moves = self.runner.as_ref().map_or(0, Runner::moves);
+            let mut totals = self.sink.totals;
+            totals.moves = moves;
+            totals.path_error = self.failed;
+            return totals;
+        }
         if !self.sink.totals.ended {
             self.look.flush(&mut self.sink);
         }

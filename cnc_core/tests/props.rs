@@ -4,6 +4,7 @@
 
 use cnc_core::exec::{Executor, Sample};
 use cnc_core::geom::{Arc, Geom, Plane};
+use cnc_core::machine::PlanMethod;
 use cnc_core::source::StrSource;
 use cnc_core::{check, Dialect, Machine, V3};
 use proptest::prelude::*;
@@ -501,6 +502,35 @@ proptest! {
 }
 
 proptest! {
+    // (a case takes about a second in a release build, 20 unoptimized:
+    // `PROPTEST_CASES=300 cargo test --release --test props path_planner`)
+    #![proptest_config(ProptestConfig { cases: cases(4), ..ProptestConfig::default() })]
+
+    /// The path planner (`[planner] method = "path"`): for any jerk limit
+    /// from 20 to 1000 m/s³, path tolerance (G61 and 0.005..0.2 mm,
+    /// changing between moves to a smaller one or G61) and feed, no
+    /// axis exceeds its velocity, acceleration or jerk at any sample, no
+    /// sample leaves the programmed path by more than P (nothing at all
+    /// under G61 and on rapids), and the run ends exactly on the end point
+    /// exactly when the check said.
+    #[test]
+    fn path_planner_runs_keep_every_limit_and_the_path(
+        moves in prop::collection::vec(mv(), 1..8),
+        feed in 100.0..20000.0f64,
+        jerk in 2.0e4..1.0e6f64,
+        tol in prop_oneof![Just(0.0), 0.005..0.2f64],
+    ) {
+        let mut m = Machine::builtin_mill();
+        for a in &mut m.axes {
+            a.max_jerk_mm_s3 = Some(jerk);
+        }
+        m.planner.method = PlanMethod::Path;
+        let (text, end, els) = program_path(&moves, feed, tol);
+        runs_within_limits_and_path(&m, &text, end, &els, tol, None)?;
+    }
+}
+
+proptest! {
     // (about one case in twelve is a thread the check refuses: a long
     // run must not stop at proptest's default of 1,024 of those)
     #![proptest_config(ProptestConfig {
@@ -929,7 +959,12 @@ fn runs_within_limits_and_path(
     if hold.is_none() {
         prop_assert_eq!(last.k, r.ticks);
     }
-    let bound = r4(tol).max(m.smoothing_error_mm()) + 1e-9;
+    // (the path planner has no filter: P is the bound)
+    let bound = if m.planner.method.is_path() {
+        r4(tol)
+    } else {
+        r4(tol).max(m.smoothing_error_mm())
+    } + 1e-9;
     for x in &s {
         let d = els
             .iter()

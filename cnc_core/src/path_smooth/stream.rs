@@ -17,6 +17,12 @@ use crate::path_speed::Station;
 
 /// Points dropped at once from the front of a buffer (amortises the move).
 const DROP_BATCH: usize = 4096;
+/// Where two chunks meet, the next one's path takes over from the last
+/// one's over this many mm, by a smooth step: at a small P the rounds of
+/// narrowing couple the whole of a curve, so that two chunks' paths may
+/// differ by a micron or so far from their ends, which a seam would show
+/// as a step in the curvature's change.
+const FADE: f64 = 8.0;
 
 /// A run's geometry, smoothed as its programmed path comes.
 pub struct Stream {
@@ -46,6 +52,9 @@ pub struct Stream {
     t: Vec<[f64; 3]>,
     k: Vec<[f64; 3]>,
     kd: Vec<[f64; 3]>,
+    /// the last chunk's path and width past its end, for the next one to
+    /// take over from (`FADE`)
+    tail: Vec<([f64; 3], f64)>,
     /// the largest distance from the programmed path so far
     dev: f64,
     /// stations: spacing, the next one's index, the grid interval it lies
@@ -107,6 +116,7 @@ impl Stream {
             t: Vec::new(),
             k: Vec::new(),
             kd: Vec::new(),
+            tail: Vec::new(),
             dev: 0.0,
             h,
             station: 0,
@@ -223,7 +233,19 @@ impl Stream {
         let p: Vec<[f64; 3]> = s.iter().map(|x| path.value(*x)).collect();
         let feed_line: Vec<[f64; 3]> = self.rf[r0..r1].iter().map(|f| [*f, 0.0, 0.0]).collect();
         let feed_pl = Pl::new(&self.rs[r0..r1], &feed_line, None);
-        let (cq, cw) = smooth_range(&path, &s, &p, DS, self.tol, self.twice)?;
+        let (mut cq, mut cw) = smooth_range(&path, &s, &p, DS, self.tol, self.twice)?;
+        // the last chunk's path fades into this one's (a quintic smooth
+        // step: the curvature's change stays continuous)
+        let fade = self.tail.len().min(i1 - i0);
+        for (j, (tq, tw)) in self.tail.iter().take(fade).enumerate() {
+            let u = (j + 1) as f64 / (self.tail.len() + 1) as f64;
+            let f = u * u * u * (10.0 - 15.0 * u + 6.0 * u * u);
+            let k = i0 + j - a;
+            cq[k] = [0, 1, 2].map(|c| tq[c] + f * (cq[k][c] - tq[c]));
+            cw[k] = tw + f * (cw[k] - tw);
+        }
+        let keep = ((FADE / DS) as usize).min(b - i1);
+        self.tail = (i1..i1 + keep).map(|i| (cq[i - a], cw[i - a])).collect();
         // the distance of the chunk's points, exactly: each search may stop
         // at a programmed point nearer than the largest found so far
         for i in i0..i1 {

@@ -288,3 +288,53 @@ fn a_stream_refuses_bad_points_and_a_run_too_short() {
         .iter()
         .all(|s| (s.t[0] - 1.0).abs() < 1e-9 && s.feed == 100.0));
 }
+
+#[test]
+fn at_a_small_tolerance_one_chunk_fades_into_the_next_with_no_seam() {
+    // a 0.5 mm circle, then 236° of an 18 mm arc, points 4 µm apart; at
+    // P = 1 µm the rounds narrow the whole arc, and a chunk's path differs
+    // from the whole run's by about P far from the chunk's ends
+    let mut p = Vec::new();
+    let n1 = 800;
+    for i in 0..n1 {
+        let a = std::f64::consts::FRAC_PI_2 - std::f64::consts::TAU * i as f64 / n1 as f64;
+        p.push([250.0 + 0.5 * a.cos(), 249.5 + 0.5 * a.sin(), 0.0]);
+    }
+    let (cx, cy, r) = (249.9135, 231.9608, 18.0394f64);
+    let a0 = (250.0f64 - cy).atan2(250.0 - cx);
+    let sweep = 236.5f64.to_radians();
+    let n2 = 18600;
+    for i in 0..=n2 {
+        let a = a0 - sweep * i as f64 / n2 as f64;
+        p.push([cx + r * a.cos(), cy + r * a.sin(), 0.0]);
+    }
+    let feed = vec![60.0; p.len()];
+    let run = Polyline { p, feed };
+    let whole = smooth(&run, 0.001, true).unwrap();
+    let parts = smooth_chunked(&run, 0.001, true, 40.0, 30.0).unwrap();
+    let most = whole
+        .q
+        .iter()
+        .zip(&parts.q)
+        .map(|(a, b)| dist(a, b))
+        .fold(0.0, f64::max);
+    assert!(most > 5e-4 && most < 1.5e-3, "{most}");
+    assert!(parts.dev <= 0.00095 + 1e-9, "{}", parts.dev);
+    // the seam at 40 mm does not show in the curvature's change (without
+    // the fade: 595 /mm² there, against 40 at the circle)
+    let kd = |s: &Smoothed| s.kd.iter().map(norm).fold(0.0, f64::max);
+    assert!(
+        kd(&parts) < 1.05 * kd(&whole),
+        "{} vs {}",
+        kd(&parts),
+        kd(&whole)
+    );
+    // nor near it: 35 to 45 mm
+    let near = |s: &Smoothed| s.kd[8750..11250].iter().map(norm).fold(0.0, f64::max);
+    assert!(
+        near(&parts) < 1.5 * near(&whole) + 0.05,
+        "{} vs {} /mm² about the seam",
+        near(&parts),
+        near(&whole)
+    );
+}

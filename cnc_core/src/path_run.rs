@@ -1,0 +1,595 @@
+//! The path planner (`[planner] method = "path"`): the canonical moves
+//! between rests become runs, each planned by the geometry stage
+//! (`path_smooth`) and the speed stage (`path_speed`) as its moves come,
+//! one path position per sample. No setpoint filter follows: every
+//! sample keeps each axis's velocity, acceleration and jerk, and the
+//! smoothed path stays within the path tolerance P.
+//!
+//! **Runs.** A rapid is a run of its own, as is every move under G61 (P
+//! 0) or a P under `P_MIN` (1 µm: the geometry's 4 µm grid does not
+//! resolve blends that narrow): its path is the move as programmed
+//! (`Run::exact`), so an exact path is exact. A corner that turns so
+//! sharply that its blend within P would be narrower than `W_MIN` (0.1
+//! mm) ends a run too: the machine stops exactly on it. Feed moves under G64 P run together (`Run::smooth`)
+//! until something that is not a feed move comes (a rapid, a dwell, a
+//! spindle or tool command, a thread, a change of P, the end); the run
+//! ends at rest on the last move's end. Its moves reach the geometry as
+//! points: a line as its ends and a point 4 µm inside each (the feed is
+//! the move's there), an arc or a helix as points at most 4 µm apart; a
+//! point between two moves takes the slower feed. The averages' shrink
+//! of curves is always made up (`twice`).
+//!
+//! **Samples.** A run of N samples (the first at its start, the last at
+//! rest on its end) takes N − 1 ticks: its last sample is the first of
+//! whatever follows, as a stop is with the look-ahead's planner. The check
+//! runs the same runs and counts their samples, so the estimate is the
+//! run to the tick.
+//!
+//! [`Runner`] turns the canonical commands into runs and the planned items
+//! that lie between them (dwells, spindle and tool commands, threads, the
+//! end).
+
+use crate::canon::{Event, Feed, Src};
+use crate::geom::{Geom, V3};
+use crate::machine::Machine;
+use crate::path_smooth::{Stream, DS};
+use crate::path_speed::{AxisLimits, Path, Planner, Station};
+use crate::plan::Item;
+use std::collections::VecDeque;
+
+/// A rapid's feed: the axes' speed limits alone, mm/s.
+pub const NO_FEED: f64 = 1e9;
+/// Station spacing, mm: the geometry's grid, so that a narrow blend is
+/// seen.
+const H: f64 = DS;
+/// Each chunk of the geometry, and the run either side of it, mm: with
+/// 20 mm either side the chunks' path is the whole run's within 1 nm.
+const CHUNK: f64 = 40.0;
+const MARGIN: f64 = 30.0;
+/// Stations handed to the speed stage at once on an exact run.
+const BATCH: usize = 256;
+/// The smallest path tolerance the runs are smoothed within, mm: under it
+/// the 4 µm grid cannot resolve the blends, and every move is run as
+/// programmed (as under G61).
+pub const P_MIN: f64 = 0.001;
+/// Moves shorter than this are left out, mm.
+const TINY: f64 = 1e-9;
+/// The narrowest corner blend the geometry's grid resolves, mm: a corner
+/// whose blend within P would be narrower is an exact stop instead (the
+/// average at a corner turning by θ leaves it by about w sin(θ/2) / 4).
+const W_MIN: f64 = 0.1;
+/// A corner that turns back by more than about 135° (its cosine under
+/// this) is an exact stop whatever P: its blend would be a hairpin.
+const HAIRPIN_COS: f64 = -0.7;
+/// The limits the runs keep are the axes' less a margin for the samples'
+/// finite differences: acceleration and jerk.
+const A_KEEP: f64 = 0.99;
+const J_KEEP: f64 = 0.9;
+/// An axis with no limit gets this one (it is never reached).
+const NO_LIMIT: f64 = 1e12;
+
+/// What every run is planned with: the axes' limits and the sample time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RunLimits {
+    /// what the planner keeps (a margin under the machine's)
+    pub axes: AxisLimits,
+    /// the machine's own, which every sample keeps
+    pub machine: AxisLimits,
+    pub dt: f64,
+}
+
+impl RunLimits {
+    /// The machine's limits if it plans with the path planner.
+    pub fn for_machine(m: &Machine) -> Option<RunLimits> {
+        if !m.planner.method.is_path() {
+            return None;
+        }
+        let lim = |v: V3, keep: f64| {
+            [0, 1, 2].map(|i| {
+                if v[i].is_finite() {
+                    v[i] * keep
+                } else {
+                    NO_LIMIT
+                }
+            })
+        };
+        Some(RunLimits {
+            axes: AxisLimits {
+                v: lim(m.vmax(), 1.0),
+                a: lim(m.amax(), A_KEEP),
+                j: lim(m.jmax(), J_KEEP),
+            },
+            machine: AxisLimits {
+                v: lim(m.vmax(), 1.0),
+                a: lim(m.amax(), 1.0),
+                j: lim(m.jmax(), 1.0),
+            },
+            dt: 1.0 / m.interpolation.rate_hz,
+        })
+    }
+}
+
+/// The run's path.
+enum Shape {
+    /// One move as programmed; the next station's index.
+    Exact { geom: Geom, feed: f64, next: usize },
+    /// Feed moves smoothed within P; the point between the last move and
+    /// the next (its feed: the last move's, until the next one's is known).
+    Smooth {
+        geo: Box<Stream>,
+        pending: Option<([f64; 3], f64)>,
+    },
+}
+
+/// What a run has next.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Next {
+    /// The path position of the next sample, mm from the run's start;
+    /// `last`: at rest on the run's end.
+    At { x: f64, last: bool },
+    /// The speed stage needs the next move (a smooth run not ended).
+    More,
+}
+
+/// One run from rest to rest.
+pub struct Run {
+    shape: Shape,
+    speed: Planner,
+    /// the moves' places on the programmed path (start, block), the first
+    /// the one being run
+    moves: VecDeque<(f64, Src)>,
+    /// the programmed length so far
+    len: f64,
+    /// where the run starts, and where its last move so far ends, and its
+    /// direction there
+    start: V3,
+    end: V3,
+    end_tangent: V3,
+    /// the path tolerance of a smooth run, mm
+    tol: f64,
+    /// no move is to come
+    ended: bool,
+    scratch: Vec<Station>,
+}
+
+fn err(e: impl std::fmt::Display) -> String {
+    e.to_string()
+}
+
+/// A move's speed, mm/s (a rapid's: none but the axes').
+pub fn feed_mm_s(feed: Feed) -> f64 {
+    match feed {
+        Feed::Rapid => NO_FEED,
+        f => f.speed_mm_s().min(NO_FEED),
+    }
+}
+
+impl Run {
+    /// A run of one move as programmed (a rapid, or a move under G61).
+    pub fn exact(geom: Geom, feed: Feed, src: Src, lim: &RunLimits) -> Result<Run, String> {
+        let mut run = Run::new(
+            Shape::Exact {
+                geom,
+                feed: feed_mm_s(feed),
+                next: 0,
+            },
+            lim,
+        )?;
+        run.moves.push_back((0.0, src));
+        run.len = geom.length();
+        run.start = geom.start();
+        run.end = geom.end();
+        run.ended = true;
+        Ok(run)
+    }
+
+    /// A run of feed moves smoothed within `tol` mm; its moves come with
+    /// [`Run::add`].
+    pub fn smooth(tol: f64, lim: &RunLimits) -> Result<Run, String> {
+        let geo = Stream::new(tol, true, CHUNK, MARGIN, H).map_err(err)?;
+        let mut run = Run::new(
+            Shape::Smooth {
+                geo: Box::new(geo),
+                pending: None,
+            },
+            lim,
+        )?;
+        run.tol = tol;
+        Ok(run)
+    }
+
+    /// Whether `geom` turns from the run's last move so sharply that its
+    /// blend within P would be narrower than the grid resolves: the run
+    /// ends at rest on the corner instead.
+    pub fn corner_stops(&self, geom: &Geom) -> bool {
+        if self.moves.is_empty() || self.ended {
+            return false;
+        }
+        let c = self.end_tangent.dot(&geom.start_tangent()).clamp(-1.0, 1.0);
+        let half_sin = (0.5 * (1.0 - c)).sqrt();
+        c < HAIRPIN_COS || 4.0 * self.tol < W_MIN * half_sin
+    }
+
+    fn new(shape: Shape, lim: &RunLimits) -> Result<Run, String> {
+        let mut speed = Planner::new(Path::open(H).map_err(err)?, lim.axes, lim.dt).map_err(err)?;
+        speed.check_samples(lim.machine);
+        Ok(Run {
+            shape,
+            speed,
+            moves: VecDeque::new(),
+            len: 0.0,
+            start: V3::zeros(),
+            end: V3::zeros(),
+            end_tangent: V3::zeros(),
+            tol: 0.0,
+            ended: false,
+            scratch: Vec::new(),
+        })
+    }
+
+    /// Whether more moves may join the run.
+    pub fn open(&self) -> bool {
+        !self.ended
+    }
+
+    /// The next feed move of a smooth run.
+    pub fn add(&mut self, geom: &Geom, feed: Feed, src: Src) -> Result<(), String> {
+        let Shape::Smooth { geo, pending } = &mut self.shape else {
+            return Err("a move added to a run of one move".into());
+        };
+        if self.ended {
+            return Err("a move added to a run that has ended".into());
+        }
+        let f = feed_mm_s(feed);
+        let l = geom.length();
+        let a = |v: V3| [v[0], v[1], v[2]];
+        match pending.take() {
+            Some((p, fp)) => geo.push(p, fp.min(f)).map_err(err)?,
+            None => geo.push(a(geom.start()), f).map_err(err)?,
+        }
+        match geom {
+            Geom::Line { start, end } => {
+                if l > 2.0 * DS {
+                    let u = (end - start) / l;
+                    geo.push(a(start + u * DS), f).map_err(err)?;
+                    geo.push(a(end - u * DS), f).map_err(err)?;
+                }
+            }
+            Geom::Arc(_) => {
+                let n = (l / DS).ceil().max(1.0) as usize;
+                for i in 1..n {
+                    geo.push(a(geom.eval(l * i as f64 / n as f64)), f)
+                        .map_err(err)?;
+                }
+            }
+        }
+        *pending = Some((a(geom.end()), f));
+        if self.moves.is_empty() {
+            self.start = geom.start();
+        }
+        self.end = geom.end();
+        self.end_tangent = geom.end_tangent();
+        self.moves.push_back((self.len, src));
+        self.len += l;
+        Ok(())
+    }
+
+    /// No more moves join the run: it ends at rest on the last one's end.
+    pub fn end(&mut self) -> Result<(), String> {
+        if self.ended {
+            return Ok(());
+        }
+        self.ended = true;
+        if let Shape::Smooth { geo, pending } = &mut self.shape {
+            if let Some((p, f)) = pending.take() {
+                geo.push(p, f).map_err(err)?;
+            }
+            geo.finish().map_err(err)?;
+        }
+        Ok(())
+    }
+
+    /// Hands the speed stage what stations the path has; whether any came.
+    fn feed_stations(&mut self) -> Result<bool, String> {
+        match &mut self.shape {
+            Shape::Exact { geom, feed, next } => {
+                let len = geom.length();
+                let n = (len / H).ceil() as usize + 1;
+                let upto = (*next + BATCH).min(n);
+                for i in *next..upto {
+                    let x = (i as f64 * H).min(len);
+                    self.speed
+                        .push(exact_station(geom, x, *feed))
+                        .map_err(err)?;
+                }
+                let more = upto > *next;
+                *next = upto;
+                if upto == n && more {
+                    self.speed.finish(len).map_err(err)?;
+                }
+                Ok(more)
+            }
+            Shape::Smooth { geo, .. } => {
+                let had = geo.len().is_some();
+                geo.advance(&mut self.scratch).map_err(err)?;
+                let more = !self.scratch.is_empty();
+                for st in self.scratch.drain(..) {
+                    self.speed.push(st).map_err(err)?;
+                }
+                if let (false, Some(len)) = (had, geo.len()) {
+                    self.speed.finish(len).map_err(err)?;
+                    return Ok(true);
+                }
+                Ok(more)
+            }
+        }
+    }
+
+    /// The next sample's path position, or `More` when a smooth run needs
+    /// its next move (or its end).
+    pub fn sample(&mut self) -> Result<Next, String> {
+        loop {
+            let next = {
+                let Run { shape, speed, .. } = &mut *self;
+                let at = |x: f64| {
+                    let p = Run::point_of(shape, x);
+                    [p[0], p[1], p[2]]
+                };
+                speed.next_sample_on(&at).map_err(err)?
+            };
+            if let Some(x) = next {
+                if let Shape::Smooth { geo, .. } = &mut self.shape {
+                    // (what lies behind the sample before this one: the
+                    // caller may still want its point)
+                    geo.forget_before(x - 2.0 * H);
+                }
+                return Ok(Next::At {
+                    x,
+                    last: self.speed.over(),
+                });
+            }
+            if self.speed.over() {
+                return Err("a sample asked of a run that is over".into());
+            }
+            if !self.feed_stations()? {
+                if self.ended {
+                    return Err("the speed stage stopped short of the run's end".into());
+                }
+                return Ok(Next::More);
+            }
+        }
+    }
+
+    /// The point at path position `x` (of the last sample or later): the
+    /// run's ends exactly as programmed.
+    pub fn point(&self, x: f64) -> V3 {
+        if let Shape::Smooth { geo, .. } = &self.shape {
+            if x <= 0.0 {
+                return self.start;
+            }
+            if geo.len().is_some_and(|len| x >= len) {
+                return self.end;
+            }
+        }
+        Run::point_of(&self.shape, x)
+    }
+
+    /// The point at `x` on the run's path (its ends as the geometry has
+    /// them).
+    fn point_of(shape: &Shape, x: f64) -> V3 {
+        match shape {
+            Shape::Exact { geom, .. } => geom.eval(x),
+            Shape::Smooth { geo, .. } => match geo.point(x) {
+                Some(p) => V3::new(p[0], p[1], p[2]),
+                None => V3::new(f64::NAN, f64::NAN, f64::NAN),
+            },
+        }
+    }
+
+    /// The block being run at path position `x` (on the programmed path's
+    /// count: a corner's cut shortens it by microns).
+    pub fn src_at(&mut self, x: f64) -> Src {
+        while self.moves.len() > 1 && self.moves[1].0 <= x {
+            self.moves.pop_front();
+        }
+        self.moves.front().map_or(Src::default(), |m| m.1)
+    }
+
+    /// The largest distance of the smoothed path from the programmed one
+    /// so far, mm (0 for a move as programmed).
+    pub fn deviation(&self) -> f64 {
+        match &self.shape {
+            Shape::Exact { .. } => 0.0,
+            Shape::Smooth { geo, .. } => geo.dev(),
+        }
+    }
+}
+
+/// The station at `x` of one move as programmed.
+fn exact_station(geom: &Geom, x: f64, feed: f64) -> Station {
+    let a = |v: V3| [v[0], v[1], v[2]];
+    match geom {
+        Geom::Line { start, end } => Station {
+            t: a((end - start) / geom.length()),
+            k: [0.0; 3],
+            kd: [0.0; 3],
+            feed,
+        },
+        Geom::Arc(arc) => {
+            // the helix: angle θ0 + w s, w = sweep / length
+            let (p, q, _) = arc.plane.axes();
+            let w = arc.sweep / arc.length;
+            let (sin, cos) = (arc.theta0 + w * x).sin_cos();
+            let r = arc.radius;
+            let mut t = [0.0; 3];
+            let mut k = [0.0; 3];
+            let mut kd = [0.0; 3];
+            let n = 3 - p - q;
+            t[p] = -r * w * sin;
+            t[q] = r * w * cos;
+            t[n] = arc.axial / arc.length;
+            k[p] = -r * w * w * cos;
+            k[q] = -r * w * w * sin;
+            kd[p] = r * w * w * w * sin;
+            kd[q] = -r * w * w * w * cos;
+            Station { t, k, kd, feed }
+        }
+    }
+}
+
+/// What the runner hands on next.
+// one value at a time: boxing the item would only add an allocation
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Copy, Debug)]
+pub enum Step {
+    /// A sample of the run in progress: its path position, the point, the
+    /// block; `last`: at rest on the run's end (the first sample of what
+    /// follows, not one of the run's ticks).
+    Sample {
+        x: f64,
+        pos: V3,
+        src: Src,
+        last: bool,
+    },
+    /// A planned item between runs.
+    Item(Item),
+}
+
+/// Turns the canonical commands into runs and the items between them:
+/// commands go in with [`Runner::push`] (and [`Runner::close`] after the
+/// last), samples and items come out of [`Runner::step`].
+pub struct Runner {
+    lim: RunLimits,
+    /// the path tolerance (G64 P) in force, mm; 0: G61
+    tol: f64,
+    run: Option<Run>,
+    /// commands not taken yet
+    queue: VecDeque<Event>,
+    /// no command is to come
+    closed: bool,
+    /// the largest distance from the programmed path, mm
+    dev: f64,
+    /// moves taken
+    moves: u64,
+    /// the line of the last command taken
+    line: u32,
+}
+
+impl Runner {
+    pub fn new(lim: RunLimits, tolerance: f64) -> Runner {
+        Runner {
+            lim,
+            tol: tolerance,
+            run: None,
+            queue: VecDeque::new(),
+            closed: false,
+            dev: 0.0,
+            moves: 0,
+            line: 0,
+        }
+    }
+
+    /// The line of the last command taken (where an error is reported).
+    pub fn line(&self) -> u32 {
+        self.line
+    }
+
+    /// The next command.
+    pub fn push(&mut self, ev: Event) {
+        self.queue.push_back(ev);
+    }
+
+    /// No command is to come.
+    pub fn close(&mut self) {
+        self.closed = true;
+    }
+
+    /// Whether no command is to come.
+    pub fn closed(&self) -> bool {
+        self.closed
+    }
+
+    /// Moves taken so far.
+    pub fn moves(&self) -> u64 {
+        self.moves
+    }
+
+    /// The largest distance from the programmed path so far, mm.
+    pub fn deviation(&self) -> f64 {
+        self.dev.max(self.run.as_ref().map_or(0.0, Run::deviation))
+    }
+
+    /// The next sample or item; `None` until the next command comes (once
+    /// closed: there is nothing more). `points`: whether samples need
+    /// their point (the check needs only their count).
+    pub fn step(&mut self, points: bool) -> Result<Option<Step>, String> {
+        loop {
+            if let Some(run) = self.run.as_mut() {
+                match run.sample()? {
+                    Next::At { x, last } => {
+                        let pos = if points { run.point(x) } else { V3::zeros() };
+                        let src = run.src_at(x);
+                        if last {
+                            self.dev = self.dev.max(run.deviation());
+                            self.run = None;
+                        }
+                        return Ok(Some(Step::Sample { x, pos, src, last }));
+                    }
+                    Next::More => {
+                        match self.queue.pop_front() {
+                            Some(ev @ Event::Move { geom, .. }) if run.corner_stops(&geom) => {
+                                run.end()?;
+                                self.queue.push_front(ev);
+                            }
+                            Some(Event::Move { geom, feed, src })
+                                if feed != Feed::Rapid && self.tol >= P_MIN =>
+                            {
+                                self.moves += 1;
+                                self.line = src.line;
+                                if geom.length() > TINY {
+                                    run.add(&geom, feed, src)?;
+                                }
+                            }
+                            Some(other) => {
+                                run.end()?;
+                                self.queue.push_front(other);
+                            }
+                            None if self.closed => run.end()?,
+                            None => return Ok(None),
+                        }
+                        continue;
+                    }
+                }
+            }
+            let Some(ev) = self.queue.pop_front() else {
+                return Ok(None);
+            };
+            let item = match ev {
+                Event::Move { geom, feed, src } => {
+                    self.moves += 1;
+                    self.line = src.line;
+                    if geom.length() > TINY {
+                        self.run = Some(if feed == Feed::Rapid || self.tol < P_MIN {
+                            Run::exact(geom, feed, src, &self.lim)?
+                        } else {
+                            let mut r = Run::smooth(self.tol, &self.lim)?;
+                            r.add(&geom, feed, src)?;
+                            r
+                        });
+                    }
+                    continue;
+                }
+                Event::Tolerance { mm } => {
+                    self.tol = mm;
+                    continue;
+                }
+                Event::Dwell { seconds, src } => Item::Dwell { seconds, src },
+                Event::Spindle { rpm, src } => Item::Spindle { rpm, src },
+                Event::Tool { number, src } => Item::Tool { number, src },
+                Event::Thread(m) => Item::Thread(m),
+                Event::End { src } => Item::End { src },
+            };
+            return Ok(Some(Step::Item(item)));
+        }
+    }
+}

@@ -1,0 +1,161 @@
+//! The path planner (`[planner] method = "path"`) end to end: a program of
+//! rapids, feed lines, an arc, a sharp corner, a dwell and a G61 stretch,
+//! checked and run on bench/motion's mill at a realistic jerk. Values in
+//! mm.
+
+use cnc_core::exec::{Executor, Sample};
+use cnc_core::machine::PlanMethod;
+use cnc_core::source::StrSource;
+use cnc_core::{check, Dialect, Machine, V3};
+
+/// bench/motion's mill (100 mm/s, 1000 mm/s²) at `jerk` mm/s³, planned by
+/// the path planner.
+fn machine(jerk: f64) -> Machine {
+    let mut m = Machine::builtin_mill();
+    for a in &mut m.axes {
+        a.max_velocity_mm_s = 100.0;
+        a.max_acceleration_mm_s2 = 1000.0;
+        a.max_jerk_mm_s3 = Some(jerk);
+    }
+    m.planner.method = PlanMethod::Path;
+    m
+}
+
+const PROGRAM: &str = "\
+N10 G17 G90 G94 M03 S3000 T1
+N20 G00 X20 Y10 Z5
+N30 G64 P0.01
+N40 G01 Z-2 F300
+N50 X80 F6000
+N60 G03 X90 Y20 I0 J10
+N70 G01 Y60
+N80 X60 Y40
+N90 G04 P0.5
+N100 G61
+N110 G01 X20 Y40 F3000
+N120 Y10
+N130 G00 Z5
+N140 M30
+";
+
+/// Distance from `p` to the segment `a`-`b`.
+fn seg(p: V3, a: V3, b: V3) -> f64 {
+    let d = b - a;
+    let t = ((p - a).dot(&d) / d.norm_squared()).clamp(0.0, 1.0);
+    (p - (a + d * t)).norm()
+}
+
+/// Distance from `p` to the quarter arc of N60 (centre X80 Y20, R10, from
+/// -90° to 0°, at Z-2).
+fn arc(p: V3) -> f64 {
+    let (dx, dy) = (p.x - 80.0, p.y - 20.0);
+    let a = dy.atan2(dx);
+    if (-std::f64::consts::FRAC_PI_2..=0.0).contains(&a) {
+        ((dx.hypot(dy) - 10.0).hypot(p.z + 2.0)).abs()
+    } else {
+        (p - V3::new(80.0, 10.0, -2.0))
+            .norm()
+            .min((p - V3::new(90.0, 20.0, -2.0)).norm())
+    }
+}
+
+fn run(m: &Machine) -> (Vec<Sample>, u64) {
+    let r = check(StrSource::new(PROGRAM), Dialect::Cnc836, m);
+    assert!(r.ok(), "{}", r.message());
+    let s: Vec<Sample> = Executor::new(StrSource::new(PROGRAM), Dialect::Cnc836, m).collect();
+    (s, r.ticks)
+}
+
+#[test]
+fn the_path_planner_runs_a_program_as_the_check_said_within_every_limit_and_p() {
+    for jerk in [2e4, 5e4, 1e6] {
+        let m = machine(jerk);
+        let (s, ticks) = run(&m);
+        // the estimate is the run, to the tick; the end exact
+        let last = s.last().unwrap();
+        assert!(last.last);
+        assert_eq!(last.k, ticks, "at {jerk}");
+        assert_eq!(last.pos, V3::new(20.0, 10.0, 5.0));
+        for (i, x) in s.iter().enumerate() {
+            assert_eq!(x.k, i as u64);
+        }
+        // every axis within its velocity, acceleration and jerk at every
+        // sample (the samples' differences)
+        let dt = m.dt();
+        for w in s.windows(4) {
+            for i in 0..3 {
+                let p = [w[0].pos[i], w[1].pos[i], w[2].pos[i], w[3].pos[i]];
+                let v = (p[3] - p[2]) / dt;
+                let a = (p[3] - 2.0 * p[2] + p[1]) / (dt * dt);
+                let j = (p[3] - 3.0 * p[2] + 3.0 * p[1] - p[0]) / (dt * dt * dt);
+                assert!(v.abs() <= 100.0 + 1e-9, "v {v} at k={} ({jerk})", w[3].k);
+                assert!(a.abs() <= 1000.0 + 1e-6, "a {a} at k={} ({jerk})", w[3].k);
+                assert!(
+                    j.abs() <= jerk * (1.0 + 1e-9),
+                    "j {j} at k={} ({jerk})",
+                    w[3].k
+                );
+            }
+        }
+        // within P of the programmed path under G64 P0.01 (N40 to N80:
+        // lines 4 to 8)
+        let pts = [
+            V3::new(20.0, 10.0, 5.0),
+            V3::new(20.0, 10.0, -2.0),
+            V3::new(80.0, 10.0, -2.0),
+        ];
+        let mut worst: f64 = 0.0;
+        for x in s.iter().filter(|x| (4..=8).contains(&x.src.line)) {
+            let d = seg(x.pos, pts[1], pts[2])
+                .min(seg(x.pos, pts[0], pts[1]))
+                .min(arc(x.pos))
+                .min(seg(
+                    x.pos,
+                    V3::new(90.0, 20.0, -2.0),
+                    V3::new(90.0, 60.0, -2.0),
+                ))
+                .min(seg(
+                    x.pos,
+                    V3::new(90.0, 60.0, -2.0),
+                    V3::new(60.0, 40.0, -2.0),
+                ));
+            worst = worst.max(d);
+        }
+        assert!(worst <= 0.01 && worst > 0.001, "{worst} mm at {jerk}");
+        // the corner at X90 Y60 turns by 146°: an exact stop on it
+        let at = |p: V3| s.iter().filter(|x| x.pos == p).count();
+        assert!(
+            at(V3::new(90.0, 60.0, -2.0)) >= 1,
+            "no stop at the corner ({jerk})"
+        );
+        // the dwell: half a second standing on N80's end
+        assert!(
+            at(V3::new(60.0, 40.0, -2.0)) >= 500,
+            "{}",
+            at(V3::new(60.0, 40.0, -2.0))
+        );
+        // under G61 the lines are exact: every sample of N110 and N120
+        // (lines 11 and 12) on its line
+        for x in s.iter().filter(|x| x.src.line == 11) {
+            assert!(seg(x.pos, V3::new(60.0, 40.0, -2.0), V3::new(20.0, 40.0, -2.0)) < 1e-12);
+        }
+        for x in s.iter().filter(|x| x.src.line == 12) {
+            assert!(seg(x.pos, V3::new(20.0, 40.0, -2.0), V3::new(20.0, 10.0, -2.0)) < 1e-12);
+        }
+        // the spindle and the tool as programmed
+        assert!(s[10..]
+            .iter()
+            .all(|x| x.spindle_rpm == 3000.0 && x.tool == 1));
+    }
+}
+
+#[test]
+fn at_50_m_s3_the_path_planner_is_faster_than_the_filters() {
+    let path = run(&machine(5e4)).1;
+    let mut m = machine(5e4);
+    m.planner.method = PlanMethod::Filters;
+    let r = check(StrSource::new(PROGRAM), Dialect::Cnc836, &m);
+    assert!(r.ok());
+    // (measured: 5.786 s against 6.054 s)
+    assert!(path < r.ticks, "path {path} ticks, filters {}", r.ticks);
+}
