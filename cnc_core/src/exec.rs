@@ -982,6 +982,11 @@ impl<S: ProgramSource> Executor<S> {
             }
             if self.cur.is_none() {
                 let item = if self.pipe.path_planner() {
+                    if self.target == 0.0 && self.pipe.path_idle() {
+                        // a feed hold: under the path planner it takes
+                        // effect at the next stop (between two runs)
+                        return Some(self.still_sample());
+                    }
                     match self.path_step() {
                         PathOut::Item(item) => item,
                         PathOut::Sample(s) => return s,
@@ -1148,6 +1153,9 @@ impl<S: ProgramSource> Executor<S> {
                         self.path_x = 0.0;
                         let k = self.vk.round() as u64;
                         self.pipe.timeline.finish_group_at(k);
+                        if self.target == 0.0 {
+                            return PathOut::Sample(Some(self.still_sample()));
+                        }
                         continue;
                     }
                     let speed = (x - self.path_x) / self.dt;

@@ -113,8 +113,9 @@ pub struct PlannerConfig {
     /// how the path is planned: `"filters"` (the look-ahead of
     /// trapezoidal profiles, corner blends and jerk filters) or `"path"`
     /// (runs smoothed within P and planned sample by sample under every
-    /// axis's jerk limit, `crate::path_run`)
-    #[serde(default)]
+    /// axis's jerk limit, `crate::path_run`); written out only when it is
+    /// not the default, so that a recording's machine is what it was
+    #[serde(default, skip_serializing_if = "PlanMethod::is_filters")]
     pub method: PlanMethod,
 }
 
@@ -130,6 +131,10 @@ pub enum PlanMethod {
 impl PlanMethod {
     pub fn is_path(self) -> bool {
         self == PlanMethod::Path
+    }
+
+    pub fn is_filters(&self) -> bool {
+        *self == PlanMethod::Filters
     }
 }
 
@@ -1037,6 +1042,20 @@ mod tests {
             e.0,
             "machine file: key `interpolation.thread_accel_lead`: must be between 0 and 1 (got 1.5)"
         );
+        let e = with(
+            "lookahead_blocks = 200",
+            "lookahead_blocks = 200\nmethod = \"paths\"",
+        )
+        .unwrap_err();
+        assert!(e.0.contains("unknown variant `paths`"), "{}", e.0);
+        assert!(e.0.contains("method = \"paths\""), "{}", e.0);
+        let m = with(
+            "lookahead_blocks = 200",
+            "lookahead_blocks = 200\nmethod = \"path\"",
+        )
+        .unwrap();
+        assert!(m.planner.method.is_path());
+        assert!(!Machine::builtin_mill().planner.method.is_path());
     }
 
     #[test]

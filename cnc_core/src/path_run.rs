@@ -509,6 +509,11 @@ impl Runner {
         self.closed
     }
 
+    /// Whether no run is in progress.
+    pub fn idle(&self) -> bool {
+        self.run.is_none()
+    }
+
     /// Moves taken so far.
     pub fn moves(&self) -> u64 {
         self.moves

@@ -322,6 +322,12 @@ impl<S: ProgramSource> Pipeline<S> {
         self.runner.is_some()
     }
 
+    /// With the path planner: whether no run is in progress (the machine
+    /// stands between two runs).
+    pub fn path_idle(&self) -> bool {
+        self.runner.as_ref().is_some_and(Runner::idle)
+    }
+
     /// With the path planner: the next sample or planned item, pulling
     /// commands through as the runs need them; `None` after the last.
     pub fn path_step(&mut self) -> Result<Option<Step>, String> {

@@ -159,3 +159,63 @@ fn at_50_m_s3_the_path_planner_is_faster_than_the_filters() {
     // (measured: 5.786 s against 6.054 s)
     assert!(path < r.ticks, "path {path} ticks, filters {}", r.ticks);
 }
+
+#[test]
+fn a_feed_hold_stops_the_path_planner_at_its_next_stop_and_resume_goes_on() {
+    let m = machine(5e4);
+    let (free, ticks) = run(&m);
+    let mut ex = Executor::new(StrSource::new(PROGRAM), Dialect::Cnc836, &m);
+    let mut s: Vec<Sample> = Vec::new();
+    // held from the start: nothing moves for 300 samples
+    ex.set_feed_target(0.0);
+    while let Some(x) = ex.next_sample() {
+        if s.len() == 300 {
+            ex.set_feed_target(1.0);
+        }
+        // held again while moving: the run goes on to its next stop and
+        // stands there
+        if s.len() == 1200 {
+            assert!(x.path_speed > 0.0);
+            ex.set_feed_target(0.0);
+        }
+        if s.len() == 4200 {
+            ex.set_feed_target(1.0);
+        }
+        s.push(x);
+        assert!(s.len() < 3 * ticks as usize, "no end");
+    }
+    assert!(s[..300].iter().all(|x| x.pos == s[0].pos));
+    // the longest stand after the hold: until the resume, on a point the
+    // free run stops on exactly (a run's end: N40's, X20 Y10 Z-2)
+    let (mut best, mut at, mut i) = (0, 0, 1200);
+    while i < s.len() {
+        let j = (i..s.len())
+            .find(|&j| s[j].pos != s[i].pos)
+            .unwrap_or(s.len());
+        if j - i > best {
+            (best, at) = (j - i, i);
+        }
+        i = j;
+    }
+    assert!(
+        best > 1500 && at + best >= 4200 && at + best < 4210,
+        "{best} samples from {at}"
+    );
+    let p = s[at].pos;
+    assert!(free.iter().any(|x| x.pos == p), "{p:?}");
+    // the same path, the end exact
+    assert_eq!(s.last().unwrap().pos, V3::new(20.0, 10.0, 5.0));
+    let moving: Vec<V3> = s.iter().map(|x| x.pos).fold(Vec::new(), |mut v, p| {
+        if v.last() != Some(&p) {
+            v.push(p);
+        }
+        v
+    });
+    let moving_free: Vec<V3> = free.iter().map(|x| x.pos).fold(Vec::new(), |mut v, p| {
+        if v.last() != Some(&p) {
+            v.push(p);
+        }
+        v
+    });
+    assert_eq!(moving, moving_free);
+}
