@@ -1142,6 +1142,9 @@ impl<S: ProgramSource> Executor<S> {
     /// With the path planner: the next planned item, or the sample to hand
     /// out (a run's; the end, after an error).
     fn path_step(&mut self) -> PathOut {
+        // a feed hold brakes the run in progress to rest along its path
+        // (the override is not followed yet)
+        self.pipe.path_hold(self.target == 0.0);
         loop {
             match self.pipe.path_step() {
                 Ok(Some(Step::Sample { x, pos, src, last })) => {
@@ -1160,6 +1163,12 @@ impl<S: ProgramSource> Executor<S> {
                     }
                     let speed = (x - self.path_x) / self.dt;
                     self.path_x = x;
+                    // (held still: at rest, as `at_rest` tells)
+                    self.scale = if self.target == 0.0 && speed == 0.0 {
+                        0.0
+                    } else {
+                        1.0
+                    };
                     let s = self.sample(pos, speed, false);
                     self.advance(1.0);
                     return PathOut::Sample(Some(s));

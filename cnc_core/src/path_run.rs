@@ -360,6 +360,24 @@ impl Run {
         }
     }
 
+    /// A feed hold (`on`: the run brakes from its last sample to rest and
+    /// stands) or its end (it goes on from there).
+    pub fn hold(&mut self, on: bool) {
+        if on == self.speed.held() {
+            return;
+        }
+        if on {
+            let Run { shape, speed, .. } = self;
+            let at = |x: f64| {
+                let p = Run::point_of(shape, x);
+                [p[0], p[1], p[2]]
+            };
+            speed.hold(Some(&at));
+        } else {
+            self.speed.resume();
+        }
+    }
+
     /// The point at path position `x` (of the last sample or later): the
     /// run's ends exactly as programmed.
     pub fn point(&self, x: f64) -> V3 {
@@ -507,6 +525,13 @@ impl Runner {
     /// Whether no command is to come.
     pub fn closed(&self) -> bool {
         self.closed
+    }
+
+    /// A feed hold (`on`) of the run in progress, or its end.
+    pub fn hold(&mut self, on: bool) {
+        if let Some(run) = self.run.as_mut() {
+            run.hold(on);
+        }
     }
 
     /// Whether no run is in progress.

@@ -148,8 +148,14 @@ pub struct Planner {
     x: State,
     last: f64,
     arrived: bool,
-    /// Samples held back (for the end's smooth step), oldest first.
+    /// Samples held back (for the end's smooth step), oldest first, and
+    /// their states.
     out: VecDeque<f64>,
+    states: VecDeque<State>,
+    /// The last three samples handed out, oldest first, and whether a feed
+    /// hold brakes the run (`hold.rs`).
+    handed: [State; 3],
+    halting: bool,
     /// How many stations the last sample tried needed (no sample is
     /// tried again before they have come).
     need: usize,
@@ -199,6 +205,17 @@ impl Planner {
             last: 0.0,
             arrived: false,
             out: VecDeque::from([0.0]),
+            states: VecDeque::from([State {
+                s: 0.0,
+                v: 0.0,
+                a: 0.0,
+            }]),
+            handed: [State {
+                s: 0.0,
+                v: 0.0,
+                a: 0.0,
+            }; 3],
+            halting: false,
             memo: std::cell::RefCell::new([([u64::MAX; 3], None); MEMO]),
             need: 0,
             sampled: None,
@@ -535,6 +552,11 @@ impl Planner {
         } else {
             self.brake(&g, x, &b).unwrap_or(b.s_lo)
         };
+        if self.halting {
+            // a feed hold: the braking rule to rest, then rest
+            self.commit(x, safe, point);
+            return Ok(Some(()));
+        }
         // a probe that needs stations still to come ends the try: the
         // sample is tried again, from the start, once they have come
         let ok = |sig: f64| match self.viable(x.s, x.step(sig, self.dt), sig) {
@@ -585,6 +607,12 @@ impl Planner {
             Some(pt) => self.sampled_choice(x, sig, safe, pt),
             None => sig,
         };
+        self.commit(x, sig, point);
+        Ok(Some(()))
+    }
+
+    /// Takes jerk `sig` from `x` for the next sample.
+    fn commit(&mut self, x: State, sig: f64, point: Option<Point>) {
         self.last = sig;
         let mut x = x.step(sig, self.dt);
         if x.v <= REST_V && x.a.abs() <= 1e-6 {
@@ -593,10 +621,14 @@ impl Planner {
         }
         self.x = x;
         self.out.push_back(x.s);
+        self.states.push_back(x);
         if let (Some(pt), Some((_, Some(h)))) = (point, self.sampled.as_mut()) {
             *h = [h[1], h[2], pt(x.s)];
         }
-        let gone = self.path.forget_before(x.s.min(self.path.known()));
+        // (behind the samples handed out: a feed hold brakes from there)
+        let gone = self
+            .path
+            .forget_before(self.handed[0].s.min(self.path.known()));
         self.caps.drain(..gone);
         self.clear.drain(..gone);
         if let Some(end) = self.path.len() {
@@ -605,7 +637,6 @@ impl Planner {
                 self.arrived = true;
             }
         }
-        Ok(Some(()))
     }
 
     /// The path position at the next sample (the first is 0, the last
@@ -630,51 +661,15 @@ impl Planner {
         }
         loop {
             if self.arrived || self.out.len() > STRETCH_MIN + 1 {
+                if let Some(x) = self.states.pop_front() {
+                    self.handed = [self.handed[1], self.handed[2], x];
+                }
                 return Ok(self.out.pop_front());
             }
             if self.tick(point)?.is_none() {
                 return Ok(None);
             }
         }
-    }
-
-    /// Checks every sample (`next_sample_on`) on the points themselves:
-    /// the second and third differences of each axis's positions within
-    /// `lim` (the machine's own limits; the planner keeps a margin under
-    /// them). Where the jerk the planner chose does not keep them (the
-    /// stations are the path's derivatives at grid points, linear between:
-    /// a narrow blend's curvature may peak between two samples), the
-    /// largest of a few lower ones down to the braking rule's that keeps
-    /// them and stays viable is taken instead; none does: the planner's.
-    pub fn check_samples(&mut self, lim: AxisLimits) {
-        self.sampled = Some((lim, None));
-    }
-
-    /// The jerk for the next sample under the samples' own check (see
-    /// `check_samples`): `sig` the planner's, `safe` the braking rule's.
-    fn sampled_choice(&self, x: State, sig: f64, safe: f64, pt: Point) -> f64 {
-        let Some((lim, Some(h))) = self.sampled else {
-            return sig;
-        };
-        let dt = self.dt;
-        let fits = |sg: f64| {
-            let p1 = pt(x.step(sg, dt).s);
-            (0..3).all(|i| {
-                let a = (p1[i] - 2.0 * h[2][i] + h[1][i]) / (dt * dt);
-                let j = (p1[i] - 3.0 * h[2][i] + 3.0 * h[1][i] - h[0][i]) / (dt * dt * dt);
-                a.abs() <= lim.a[i] && j.abs() <= lim.j[i]
-            })
-        };
-        if fits(sig) {
-            return sig;
-        }
-        for f in SAMPLED_TRIES {
-            let c = sig + (safe - sig) * f;
-            if fits(c) && self.viable(x.s, x.step(c, dt), c) == Verdict::Yes {
-                return c;
-            }
-        }
-        sig
     }
 
     /// Whether the run has come to rest on its end.
@@ -790,5 +785,7 @@ fn stretch(out: &mut [f64], end: f64) {
     out[last] = end;
 }
 
+mod hold;
+mod sampled;
 #[cfg(test)]
 mod tests;

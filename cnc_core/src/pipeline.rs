@@ -322,6 +322,14 @@ impl<S: ProgramSource> Pipeline<S> {
         self.runner.is_some()
     }
 
+    /// With the path planner: a feed hold (`on`) of the run in progress,
+    /// or its end.
+    pub fn path_hold(&mut self, on: bool) {
+        if let Some(r) = self.runner.as_mut() {
+            r.hold(on);
+        }
+    }
+
     /// With the path planner: whether no run is in progress (the machine
     /// stands between two runs).
     pub fn path_idle(&self) -> bool {

@@ -460,6 +460,8 @@ fn stations_given_as_they_come_give_the_same_samples_bit_for_bit_in_bounded_memo
     );
     assert_eq!(*got.last().unwrap(), len);
     // what the planner keeps is its look-ahead (a braking from 100 mm/s
-    // takes 6 mm) and the last chunk, not the 24,000 stations of the run
-    assert!(most < 1500, "{most} stations kept");
+    // takes 6 mm), the last chunk and the path of the samples decided but
+    // not handed out (a feed hold brakes from the last one handed out: 5
+    // mm at 100 mm/s), not the 24,000 stations of the run
+    assert!(most < 3000, "{most} stations kept");
 }
