@@ -298,6 +298,9 @@ fn check_concurrently<S: ProgramSource>(
     // evens out the work.
     let queued = AtomicUsize::new(0);
     let queued = &queued;
+    // (the path planner plans from the moves themselves: nothing to work
+    // out ahead)
+    let prepare = !machine.planner.method.is_path();
     // (the interpreting thread's limits start where `first` leaves them)
     let mut lim_after_first = lim;
     first.iter().for_each(|ev| lim_after_first.follow(ev));
@@ -313,7 +316,7 @@ fn check_concurrently<S: ProgramSource>(
                     // take work off the planner while keeping up with it
                     let behind = queued.fetch_sub(1, Ordering::Relaxed) > 1;
                     batch.parse(dialect);
-                    batch.interpret(&mut interp, &mut lim, !behind);
+                    batch.interpret(&mut interp, &mut lim, prepare && !behind);
                     if interp_tx.send(batch).is_err() {
                         break;
                     }

@@ -983,8 +983,8 @@ impl<S: ProgramSource> Executor<S> {
             if self.cur.is_none() {
                 let item = if self.pipe.path_planner() {
                     if self.target == 0.0 && self.pipe.path_idle() {
-                        // a feed hold: under the path planner it takes
-                        // effect at the next stop (between two runs)
+                        // a feed hold between two runs: the next one waits
+                        // (within a run the planner brakes, `path_step`)
                         return Some(self.still_sample());
                     }
                     match self.path_step() {

@@ -42,8 +42,10 @@ pub const NO_FEED: f64 = 1e9;
 /// Station spacing, mm: the geometry's grid, so that a narrow blend is
 /// seen.
 const H: f64 = DS;
-/// Each chunk of the geometry, and the run either side of it, mm: with
-/// 20 mm either side the chunks' path is the whole run's within 1 nm.
+/// Each chunk of the geometry, and the run either side of it, mm (at P
+/// 0.01, 20 mm either side already give the whole run's path within 1
+/// nm; at P 0.001 the chunks differ by about a micron and fade into each
+/// other over 8 mm, `path_smooth::Stream`).
 const CHUNK: f64 = 40.0;
 const MARGIN: f64 = 30.0;
 /// Stations handed to the speed stage at once on an exact run.
@@ -157,7 +159,7 @@ fn err(e: impl std::fmt::Display) -> String {
 }
 
 /// A move's speed, mm/s (a rapid's: none but the axes').
-pub fn feed_mm_s(feed: Feed) -> f64 {
+fn feed_mm_s(feed: Feed) -> f64 {
     match feed {
         Feed::Rapid => NO_FEED,
         f => f.speed_mm_s().min(NO_FEED),
@@ -225,11 +227,6 @@ impl Run {
             ended: false,
             scratch: Vec::new(),
         })
-    }
-
-    /// Whether more moves may join the run.
-    pub fn open(&self) -> bool {
-        !self.ended
     }
 
     /// The next feed move of a smooth run.
@@ -331,11 +328,9 @@ impl Run {
         loop {
             let next = {
                 let Run { shape, speed, .. } = &mut *self;
-                let at = |x: f64| {
-                    let p = Run::point_of(shape, x);
-                    [p[0], p[1], p[2]]
-                };
-                speed.next_sample_on(&at).map_err(err)?
+                speed
+                    .next_sample_on(&|x| Run::point_of(shape, x).into())
+                    .map_err(err)?
             };
             if let Some(x) = next {
                 if let Shape::Smooth { geo, .. } = &mut self.shape {
@@ -368,11 +363,7 @@ impl Run {
         }
         if on {
             let Run { shape, speed, .. } = self;
-            let at = |x: f64| {
-                let p = Run::point_of(shape, x);
-                [p[0], p[1], p[2]]
-            };
-            speed.hold(Some(&at));
+            speed.hold(Some(&|x| Run::point_of(shape, x).into()));
         } else {
             self.speed.resume();
         }
@@ -411,15 +402,6 @@ impl Run {
             self.moves.pop_front();
         }
         self.moves.front().map_or(Src::default(), |m| m.1)
-    }
-
-    /// The largest distance of the smoothed path from the programmed one
-    /// so far, mm (0 for a move as programmed).
-    pub fn deviation(&self) -> f64 {
-        match &self.shape {
-            Shape::Exact { .. } => 0.0,
-            Shape::Smooth { geo, .. } => geo.dev(),
-        }
     }
 }
 
@@ -485,8 +467,6 @@ pub struct Runner {
     queue: VecDeque<Event>,
     /// no command is to come
     closed: bool,
-    /// the largest distance from the programmed path, mm
-    dev: f64,
     /// moves taken
     moves: u64,
     /// the line of the last command taken
@@ -501,7 +481,6 @@ impl Runner {
             run: None,
             queue: VecDeque::new(),
             closed: false,
-            dev: 0.0,
             moves: 0,
             line: 0,
         }
@@ -544,11 +523,6 @@ impl Runner {
         self.moves
     }
 
-    /// The largest distance from the programmed path so far, mm.
-    pub fn deviation(&self) -> f64 {
-        self.dev.max(self.run.as_ref().map_or(0.0, Run::deviation))
-    }
-
     /// The next sample or item; `None` until the next command comes (once
     /// closed: there is nothing more). `points`: whether samples need
     /// their point (the check needs only their count).
@@ -560,7 +534,6 @@ impl Runner {
                         let pos = if points { run.point(x) } else { V3::zeros() };
                         let src = run.src_at(x);
                         if last {
-                            self.dev = self.dev.max(run.deviation());
                             self.run = None;
                         }
                         return Ok(Some(Step::Sample { x, pos, src, last }));

@@ -74,6 +74,13 @@ mod path;
 pub use path::{Path, SpeedError, Station};
 use std::collections::VecDeque;
 
+/// A run's start: at rest at its first point.
+const AT_REST: State = State {
+    s: 0.0,
+    v: 0.0,
+    a: 0.0,
+};
+
 /// Where along the path, how fast, how hard.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct State {
@@ -197,24 +204,12 @@ impl Planner {
             caps: VecDeque::new(),
             clear: VecDeque::new(),
             open: None,
-            x: State {
-                s: 0.0,
-                v: 0.0,
-                a: 0.0,
-            },
+            x: AT_REST,
             last: 0.0,
             arrived: false,
             out: VecDeque::from([0.0]),
-            states: VecDeque::from([State {
-                s: 0.0,
-                v: 0.0,
-                a: 0.0,
-            }]),
-            handed: [State {
-                s: 0.0,
-                v: 0.0,
-                a: 0.0,
-            }; 3],
+            states: VecDeque::from([AT_REST]),
+            handed: [AT_REST; 3],
             halting: false,
             memo: std::cell::RefCell::new([([u64::MAX; 3], None); MEMO]),
             need: 0,
