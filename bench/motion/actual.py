@@ -21,6 +21,7 @@ actual positions over DDS and offline (aligned by the setpoint delay).
     . .venv-ros/env.sh
     python3 bench/motion/actual.py [--jerks 50 200] [--out DIR] [--bin DIR]
                                    [--accel-ff F] [--program cam|helix_pairs]
+                                   [--method filters|path]
 
 `--program helix_pairs` runs `gen.py helix_pairs` under `G61` instead:
 helical arcs of R 0.5, 2 and 10 mm, each from rest to rest (the arcs'
@@ -63,11 +64,14 @@ def stop_all():
     started.clear()
 
 
-def machine_file(jerk, out, accel_ff=0.0):
+def machine_file(jerk, out, accel_ff=0.0, method="filters"):
     """config/mill.toml at VEL, ACC and `jerk` m/s³ on every axis (as jerk.sh),
-    with the simulated drives' acceleration feed-forward `accel_ff` (0: none)."""
+    with the simulated drives' acceleration feed-forward `accel_ff` (0: none),
+    planned by `method` ([planner] method: filters or path)."""
     with open(os.path.join(ROOT, "config", "mill.toml")) as f:
         text = f.read()
+    if method != "filters":
+        text = re.sub(r"(?m)^(lookahead_blocks = .*)$", r'\1\nmethod = "%s"' % method, text)
     if accel_ff:
         text = re.sub(r"(?m)^(max_velocity_mm_s = .*)$", r"\1\nservo_accel_feed_forward = %g" % accel_ff, text)
     text = re.sub(r"(?m)^max_velocity_mm_s = .*", "max_velocity_mm_s = %d.0" % VEL, text)
@@ -233,6 +237,8 @@ def main():
     ap.add_argument("--bin", default=os.path.join(ROOT, "target", "release"))
     ap.add_argument("--accel-ff", type=float, default=0.0,
                     help="the simulated drives' acceleration feed-forward, 0..1 (servo_accel_feed_forward)")
+    ap.add_argument("--method", choices=("filters", "path"), default="filters",
+                    help="the machine's [planner] method")
     ap.add_argument("--program", choices=("cam", "helix_pairs"), default="cam",
                     help="gen.py's program: cam (G64 P0.01) or helix_pairs (G61)")
     a = ap.parse_args()
@@ -250,7 +256,7 @@ def main():
     results = {}
     try:
         for jerk in a.jerks:
-            machine, delay_ms = machine_file(jerk, a.out, a.accel_ff)
+            machine, delay_ms = machine_file(jerk, a.out, a.accel_ff, a.method)
             s_off, a_off = offline(cnc, prog, machine, a.out, jerk)
             sp, st, reply, rec = over_dds(a, machine, a.out, jerk)
             # the job's span on the shared clock: its first to its last setpoint, and the
