@@ -359,6 +359,17 @@ impl<S: ProgramSource> Executor<S> {
         }
     }
 
+    /// With the path planner: plans on a thread of its own, up to 0.3 s
+    /// ahead of the samples, and smooths the geometry on another, so that
+    /// the loop calling `next_sample` does not wait for a decision or a
+    /// chunk that takes milliseconds; the samples are the same, feed holds
+    /// included (`path_run::Ahead`). Each thread first calls `on_start`
+    /// (the node's drops the control loop's real-time priority). Call
+    /// before the first sample.
+    pub fn plan_ahead(&mut self, on_start: fn()) {
+        self.pipe.plan_ahead(on_start);
+    }
+
     /// The drives apply each setpoint `seconds` after its instant (0 by
     /// default; not finite or negative: 0). With a measured spindle a G33
     /// setpoint is for the angle predicted that much ahead plus the lead

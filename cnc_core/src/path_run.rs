@@ -29,11 +29,16 @@
 //! that lie between them (dwells, spindle and tool commands, threads, the
 //! end).
 
+mod ahead;
+mod exact;
+pub use ahead::Ahead;
+use exact::exact_station;
+
 use crate::canon::{Event, Feed, Src};
 use crate::geom::{Geom, V3};
 use crate::machine::Machine;
-use crate::path_smooth::{Stream, DS};
-use crate::path_speed::{AxisLimits, Path, Planner, Station};
+use crate::path_smooth::{Stream, Worker, DS};
+use crate::path_speed::{AxisLimits, Path, Planner, Snapshot, Station};
 use crate::plan::Item;
 use std::collections::VecDeque;
 
@@ -48,6 +53,13 @@ const H: f64 = DS;
 /// other over 8 mm, `path_smooth::Stream`).
 const CHUNK: f64 = 40.0;
 const MARGIN: f64 = 30.0;
+/// With a worker for the geometry, how far the moves are taken in ahead
+/// of the samples, mm: each chunk is handed over about a second before
+/// the speed stage reaches it at 100 mm/s.
+const AHEAD: f64 = 4.0 * CHUNK;
+/// With a worker, how far past the last sample the speed stage has its
+/// stations, mm.
+const LEAD: f64 = 20.0;
 /// Stations handed to the speed stage at once on an exact run.
 const BATCH: usize = 256;
 /// The smallest path tolerance the runs are smoothed within, mm: under it
@@ -151,6 +163,12 @@ pub struct Run {
     tol: f64,
     /// no move is to come
     ended: bool,
+    /// the last sample's path position, and where what a rewind needs
+    /// starts (`keep_from`)
+    at: f64,
+    keep: f64,
+    /// the move being run (in `moves`)
+    mv: usize,
     scratch: Vec<Station>,
 }
 
@@ -225,8 +243,24 @@ impl Run {
             end_tangent: V3::zeros(),
             tol: 0.0,
             ended: false,
+            at: 0.0,
+            keep: f64::INFINITY,
+            mv: 0,
             scratch: Vec::new(),
         })
+    }
+
+    /// Hands the geometry's chunks to `worker` (a smooth run).
+    fn work_ahead(&mut self, worker: &Worker) {
+        if let Shape::Smooth { geo, .. } = &mut self.shape {
+            geo.work_ahead(worker);
+        }
+    }
+
+    /// Whether the run takes more moves, and has fewer than `AHEAD` mm of
+    /// them past its last sample.
+    fn wants_moves(&self) -> bool {
+        !self.ended && self.len < self.at + AHEAD
     }
 
     /// The next feed move of a smooth run.
@@ -261,6 +295,7 @@ impl Run {
             }
         }
         *pending = Some((a(geom.end()), f));
+        geo.hand_over().map_err(err)?;
         if self.moves.is_empty() {
             self.start = geom.start();
         }
@@ -282,6 +317,28 @@ impl Run {
                 geo.push(p, f).map_err(err)?;
             }
             geo.finish().map_err(err)?;
+            geo.hand_over().map_err(err)?;
+        }
+        Ok(())
+    }
+
+    /// With a worker for the geometry: hands the speed stage a slice of
+    /// stations it has ready while they reach less than `LEAD` past `x`
+    /// (a decision cut short for want of stations starts again).
+    fn top_up(&mut self, x: f64) -> Result<(), String> {
+        let Shape::Smooth { geo, .. } = &mut self.shape else {
+            return Ok(());
+        };
+        if geo.len().is_some() || self.speed.path().known() >= x + LEAD {
+            return Ok(());
+        }
+        geo.advance_ready(&mut self.scratch).map_err(err)?;
+        let len = geo.len();
+        for st in self.scratch.drain(..) {
+            self.speed.push(st).map_err(err)?;
+        }
+        if let Some(len) = len {
+            self.speed.finish(len).map_err(err)?;
         }
         Ok(())
     }
@@ -308,10 +365,19 @@ impl Run {
             }
             Shape::Smooth { geo, .. } => {
                 let had = geo.len().is_some();
-                geo.advance(&mut self.scratch).map_err(err)?;
-                let more = !self.scratch.is_empty();
-                for st in self.scratch.drain(..) {
-                    self.speed.push(st).map_err(err)?;
+                // (with a worker, slices up to `LEAD` ahead at once: a
+                // decision cut short for want of stations starts again)
+                let mut more = false;
+                loop {
+                    geo.advance(&mut self.scratch).map_err(err)?;
+                    let got = !self.scratch.is_empty();
+                    more |= got;
+                    for st in self.scratch.drain(..) {
+                        self.speed.push(st).map_err(err)?;
+                    }
+                    if !got || geo.len().is_some() || self.speed.path().known() >= self.at + LEAD {
+                        break;
+                    }
                 }
                 if let (false, Some(len)) = (had, geo.len()) {
                     self.speed.finish(len).map_err(err)?;
@@ -333,10 +399,12 @@ impl Run {
                     .map_err(err)?
             };
             if let Some(x) = next {
+                self.at = x;
+                self.top_up(x)?;
                 if let Shape::Smooth { geo, .. } = &mut self.shape {
                     // (what lies behind the sample before this one: the
                     // caller may still want its point)
-                    geo.forget_before(x - 2.0 * H);
+                    geo.forget_before(x.min(self.keep) - 2.0 * H);
                 }
                 return Ok(Next::At {
                     x,
@@ -398,42 +466,36 @@ impl Run {
     /// The block being run at path position `x` (on the programmed path's
     /// count: a corner's cut shortens it by microns).
     pub fn src_at(&mut self, x: f64) -> Src {
-        while self.moves.len() > 1 && self.moves[1].0 <= x {
+        while self.mv > 0 && self.moves[self.mv].0 > x {
+            self.mv -= 1;
+        }
+        while self.mv + 1 < self.moves.len() && self.moves[self.mv + 1].0 <= x {
+            self.mv += 1;
+        }
+        // (the moves behind both the sample and what a rewind needs go)
+        let keep = x.min(self.keep);
+        while self.mv > 0 && self.moves[1].0 <= keep {
             self.moves.pop_front();
+            self.mv -= 1;
         }
-        self.moves.front().map_or(Src::default(), |m| m.1)
+        self.moves.get(self.mv).map_or(Src::default(), |m| m.1)
     }
-}
 
-/// The station at `x` of one move as programmed.
-fn exact_station(geom: &Geom, x: f64, feed: f64) -> Station {
-    let a = |v: V3| [v[0], v[1], v[2]];
-    match geom {
-        Geom::Line { start, end } => Station {
-            t: a((end - start) / geom.length()),
-            k: [0.0; 3],
-            kd: [0.0; 3],
-            feed,
-        },
-        Geom::Arc(arc) => {
-            // the helix: angle θ0 + w s, w = sweep / length
-            let (p, q, _) = arc.plane.axes();
-            let w = arc.sweep / arc.length;
-            let (sin, cos) = (arc.theta0 + w * x).sin_cos();
-            let r = arc.radius;
-            let mut t = [0.0; 3];
-            let mut k = [0.0; 3];
-            let mut kd = [0.0; 3];
-            let n = 3 - p - q;
-            t[p] = -r * w * sin;
-            t[q] = r * w * cos;
-            t[n] = arc.axial / arc.length;
-            k[p] = -r * w * w * cos;
-            k[q] = -r * w * w * sin;
-            kd[p] = r * w * w * w * sin;
-            kd[q] = -r * w * w * w * cos;
-            Station { t, k, kd, feed }
-        }
+    /// Keeps what going back to a sample at or after path position `x`
+    /// needs (`Snapshot::needs_from`).
+    pub fn keep_from(&mut self, x: f64) {
+        self.keep = x;
+        self.speed.keep_from(Some(x));
+    }
+
+    /// The speed stage's state after the last sample.
+    pub fn snapshot(&self) -> Snapshot {
+        self.speed.snapshot()
+    }
+
+    /// Goes back to `snap` (kept for: `keep_from`).
+    pub fn restore(&mut self, snap: &Snapshot) {
+        self.speed.restore(snap);
     }
 }
 
@@ -463,6 +525,14 @@ pub struct Runner {
     /// the path tolerance (G64 P) in force, mm; 0: G61
     tol: f64,
     run: Option<Run>,
+    /// with a worker: the run after this one, its moves taken in ahead
+    next: Option<Run>,
+    /// the run whose last sample was the last step (for `rewind`)
+    done: Option<Run>,
+    /// every run keeps what a rewind needs (`keep_for_rewind`)
+    rewinds: bool,
+    /// the geometry's own thread (`work_ahead`)
+    worker: Option<Worker>,
     /// commands not taken yet
     queue: VecDeque<Event>,
     /// no command is to come
@@ -479,10 +549,58 @@ impl Runner {
             lim,
             tol: tolerance,
             run: None,
+            next: None,
+            done: None,
+            rewinds: false,
+            worker: None,
             queue: VecDeque::new(),
             closed: false,
             moves: 0,
             line: 0,
+        }
+    }
+
+    /// Smooths the geometry on a thread of its own (which first calls
+    /// `on_start`) from the next run on, the same samples, and takes the
+    /// moves in `AHEAD` of the samples, the next run's as the last one
+    /// ends. Without a thread (it cannot be started) nothing changes.
+    pub fn work_ahead(&mut self, on_start: fn()) {
+        if self.worker.is_none() {
+            self.worker = Worker::spawn(on_start);
+        }
+    }
+
+    /// Every run from the next on keeps what going back to any of its
+    /// samples needs, until told what it may forget (`keep_from`): for a
+    /// runner working ahead of the samples' consumer (`ahead`).
+    pub fn keep_for_rewind(&mut self) {
+        self.rewinds = true;
+    }
+
+    /// The run in progress keeps what going back to a sample at or after
+    /// path position `x` needs.
+    pub fn keep_from(&mut self, x: f64) {
+        if let Some(run) = self.run.as_mut().or(self.done.as_mut()) {
+            run.keep_from(x);
+        }
+    }
+
+    /// The speed stage's state after the last sample, if it was one of a
+    /// run in progress (not its last).
+    pub fn snapshot(&self) -> Option<Snapshot> {
+        self.run.as_ref().map(Run::snapshot)
+    }
+
+    /// Goes back to `snap`, taken of the run in progress (or of the one
+    /// whose last sample was the last step), and holds it (`on`) or ends
+    /// its hold there, as `hold` at that sample would have.
+    pub fn rewind(&mut self, snap: &Snapshot, on: bool) {
+        if self.run.is_none() {
+            self.run = self.done.take();
+        }
+        if let Some(run) = self.run.as_mut() {
+            run.restore(snap);
+            run.hold(on);
         }
     }
 
@@ -518,6 +636,72 @@ impl Runner {
         self.run.is_none()
     }
 
+    /// A run of `geom` starting from rest, or `None` for a move too short
+    /// to count.
+    fn start(&self, geom: Geom, feed: Feed, src: Src) -> Result<Option<Run>, String> {
+        if geom.length() <= TINY {
+            return Ok(None);
+        }
+        let mut run = if feed == Feed::Rapid || self.tol < P_MIN {
+            Run::exact(geom, feed, src, &self.lim)?
+        } else {
+            let mut r = Run::smooth(self.tol, &self.lim)?;
+            if let Some(w) = &self.worker {
+                r.work_ahead(w);
+            }
+            r.add(&geom, feed, src)?;
+            r
+        };
+        if self.rewinds {
+            run.keep_from(0.0);
+        }
+        Ok(Some(run))
+    }
+
+    /// With a worker: takes the commands in as far ahead as the runs want
+    /// them; `false` if it needs the next command first.
+    fn fill(&mut self) -> Result<bool, String> {
+        if self.worker.is_none() {
+            return Ok(true);
+        }
+        loop {
+            let (tol, closed) = (self.tol, self.closed);
+            let taker = match (self.run.as_mut(), self.next.as_mut()) {
+                (_, Some(n)) => Some(n),
+                (Some(r), None) => Some(r),
+                (None, None) => None,
+            };
+            if let Some(run) = taker.filter(|r| !r.ended) {
+                if !run.wants_moves() {
+                    return Ok(true);
+                }
+                let (queue, moves, line) = (&mut self.queue, &mut self.moves, &mut self.line);
+                if !take_into(run, queue, (tol, closed), moves, line)? {
+                    return Ok(false);
+                }
+                continue;
+            }
+            // the run in progress has all its moves: the next one starts
+            if self.run.is_none() || self.next.is_some() {
+                return Ok(true);
+            }
+            match self.queue.front().copied() {
+                Some(Event::Move { geom, feed, src }) => {
+                    self.queue.pop_front();
+                    self.moves += 1;
+                    self.line = src.line;
+                    self.next = self.start(geom, feed, src)?;
+                }
+                Some(Event::Tolerance { mm }) => {
+                    self.queue.pop_front();
+                    self.tol = mm;
+                }
+                Some(_) => return Ok(true),
+                None => return Ok(self.closed),
+            }
+        }
+    }
+
     /// Moves taken so far.
     pub fn moves(&self) -> u64 {
         self.moves
@@ -527,38 +711,30 @@ impl Runner {
     /// closed: there is nothing more). `points`: whether samples need
     /// their point (the check needs only their count).
     pub fn step(&mut self, points: bool) -> Result<Option<Step>, String> {
+        self.done = None;
         loop {
+            if self.run.is_none() {
+                self.run = self.next.take();
+            }
+            if !self.fill()? {
+                return Ok(None);
+            }
             if let Some(run) = self.run.as_mut() {
                 match run.sample()? {
                     Next::At { x, last } => {
                         let pos = if points { run.point(x) } else { V3::zeros() };
                         let src = run.src_at(x);
                         if last {
-                            self.run = None;
+                            // (the next run starts with the next step)
+                            self.done = self.run.take();
                         }
                         return Ok(Some(Step::Sample { x, pos, src, last }));
                     }
                     Next::More => {
-                        match self.queue.pop_front() {
-                            Some(ev @ Event::Move { geom, .. }) if run.corner_stops(&geom) => {
-                                run.end()?;
-                                self.queue.push_front(ev);
-                            }
-                            Some(Event::Move { geom, feed, src })
-                                if feed != Feed::Rapid && self.tol >= P_MIN =>
-                            {
-                                self.moves += 1;
-                                self.line = src.line;
-                                if geom.length() > TINY {
-                                    run.add(&geom, feed, src)?;
-                                }
-                            }
-                            Some(other) => {
-                                run.end()?;
-                                self.queue.push_front(other);
-                            }
-                            None if self.closed => run.end()?,
-                            None => return Ok(None),
+                        let (queue, moves, line) =
+                            (&mut self.queue, &mut self.moves, &mut self.line);
+                        if !take_into(run, queue, (self.tol, self.closed), moves, line)? {
+                            return Ok(None);
                         }
                         continue;
                     }
@@ -571,15 +747,7 @@ impl Runner {
                 Event::Move { geom, feed, src } => {
                     self.moves += 1;
                     self.line = src.line;
-                    if geom.length() > TINY {
-                        self.run = Some(if feed == Feed::Rapid || self.tol < P_MIN {
-                            Run::exact(geom, feed, src, &self.lim)?
-                        } else {
-                            let mut r = Run::smooth(self.tol, &self.lim)?;
-                            r.add(&geom, feed, src)?;
-                            r
-                        });
-                    }
+                    self.run = self.start(geom, feed, src)?;
                     continue;
                 }
                 Event::Tolerance { mm } => {
@@ -595,4 +763,38 @@ impl Runner {
             return Ok(Some(Step::Item(item)));
         }
     }
+}
+
+/// Takes the next command into smooth run `run` if it joins it (counting
+/// the move and its line), or ends the run; `false`: no command yet.
+/// `(tol, closed)`: the P in force, and whether no command is to come.
+fn take_into(
+    run: &mut Run,
+    queue: &mut VecDeque<Event>,
+    (tol, closed): (f64, bool),
+    moves: &mut u64,
+    line: &mut u32,
+) -> Result<bool, String> {
+    match queue.front() {
+        Some(ev) if joins(run, ev, tol) => {
+            if let Some(Event::Move { geom, feed, src }) = queue.pop_front() {
+                *moves += 1;
+                *line = src.line;
+                if geom.length() > TINY {
+                    run.add(&geom, feed, src)?;
+                }
+            }
+        }
+        Some(_) => run.end()?,
+        None if closed => run.end()?,
+        None => return Ok(false),
+    }
+    Ok(true)
+}
+
+/// Whether `ev` joins smooth run `run`: a feed move under a P the geometry
+/// resolves, turning gently enough from the run's last move.
+fn joins(run: &Run, ev: &Event, tol: f64) -> bool {
+    matches!(ev, Event::Move { geom, feed, .. }
+        if *feed != Feed::Rapid && tol >= P_MIN && !run.corner_stops(geom))
 }

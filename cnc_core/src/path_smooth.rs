@@ -441,7 +441,9 @@ impl Smoothed {
     }
 }
 
+mod ahead;
 mod stream;
+pub use ahead::Worker;
 pub use stream::Stream;
 
 #[cfg(test)]

@@ -163,6 +163,8 @@ pub struct Planner {
     /// hold brakes the run (`hold.rs`).
     handed: [State; 3],
     halting: bool,
+    /// Stations kept from here on too (`keep_from`).
+    keep: Option<f64>,
     /// How many stations the last sample tried needed (no sample is
     /// tried again before they have come).
     need: usize,
@@ -211,6 +213,7 @@ impl Planner {
             states: VecDeque::from([AT_REST]),
             handed: [AT_REST; 3],
             halting: false,
+            keep: None,
             memo: std::cell::RefCell::new([([u64::MAX; 3], None); MEMO]),
             need: 0,
             sampled: None,
@@ -621,9 +624,8 @@ impl Planner {
             *h = [h[1], h[2], pt(x.s)];
         }
         // (behind the samples handed out: a feed hold brakes from there)
-        let gone = self
-            .path
-            .forget_before(self.handed[0].s.min(self.path.known()));
+        let behind = self.handed[0].s.min(self.keep.unwrap_or(f64::INFINITY));
+        let gone = self.path.forget_before(behind.min(self.path.known()));
         self.caps.drain(..gone);
         self.clear.drain(..gone);
         if let Some(end) = self.path.len() {
@@ -781,6 +783,7 @@ fn stretch(out: &mut [f64], end: f64) {
 }
 
 mod hold;
+pub use hold::Snapshot;
 mod sampled;
 #[cfg(test)]
 mod tests;

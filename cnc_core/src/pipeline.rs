@@ -23,7 +23,7 @@ use crate::interp::{Interpreter, Modal};
 use crate::jerk::JerkBudget;
 use crate::limits::{MoveLimits, MovePrep};
 use crate::machine::Machine;
-use crate::path_run::{RunLimits, Runner, Step};
+use crate::path_run::{Ahead, RunLimits, Runner, Step};
 use crate::plan::{Item, ItemSink, Lookahead, PlanLimits, Planner};
 use crate::profile::Profile;
 use crate::source::ProgramSource;
@@ -298,21 +298,41 @@ pub struct Pipeline<S> {
     interp: Interpreter<S, Front>,
     planner: Planner,
     /// the path planner, on a machine that plans with it
-    runner: Option<Runner>,
+    runner: Option<Runs>,
     /// shared with the sampling (stops, dwells and threads on ticks)
     pub timeline: Timeline,
+}
+
+/// The path planner on this thread, or on its own ahead of it.
+enum Runs {
+    Here(Box<Runner>),
+    Ahead(Ahead),
 }
 
 impl<S: ProgramSource> Pipeline<S> {
     pub fn new(source: S, dialect: Dialect, machine: &Machine) -> Self {
         let lim = PlanLimits::from_machine(machine);
         let runner = RunLimits::for_machine(machine)
-            .map(|l| Runner::new(l, machine.planner.path_tolerance_mm));
+            .map(|l| Runs::Here(Box::new(Runner::new(l, machine.planner.path_tolerance_mm))));
         Pipeline {
             interp: Interpreter::new(source, dialect, machine),
             planner: Planner::new(lim),
             timeline: timeline_for(&lim, runner.is_some()),
             runner,
+        }
+    }
+
+    /// With the path planner: plans on a thread of its own, ahead of the
+    /// samples (`path_run::Ahead`: the same samples, feed holds included),
+    /// and smooths the geometry on another; before the first step. Each
+    /// thread first calls `on_start`. Without threads, nothing changes.
+    pub fn plan_ahead(&mut self, on_start: fn()) {
+        if let Some(Runs::Here(mut r)) = self.runner.take() {
+            r.work_ahead(on_start);
+            self.runner = Some(match Ahead::spawn(*r, on_start) {
+                Ok(a) => Runs::Ahead(a),
+                Err(r) => Runs::Here(r),
+            });
         }
     }
 
@@ -325,22 +345,31 @@ impl<S: ProgramSource> Pipeline<S> {
     /// With the path planner: a feed hold (`on`) of the run in progress,
     /// or its end.
     pub fn path_hold(&mut self, on: bool) {
-        if let Some(r) = self.runner.as_mut() {
-            r.hold(on);
+        match self.runner.as_mut() {
+            Some(Runs::Here(r)) => r.hold(on),
+            Some(Runs::Ahead(a)) => a.hold(on),
+            None => {}
         }
     }
 
     /// With the path planner: whether no run is in progress (the machine
     /// stands between two runs).
     pub fn path_idle(&self) -> bool {
-        self.runner.as_ref().is_some_and(Runner::idle)
+        match self.runner.as_ref() {
+            Some(Runs::Here(r)) => r.idle(),
+            Some(Runs::Ahead(a)) => a.idle(),
+            None => false,
+        }
     }
 
     /// With the path planner: the next sample or planned item, pulling
     /// commands through as the runs need them; `None` after the last.
     pub fn path_step(&mut self) -> Result<Option<Step>, String> {
-        let Some(runner) = self.runner.as_mut() else {
-            return Err("the machine does not plan with the path planner".into());
+        let interp = &mut self.interp;
+        let runner = match self.runner.as_mut() {
+            Some(Runs::Here(r)) => r,
+            Some(Runs::Ahead(a)) => return a.step(&mut || interp.next()),
+            None => return Err("the machine does not plan with the path planner".into()),
         };
         loop {
             if let Some(step) = runner.step(true)? {
@@ -349,7 +378,7 @@ impl<S: ProgramSource> Pipeline<S> {
             if runner.closed() {
                 return Ok(None);
             }
-            match self.interp.next() {
+            match interp.next() {
                 Some(ev) => runner.push(ev),
                 None => runner.close(),
             }

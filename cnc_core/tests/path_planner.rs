@@ -214,3 +214,82 @@ fn a_feed_hold_brakes_the_path_planner_along_its_path_and_resume_goes_on() {
     assert!(worst <= 0.01, "{worst}");
     assert_eq!(s.last().unwrap().pos, V3::new(20.0, 10.0, 5.0));
 }
+
+/// `m` run to its end, holding (`false`) and resuming (`true`) at the
+/// samples `toggles` names, on the executor's thread or planned ahead on
+/// threads of their own.
+fn run_with_holds(
+    m: &Machine,
+    program: &str,
+    toggles: &[(usize, bool)],
+    ahead: bool,
+) -> Vec<Sample> {
+    let mut ex = Executor::new(StrSource::new(program), Dialect::Cnc836, m);
+    if ahead {
+        ex.plan_ahead(|| {});
+    }
+    let mut s: Vec<Sample> = Vec::new();
+    while let Some(x) = ex.next_sample() {
+        for &(at, on) in toggles {
+            if s.len() == at {
+                ex.set_feed_target(if on { 1.0 } else { 0.0 });
+            }
+        }
+        s.push(x);
+        assert!(s.len() < 100_000, "no end");
+    }
+    assert_eq!(ex.fault(), None);
+    s
+}
+
+/// A long smooth run (a polygon of 400 short lines round an R20 circle,
+/// then tangent arcs) after the mixed program's moves.
+fn long_program() -> String {
+    let mut p = String::from("N1 G17 G90 G94 G64 P0.01\nN2 G00 X20 Y0 Z0\nN3 G01 F6000\n");
+    for i in 1..=400 {
+        let a = i as f64 * std::f64::consts::TAU / 400.0;
+        p += &format!("X{:.4} Y{:.4}\n", 20.0 * a.cos(), 20.0 * a.sin());
+    }
+    p += "G02 X40 Y0 I10 J0\nG03 X60 Y0 I10 J0\nG01 X60 Y-10\nG00 Z5\nM30\n";
+    p
+}
+
+#[test]
+fn planned_ahead_on_its_own_threads_the_samples_are_the_same_feed_holds_included() {
+    let m = machine(5e4);
+    let long = long_program();
+    // holds of every length (down to 1 sample: resumed while braking), at
+    // run starts, in runs and near their ends, from a fixed sequence
+    let mut toggles = Vec::new();
+    let mut r: u64 = 12345;
+    let mut at = 100;
+    while at < 9000 {
+        r = r
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let hold = 1 + (r >> 33) as usize % 400;
+        toggles.push((at, false));
+        toggles.push((at + hold, true));
+        at += hold + 50 + (r >> 50) as usize % 700;
+    }
+    for (name, program) in [("mixed", PROGRAM), ("long", long.as_str())] {
+        for holds in [&[][..], &toggles[..]] {
+            let here = run_with_holds(&m, program, holds, false);
+            let ahead = run_with_holds(&m, program, holds, true);
+            assert_eq!(here.len(), ahead.len(), "{name}, {} toggles", holds.len());
+            if let Some(i) = (0..here.len()).find(|&i| here[i].pos != ahead[i].pos) {
+                panic!(
+                    "{name}, {} toggles: sample {i} at {:?} ahead, {:?} here",
+                    holds.len(),
+                    ahead[i].pos,
+                    here[i].pos
+                );
+            }
+            assert_eq!(here.last().map(|x| x.k), ahead.last().map(|x| x.k));
+        }
+    }
+    // (the holds did land while moving: the run is longer held than not)
+    let free = run_with_holds(&m, &long, &[], true).len();
+    let held = run_with_holds(&m, &long, &toggles, true).len();
+    assert!(held > free + 1000, "{held} against {free}");
+}

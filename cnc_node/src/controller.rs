@@ -18,6 +18,7 @@ use crate::program::OwnedSource;
 use cnc_core::exec::{Executor, Sync as ThreadSync};
 use cnc_core::tracker::EncoderReading;
 use cnc_core::{Dialect, Machine};
+use cnc_msgs::ros;
 
 /// Controller states, as in `cnc_msgs/ControllerStatus`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -260,6 +261,11 @@ impl Controller {
             exec.attach_encoder();
         }
         exec.set_feed_target(self.feed_override);
+        // the path planner works ahead on threads of their own, below the
+        // loop's real-time priority (they would inherit it)
+        exec.plan_ahead(|| {
+            let _ = ros::set_normal();
+        });
         self.job = Some(Running {
             id: job.id,
             exec,

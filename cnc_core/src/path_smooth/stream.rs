@@ -12,8 +12,10 @@
 //! does not depend on how long the run turns out to be: a chunk is worked
 //! out once the run is known `W0` past its margin.
 
-use super::{dist, nearest, smooth_range, Pl, SmoothError, Smoothed, DS, W0};
+use super::ahead::{Done, Job, Link, Worker};
+use super::{dist, nearest, SmoothError, Smoothed, DS, W0};
 use crate::path_speed::Station;
+use std::sync::Arc;
 
 /// Points dropped at once from the front of a buffer (amortises the move).
 const DROP_BATCH: usize = 4096;
@@ -23,6 +25,10 @@ const DROP_BATCH: usize = 4096;
 /// differ by a micron or so far from their ends, which a seam would show
 /// as a step in the curvature's change.
 const FADE: f64 = 8.0;
+/// With a worker, grid points taken in from a chunk at a time (1 mm): the
+/// stations come a few at a time as the samples need them, and no call
+/// takes in a whole chunk at once.
+const SLICE: usize = 250;
 
 /// A run's geometry, smoothed as its programmed path comes.
 pub struct Stream {
@@ -39,8 +45,10 @@ pub struct Stream {
     raw_base: usize,
     /// the run's programmed length once it is finished
     len: Option<f64>,
-    /// the first grid point of the next chunk
+    /// the first grid point of the next chunk, and of the next one not
+    /// taken in yet (from the worker)
     next: usize,
+    applied: usize,
     /// the smoothed grid from point `base` on: point, width, feed, own arc
     /// length (as long as `q`); tangent, curvature and its change (each as
     /// far as its neighbours are known)
@@ -63,6 +71,17 @@ pub struct Stream {
     station: usize,
     at: usize,
     stations_done: bool,
+    /// the worker the chunks go to, if any (`work_ahead`), and the chunk
+    /// being taken in from it
+    ahead: Option<Link>,
+    part: Option<Part>,
+}
+
+/// A chunk smoothed and not yet wholly taken in: its next grid point.
+struct Part {
+    job: Arc<Job>,
+    done: Done,
+    next: usize,
 }
 
 impl Stream {
@@ -108,6 +127,7 @@ impl Stream {
             raw_base: 0,
             len: None,
             next: 0,
+            applied: 0,
             base: 0,
             q: Vec::new(),
             w: Vec::new(),
@@ -122,7 +142,15 @@ impl Stream {
             station: 0,
             at: 0,
             stations_done: false,
+            ahead: None,
+            part: None,
         })
+    }
+
+    /// Hands the chunks to `worker` from now on, to be smoothed on its
+    /// thread while this one goes on.
+    pub fn work_ahead(&mut self, worker: &Worker) {
+        self.ahead = Some(worker.link());
     }
 
     /// The next point of the programmed path (points on arcs no further
@@ -189,10 +217,64 @@ impl Stream {
         }
     }
 
-    /// Works out every chunk the known path allows, and the tangents,
-    /// curvatures and stations that follows; stations go to `out`.
+    /// Works out every chunk the known path allows (with a worker: hands
+    /// them to it, and takes what it has finished, waiting for the oldest
+    /// when no station would come otherwise), and the tangents, curvatures
+    /// and stations that follow; stations go to `out`. The stations are
+    /// the same with a worker or without; only when they come differs.
     pub fn advance(&mut self, out: &mut Vec<Station>) -> Result<(), SmoothError> {
+        self.advance_some(out, true)
+    }
+
+    /// With a worker: what it has ready, a slice at most, without waiting
+    /// (the stations a little ahead of need, a little each sample).
+    pub fn advance_ready(&mut self, out: &mut Vec<Station>) -> Result<(), SmoothError> {
+        if self.ahead.is_none() {
+            return Ok(());
+        }
+        self.advance_some(out, false)
+    }
+
+    fn advance_some(&mut self, out: &mut Vec<Station>, wait: bool) -> Result<(), SmoothError> {
         let n = self.len.map(Self::grid_count);
+        self.chunks(n)?;
+        let before = out.len();
+        loop {
+            if self.part.is_none() {
+                if let Some((job, done)) = self.take(false) {
+                    self.start_part(job, done?);
+                }
+            }
+            let any = self.take_in(SLICE);
+            self.derive(n);
+            self.emit(n, out);
+            if out.len() > before || !wait {
+                break;
+            }
+            if any || self.part.is_some() {
+                continue;
+            }
+            // nothing is ready: the oldest chunk handed over, once it is
+            match self.take(true) {
+                Some((job, done)) => self.start_part(job, done?),
+                None => break,
+            }
+        }
+        self.drop_raw();
+        Ok(())
+    }
+
+    /// With a worker: hands it every chunk the known path allows (the
+    /// stations come with `advance`). Without one, nothing.
+    pub fn hand_over(&mut self) -> Result<(), SmoothError> {
+        if self.ahead.is_none() {
+            return Ok(());
+        }
+        self.chunks(self.len.map(Self::grid_count))
+    }
+
+    /// Every chunk the known path allows: to the worker, or worked out.
+    fn chunks(&mut self, n: Option<usize>) -> Result<(), SmoothError> {
         loop {
             let i0 = self.next;
             if n.is_some_and(|n| i0 >= n) {
@@ -206,36 +288,56 @@ impl Stream {
             if n.is_none() && (b - 1) as f64 * DS + W0 >= self.known() {
                 break;
             }
-            self.chunk(i0, i1, a, b, n)?;
+            let job = self.job(i0, i1, a, b, n);
+            match self.ahead.as_mut() {
+                Some(link) => link.send(job, self.tol, self.twice),
+                None => {
+                    let done = job.smooth(self.tol, self.twice)?;
+                    self.start_part(Arc::new(job), done);
+                    self.take_in(usize::MAX);
+                }
+            }
             self.next = i1;
         }
-        self.derive(n);
-        self.emit(n, out);
-        self.drop_raw();
         Ok(())
     }
 
-    /// Smooths grid points `i0..i1` with `a..b` around them.
-    fn chunk(
-        &mut self,
-        i0: usize,
-        i1: usize,
-        a: usize,
-        b: usize,
-        n: Option<usize>,
-    ) -> Result<(), SmoothError> {
+    /// The oldest chunk the worker has finished (`wait`: once it has).
+    fn take(&mut self, wait: bool) -> Option<(Arc<Job>, Result<Done, SmoothError>)> {
+        let (tol, twice) = (self.tol, self.twice);
+        self.ahead.as_mut()?.take(tol, twice, wait)
+    }
+
+    /// What smoothing grid points `i0..i1` with `a..b` around them reads.
+    fn job(&self, i0: usize, i1: usize, a: usize, b: usize, n: Option<usize>) -> Job {
         let s: Vec<f64> = (a..b).map(|i| self.grid_s(i, n)).collect();
         // the programmed path the first average reads: W0 either side
         let (lo, hi) = (s[0] - W0, s[s.len() - 1] + W0);
         let r0 = self.rs.partition_point(|x| *x <= lo).saturating_sub(1);
         let r1 = (self.rs.partition_point(|x| *x < hi) + 1).min(self.rs.len());
-        let path = Pl::new(&self.rs[r0..r1], &self.rp[r0..r1], None);
-        let p: Vec<[f64; 3]> = s.iter().map(|x| path.value(*x)).collect();
-        let feed_line: Vec<[f64; 3]> = self.rf[r0..r1].iter().map(|f| [*f, 0.0, 0.0]).collect();
-        let feed_pl = Pl::new(&self.rs[r0..r1], &feed_line, None);
-        let (mut cq, mut cw) = smooth_range(&path, &s, &p, DS, self.tol, self.twice)?;
-        // the last chunk's path fades into this one's (a quintic smooth
-        // step: the curvature's change stays continuous)
+        Job {
+            i0,
+            i1,
+            a,
+            b,
+            s,
+            rs: self.rs[r0..r1].to_vec(),
+            rp: self.rp[r0..r1].to_vec(),
+            rf: self.rf[r0..r1].to_vec(),
+        }
+    }
+
+    /// Takes in a chunk's smoothed points and widths: the last chunk's
+    /// path fades into this one's, and its points wait in `part` to be
+    /// taken in (`take_in`).
+    fn start_part(&mut self, job: Arc<Job>, done: Done) {
+        let Done {
+            q: mut cq,
+            w: mut cw,
+            ..
+        } = done;
+        let (i0, i1, a, b) = (job.i0, job.i1, job.a, job.b);
+        // (a quintic smooth step: the curvature's change stays continuous)
         let fade = self.tail.len().min(i1 - i0);
         for (j, (tq, tw)) in self.tail.iter().take(fade).enumerate() {
             let u = (j + 1) as f64 / (self.tail.len() + 1) as f64;
@@ -246,33 +348,61 @@ impl Stream {
         }
         let keep = ((FADE / DS) as usize).min(b - i1);
         self.tail = (i1..i1 + keep).map(|i| (cq[i - a], cw[i - a])).collect();
-        // the distance of the chunk's points, exactly: each search may stop
-        // at a programmed point nearer than the largest found so far
-        for i in i0..i1 {
+        self.part = Some(Part {
+            next: i0,
+            job,
+            done: Done {
+                q: cq,
+                w: cw,
+                ..done
+            },
+        });
+    }
+
+    /// Takes in up to `most` grid points of the chunk in `part`; whether
+    /// any were.
+    fn take_in(&mut self, most: usize) -> bool {
+        let Some(part) = self.part.as_mut() else {
+            return false;
+        };
+        let (i1, a) = (part.job.i1, part.job.a);
+        let upto = i1.min(part.next.saturating_add(most));
+        let Done {
+            q: cq,
+            w: cw,
+            p,
+            feed,
+        } = &part.done;
+        for i in part.next..upto {
+            // the distance of the chunk's points, exactly: each search may
+            // stop at a programmed point nearer than the largest so far
             let reach = (cw[i - a] / DS).ceil() as usize + 2;
-            self.dev = self
-                .dev
-                .max(nearest(&cq[i - a], &p, i - a, reach, self.dev));
-            self.feed.push(feed_pl.value(s[i - a])[0]);
-        }
-        for (x, w) in cq[i0 - a..i1 - a].iter().zip(&cw[i0 - a..i1 - a]) {
+            self.dev = self.dev.max(nearest(&cq[i - a], p, i - a, reach, self.dev));
+            self.feed.push(feed[i - part.job.i0]);
+            let x = &cq[i - a];
             let s = match (self.q.last(), self.sig.last()) {
                 // points the smoothing put in one place keep the grid's order
                 (Some(last), Some(s)) => s + dist(x, last).max(1e-12),
                 _ => 0.0,
             };
             self.q.push(*x);
-            self.w.push(*w);
+            self.w.push(cw[i - a]);
             self.sig.push(s);
         }
-        Ok(())
+        let any = upto > part.next;
+        part.next = upto;
+        if upto == i1 {
+            self.applied = i1;
+            self.part = None;
+        }
+        any
     }
 
     /// Tangents, curvatures and their change as far as the points allow:
     /// each the derivative of the one before in the smoothed arc length,
     /// second order inside, first order at the run's ends.
     fn derive(&mut self, n: Option<usize>) {
-        let all = n.is_some_and(|n| self.next >= n);
+        let all = n.is_some_and(|n| self.applied >= n);
         extend(&mut self.t, &self.q, &self.sig, all, true);
         extend(&mut self.k, &self.t, &self.sig, all, false);
         extend(&mut self.kd, &self.k, &self.sig, all, false);
@@ -283,7 +413,7 @@ impl Stream {
         if self.stations_done || self.kd.len() < 2 {
             return;
         }
-        let all = n.is_some_and(|n| self.next >= n) && self.kd.len() == self.q.len();
+        let all = n.is_some_and(|n| self.applied >= n) && self.kd.len() == self.q.len();
         let last = self.kd.len() - 1;
         let end = self.sig[last];
         loop {

@@ -156,7 +156,7 @@ impl Path {
     }
 
     /// How far the known stations reach.
-    pub(super) fn known(&self) -> f64 {
+    pub fn known(&self) -> f64 {
         match self.count() {
             0 => 0.0,
             n => self.place(n - 1),
