@@ -1153,9 +1153,12 @@ impl<S: ProgramSource> Executor<S> {
     /// With the path planner: the next planned item, or the sample to hand
     /// out (a run's; the end, after an error).
     fn path_step(&mut self) -> PathOut {
-        // a feed hold brakes the run in progress to rest along its path
-        // (the override is not followed yet)
+        // a feed hold brakes the run in progress to rest along its path at
+        // once; the override scales the feed from 0.1 s on
         self.pipe.path_hold(self.target == 0.0);
+        if self.target > 0.0 {
+            self.pipe.path_scale(self.target);
+        }
         loop {
             match self.pipe.path_step() {
                 Ok(Some(Step::Sample { x, pos, src, last })) => {

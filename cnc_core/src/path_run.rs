@@ -31,14 +31,16 @@
 
 mod ahead;
 mod exact;
+mod limits;
+mod scale;
 pub use ahead::Ahead;
 use exact::exact_station;
+pub use limits::RunLimits;
 
 use crate::canon::{Event, Feed, Src};
 use crate::geom::{Geom, V3};
-use crate::machine::Machine;
 use crate::path_smooth::{Stream, Worker, DS};
-use crate::path_speed::{AxisLimits, Path, Planner, Snapshot, Station};
+use crate::path_speed::{Path, Planner, Snapshot, Station};
 use crate::plan::Item;
 use std::collections::VecDeque;
 
@@ -75,54 +77,6 @@ const W_MIN: f64 = 0.1;
 /// A corner that turns back by more than about 135° (its cosine under
 /// this) is an exact stop whatever P: its blend would be a hairpin.
 const HAIRPIN_COS: f64 = -0.7;
-/// The limits the runs keep are the axes' less a margin for the samples'
-/// finite differences: acceleration and jerk.
-const A_KEEP: f64 = 0.99;
-const J_KEEP: f64 = 0.9;
-/// An axis with no limit gets this one (it is never reached).
-const NO_LIMIT: f64 = 1e12;
-
-/// What every run is planned with: the axes' limits and the sample time.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RunLimits {
-    /// what the planner keeps (a margin under the machine's)
-    pub axes: AxisLimits,
-    /// the machine's own, which every sample keeps
-    pub machine: AxisLimits,
-    pub dt: f64,
-}
-
-impl RunLimits {
-    /// The machine's limits if it plans with the path planner.
-    pub fn for_machine(m: &Machine) -> Option<RunLimits> {
-        if !m.planner.method.is_path() {
-            return None;
-        }
-        let lim = |v: V3, keep: f64| {
-            [0, 1, 2].map(|i| {
-                if v[i].is_finite() {
-                    v[i] * keep
-                } else {
-                    NO_LIMIT
-                }
-            })
-        };
-        Some(RunLimits {
-            axes: AxisLimits {
-                v: lim(m.vmax(), 1.0),
-                a: lim(m.amax(), A_KEEP),
-                j: lim(m.jmax(), J_KEEP),
-            },
-            machine: AxisLimits {
-                v: lim(m.vmax(), 1.0),
-                a: lim(m.amax(), 1.0),
-                j: lim(m.jmax(), 1.0),
-            },
-            dt: 1.0 / m.interpolation.rate_hz,
-        })
-    }
-}
-
 /// The run's path.
 enum Shape {
     /// One move as programmed; the next station's index.
@@ -531,6 +485,8 @@ pub struct Runner {
     done: Option<Run>,
     /// every run keeps what a rewind needs (`keep_for_rewind`)
     rewinds: bool,
+    /// the feed override, and the steps handed out
+    over: scale::Override,
     /// the geometry's own thread (`work_ahead`)
     worker: Option<Worker>,
     /// commands not taken yet
@@ -552,6 +508,7 @@ impl Runner {
             next: None,
             done: None,
             rewinds: false,
+            over: scale::Override::default(),
             worker: None,
             queue: VecDeque::new(),
             closed: false,
@@ -594,10 +551,12 @@ impl Runner {
     /// Goes back to `snap`, taken of the run in progress (or of the one
     /// whose last sample was the last step), and holds it (`on`) or ends
     /// its hold there, as `hold` at that sample would have.
-    pub fn rewind(&mut self, snap: &Snapshot, on: bool) {
+    /// `seq`: the step it was taken after.
+    pub fn rewind(&mut self, snap: &Snapshot, on: bool, seq: u64) {
         if self.run.is_none() {
             self.run = self.done.take();
         }
+        self.rewind_scale(seq);
         if let Some(run) = self.run.as_mut() {
             run.restore(snap);
             run.hold(on);
@@ -655,6 +614,7 @@ impl Runner {
         if self.rewinds {
             run.keep_from(0.0);
         }
+        run.speed.set_scale(self.over.scale);
         Ok(Some(run))
     }
 
@@ -711,6 +671,15 @@ impl Runner {
     /// closed: there is nothing more). `points`: whether samples need
     /// their point (the check needs only their count).
     pub fn step(&mut self, points: bool) -> Result<Option<Step>, String> {
+        let step = self.next_step(points)?;
+        if step.is_some() {
+            self.over.steps += 1;
+        }
+        Ok(step)
+    }
+
+    fn next_step(&mut self, points: bool) -> Result<Option<Step>, String> {
+        self.apply_scale();
         self.done = None;
         loop {
             if self.run.is_none() {

@@ -165,6 +165,9 @@ pub struct Planner {
     halting: bool,
     /// Stations kept from here on too (`keep_from`).
     keep: Option<f64>,
+    /// The feed override: the programmed feed's share in the caps
+    /// (`set_scale`).
+    scale: f64,
     /// How many stations the last sample tried needed (no sample is
     /// tried again before they have come).
     need: usize,
@@ -214,6 +217,7 @@ impl Planner {
             handed: [AT_REST; 3],
             halting: false,
             keep: None,
+            scale: 1.0,
             memo: std::cell::RefCell::new([([u64::MAX; 3], None); MEMO]),
             need: 0,
             sampled: None,
@@ -235,24 +239,28 @@ impl Planner {
     /// The next station of the run.
     pub fn push(&mut self, st: Station) -> Result<(), SpeedError> {
         self.path.push(st)?;
-        let i = self.path.count() - 1;
         let c = self.v_cap(&st);
         self.caps.push_back(c);
         self.clear.push_back((0.0, 0.0));
+        self.group(self.path.count() - 1, &st, c);
+        Ok(())
+    }
+
+    /// Station `i` (`st`, cap `c`) into the straight stretches.
+    fn group(&mut self, i: usize, st: &Station, c: f64) {
         // stations are grouped into stretches that are straight (curvature
         // and its change under `STRAIGHT`) with caps within `FLAT` of the
         // stretch's first; a station that does not join the open stretch
         // closes it
-        let starts = (!bent(&st)).then_some((i, c));
+        let starts = (!bent(st)).then_some((i, c));
         match self.open {
-            Some((_, c0)) if !bent(&st) && (c - c0).abs() <= FLAT * c0 => {}
+            Some((_, c0)) if !bent(st) && (c - c0).abs() <= FLAT * c0 => {}
             Some((f, _)) => {
                 self.close(f, i);
                 self.open = starts;
             }
             None => self.open = starts,
         }
-        Ok(())
     }
 
     /// The run ends at `len` (the last station's place).
@@ -312,7 +320,7 @@ impl Planner {
     /// the speed at which the curvature alone takes an axis's whole
     /// acceleration.
     fn v_cap(&self, g: &Station) -> f64 {
-        let mut cap = g.feed;
+        let mut cap = g.feed * self.scale;
         for i in 0..3 {
             let t = g.t[i].abs();
             if t > 1e-12 {

@@ -352,6 +352,16 @@ impl<S: ProgramSource> Pipeline<S> {
         }
     }
 
+    /// With the path planner: the feed override (`path_run::scale`: from
+    /// 0.1 s on).
+    pub fn path_scale(&mut self, scale: f64) {
+        match self.runner.as_mut() {
+            Some(Runs::Here(r)) => r.set_scale(scale),
+            Some(Runs::Ahead(a)) => a.set_scale(scale),
+            None => {}
+        }
+    }
+
     /// With the path planner: whether no run is in progress (the machine
     /// stands between two runs).
     pub fn path_idle(&self) -> bool {

@@ -215,13 +215,13 @@ fn a_feed_hold_brakes_the_path_planner_along_its_path_and_resume_goes_on() {
     assert_eq!(s.last().unwrap().pos, V3::new(20.0, 10.0, 5.0));
 }
 
-/// `m` run to its end, holding (`false`) and resuming (`true`) at the
-/// samples `toggles` names, on the executor's thread or planned ahead on
-/// threads of their own.
+/// `m` run to its end, the feed override set (0: held) at the samples
+/// `toggles` names, on the executor's thread or planned ahead on threads
+/// of their own.
 fn run_with_holds(
     m: &Machine,
     program: &str,
-    toggles: &[(usize, bool)],
+    toggles: &[(usize, f64)],
     ahead: bool,
 ) -> Vec<Sample> {
     let mut ex = Executor::new(StrSource::new(program), Dialect::Cnc836, m);
@@ -230,9 +230,9 @@ fn run_with_holds(
     }
     let mut s: Vec<Sample> = Vec::new();
     while let Some(x) = ex.next_sample() {
-        for &(at, on) in toggles {
+        for &(at, target) in toggles {
             if s.len() == at {
-                ex.set_feed_target(if on { 1.0 } else { 0.0 });
+                ex.set_feed_target(target);
             }
         }
         s.push(x);
@@ -268,8 +268,8 @@ fn planned_ahead_on_its_own_threads_the_samples_are_the_same_feed_holds_included
             .wrapping_mul(6364136223846793005)
             .wrapping_add(1442695040888963407);
         let hold = 1 + (r >> 33) as usize % 400;
-        toggles.push((at, false));
-        toggles.push((at + hold, true));
+        toggles.push((at, 0.0));
+        toggles.push((at + hold, 1.0));
         at += hold + 50 + (r >> 50) as usize % 700;
     }
     for (name, program) in [("mixed", PROGRAM), ("long", long.as_str())] {
@@ -292,4 +292,63 @@ fn planned_ahead_on_its_own_threads_the_samples_are_the_same_feed_holds_included
     let free = run_with_holds(&m, &long, &[], true).len();
     let held = run_with_holds(&m, &long, &toggles, true).len();
     assert!(held > free + 1000, "{held} against {free}");
+}
+
+/// The path speed at sample `i`, mm/s.
+fn speed(s: &[Sample], i: usize, dt: f64) -> f64 {
+    (s[i].pos - s[i - 1].pos).norm() / dt
+}
+
+#[test]
+fn the_feed_override_scales_the_path_planner_s_feed_from_0_1_s_on_within_every_limit() {
+    let m = machine(5e4);
+    let dt = m.dt();
+    let long = long_program();
+    let free = run_with_holds(&m, &long, &[], false);
+    // 200 samples into the circle's cruise at F6000 (100 mm/s)
+    let k0 = (1..free.len())
+        .find(|&i| (4..=403).contains(&free[i].src.line) && speed(&free, i, dt) > 99.9)
+        .expect("a cruise")
+        + 200;
+    let toggles = [(k0, 0.4), (k0 + 1500, 1.5), (k0 + 2500, 1.0)];
+    let s = run_with_holds(&m, &long, &toggles, false);
+    // not before 0.1 s; then down to 40 mm/s and steady
+    assert_eq!(s[..k0 + 100], free[..k0 + 100]);
+    assert!(speed(&s, k0 + 100, dt) > 99.9);
+    for i in [k0 + 400, k0 + 800] {
+        let v = speed(&s, i, dt);
+        assert!((v - 40.0).abs() < 0.2, "{v} mm/s at {i}");
+    }
+    // every limit, the path within P, the end exact, and slower
+    within_limits(&s, &m, 5e4);
+    assert_eq!(s.last().unwrap().pos, V3::new(60.0, -10.0, 5.0));
+    for x in s.iter().filter(|x| (4..=403).contains(&x.src.line)) {
+        let r = x.pos.x.hypot(x.pos.y);
+        assert!((r - 20.0).abs() < 0.01 + 0.0025, "r {r} at k={}", x.k);
+    }
+    assert!(
+        s.len() > free.len() + 500,
+        "{} against {}",
+        s.len(),
+        free.len()
+    );
+    // planned ahead: the same samples, with holds among the changes
+    let mixed = [
+        (k0, 0.4),
+        (k0 + 300, 0.0),
+        (k0 + 420, 0.7),
+        (k0 + 460, 1.2),
+        (k0 + 900, 0.0),
+        (k0 + 901, 1.0),
+    ];
+    let here = run_with_holds(&m, &long, &mixed, false);
+    let ahead = run_with_holds(&m, &long, &mixed, true);
+    assert_eq!(here.len(), ahead.len());
+    if let Some(i) = (0..here.len()).find(|&i| here[i].pos != ahead[i].pos) {
+        panic!(
+            "sample {i}: {:?} ahead, {:?} here",
+            ahead[i].pos, here[i].pos
+        );
+    }
+    within_limits(&here, &m, 5e4);
 }

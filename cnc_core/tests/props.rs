@@ -512,13 +512,15 @@ proptest! {
     /// axis exceeds its velocity, acceleration or jerk at any sample, no
     /// sample leaves the programmed path by more than P (nothing at all
     /// under G61 and on rapids), and the run ends exactly on the end point
-    /// exactly when the check said.
+    /// exactly when the check said; with a feed hold or an override from 5
+    /// to 200 % for a while, every limit and the path all the same.
     #[test]
     fn path_planner_runs_keep_every_limit_and_the_path(
         moves in prop::collection::vec(mv(), 1..8),
         feed in 100.0..20000.0f64,
         jerk in 2.0e4..1.0e6f64,
         tol in prop_oneof![Just(0.0), 0.005..0.2f64],
+        hold in hold(),
     ) {
         let mut m = Machine::builtin_mill();
         for a in &mut m.axes {
@@ -526,7 +528,7 @@ proptest! {
         }
         m.planner.method = PlanMethod::Path;
         let (text, end, els) = program_path(&moves, feed, tol);
-        runs_within_limits_and_path(&m, &text, end, &els, tol, None)?;
+        runs_within_limits_and_path(&m, &text, end, &els, tol, hold)?;
     }
 }
 

@@ -18,6 +18,7 @@
 //!
 //! Commands come from the consumer's thread as the worker asks for them.
 
+use super::scale::LATENCY;
 use super::{Runner, Step};
 use crate::canon::Event;
 use crate::path_speed::Snapshot;
@@ -26,8 +27,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{channel, Receiver, Sender, TryRecvError};
 use std::sync::Arc;
 
-/// Steps worked out ahead of the consumer at most (at 1 kHz, 0.3 s).
-const LEAD: u64 = 300;
+/// Steps worked out ahead of the consumer at most (at 1 kHz, 0.1 s): no
+/// more than an override's delay, so that it never undoes a step.
+const LEAD: u64 = LATENCY;
 /// Commands handed over at once when the worker asks.
 const BATCH: usize = 64;
 
@@ -39,6 +41,9 @@ enum Cmd {
     /// a hold (`on`) or its end, after step `seq` (a sample of a run in
     /// progress, not settled)
     Hold { on: bool, seq: u64 },
+    /// the feed override from step `at` on (`scale::LATENCY` after it was
+    /// asked: never worked out yet)
+    Scale { at: u64, scale: f64 },
 }
 
 // one value at a time: boxing the step would only add an allocation
@@ -77,6 +82,8 @@ pub struct Ahead {
     held: bool,
     closed: bool,
     ended: bool,
+    /// the override last asked
+    scale: f64,
 }
 
 impl Ahead {
@@ -115,6 +122,7 @@ impl Ahead {
             held: false,
             closed: false,
             ended: false,
+            scale: 1.0,
         })
     }
 
@@ -131,6 +139,16 @@ impl Ahead {
                 seq: self.seq - 1,
             });
             self.epoch += 1;
+        }
+    }
+
+    /// The feed override, as `Runner::set_scale` between the last step had
+    /// and the next.
+    pub fn set_scale(&mut self, scale: f64) {
+        if scale != self.scale && scale > 0.0 && scale.is_finite() {
+            self.scale = scale;
+            let at = self.seq + LATENCY;
+            let _ = self.tx.send(Cmd::Scale { at, scale });
         }
     }
 
@@ -317,6 +335,7 @@ impl Work {
                     }
                 }
             }
+            Cmd::Scale { at, scale } => self.runner.scale_at(at, scale),
             Cmd::Hold { on, seq } => {
                 self.epoch += 1;
                 let Some(snap) = self.snap(seq).cloned() else {
@@ -331,7 +350,7 @@ impl Work {
                 };
                 // (the last run worked out: the worker goes past a run only
                 // once the consumer has reached a settled sample of it)
-                self.runner.rewind(&snap, on);
+                self.runner.rewind(&snap, on, seq);
                 self.snaps.retain(|s| s.0 <= seq);
                 self.seq = seq + 1;
                 self.in_run = true;

@@ -103,6 +103,33 @@ impl Planner {
         }
     }
 
+    /// The feed override from the next decision on: the programmed feed's
+    /// share in every station's cap (the axes' and the curvature's caps
+    /// stay). The samples decided stay; a state over the new caps brakes
+    /// (the braking rule, as a hold) until it can go on under them.
+    pub fn set_scale(&mut self, scale: f64) {
+        if scale == self.scale || !(scale > 0.0 && scale.is_finite()) {
+            return;
+        }
+        self.scale = scale;
+        // every kept station's cap again, and its straight stretches
+        let (base, n) = (self.path.base, self.path.count());
+        self.open = None;
+        for i in base..n {
+            let st = *self.path.station(i);
+            let c = self.v_cap(&st);
+            self.caps[i - base] = c;
+            self.clear[i - base] = (0.0, 0.0);
+            self.group(i, &st, c);
+        }
+        if self.path.len().is_some() {
+            if let Some((f, _)) = self.open.take() {
+                self.close(f, n);
+            }
+        }
+        self.need = 0;
+    }
+
     /// Keeps the stations from path position `s` on (beside those behind
     /// the samples handed out), for a `restore` there; `None`: only those.
     pub fn keep_from(&mut self, s: Option<f64>) {
