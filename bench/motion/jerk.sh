@@ -7,11 +7,13 @@
 #
 #   bash bench/motion/jerk.sh [--jerks "20 50 100 200 1000"] [--ours-only]
 #                             [--analyse-only] [--out DIR] [--mode "G64 P0.01"]
+#                             [--method filters|path]
 #
 #   --jerks LIST    jerk limits, m/s³, one run of ours each (default 20 50 100 200 1000; 200 the bundled machines')
 #   --ours-only     do not run LinuxCNC; reuse lcnc_cam.tsv in the output directory
 #   --analyse-only  run nothing, re-analyse the output directory
 #   --out DIR       default bench/out/jerk
+#   --method M      our planner ([planner] method; default the machine file's, "filters")
 #
 # The machine files: config/mill.toml with max_velocity_mm_s = 100,
 # max_acceleration_mm_s2 = 1000 and max_jerk_mm_s3 = J·1000 on every axis
@@ -23,8 +25,8 @@ set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 ROOT="$(cd "$HERE/../.." && pwd)"
 say() { printf 'jerk: %s\n' "$*" >&2; }
-usage() { sed -n '2,22p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//' >&2; exit 2; }
-JERKS="20 50 100 200 1000" OURS_ONLY=0 ANALYSE_ONLY=0 OUT="$ROOT/bench/out/jerk" MODE="G64 P0.01"
+usage() { sed -n '2,24p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+JERKS="20 50 100 200 1000" OURS_ONLY=0 ANALYSE_ONLY=0 OUT="$ROOT/bench/out/jerk" MODE="G64 P0.01" METHOD=""
 VEL=100 ACC=1000
 while [ $# -gt 0 ]; do
     case "$1" in
@@ -33,6 +35,7 @@ while [ $# -gt 0 ]; do
         --analyse-only) ANALYSE_ONLY=1 ;;
         --out) OUT="${2:?}"; shift ;;
         --mode) MODE="${2:?}"; shift ;;
+        --method) METHOD="${2:?}"; shift ;;
         -h|--help) usage ;;
         *) say "unknown argument $1"; usage ;;
     esac
@@ -50,6 +53,9 @@ machine() {  # machine J FILE: config/mill.toml at VEL/ACC and jerk J m/s³
         -e "s/^max_jerk_mm_s3 = .*/max_jerk_mm_s3 = $1000.0/" \
         -e "s|^program_dir = .*|program_dir = \"$OUT\"|" \
         "$ROOT/config/mill.toml" > "$2"
+    if [ -n "$METHOD" ]; then
+        sed -i "s/^lookahead_blocks = \(.*\)/lookahead_blocks = \1\nmethod = \"$METHOD\"/" "$2"
+    fi
 }
 if [ $ANALYSE_ONLY = 0 ]; then
     "$PY" "$HERE/gen.py" cam --dialect cnc836 --mode "$MODE" -o "$OUT/cam.nc"
