@@ -53,6 +53,9 @@ use crate::tracker::{EncoderReading, SpindleTracker};
 use std::collections::VecDeque;
 
 pub use crate::shares::MAX_OVERRIDE;
+/// With the path planner, the least change of the feed scale passed on:
+/// the measured spindle's noise does not re-plan every sample.
+const PER_REV_STEP: f64 = 0.005;
 
 /// One interpolation cycle's output.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -260,8 +263,11 @@ pub struct Executor<S> {
     accel_lag: V3,
     /// the spindle acceleration that lead multiplies, averaged
     lead_acc: LeadAccel,
-    /// with the path planner: the last sample's path position in its run
+    /// with the path planner: the last sample's path position in its run,
+    /// its run's G95 spindle speed, and the feed scale asked
     path_x: f64,
+    path_rpm: Option<f64>,
+    path_scale: f64,
 }
 
 /// The σ nearest `bad` within `ok`, by bisection between `bad` (where
@@ -356,10 +362,12 @@ impl<S: ProgramSource> Executor<S> {
             accel_lag: machine.servo_accel_lag_s2() * machine.interpolation.thread_accel_lead,
             lead_acc: LeadAccel::new(lim.dt),
             path_x: 0.0,
+            path_rpm: None,
+            path_scale: 1.0,
         }
     }
 
-    /// With the path planner: plans on a thread of its own, up to 0.3 s
+    /// With the path planner: plans on a thread of its own, up to 0.1 s
     /// ahead of the samples, and smooths the geometry on another, so that
     /// the loop calling `next_sample` does not wait for a decision or a
     /// chunk that takes milliseconds; the samples are the same, feed holds
@@ -1154,15 +1162,34 @@ impl<S: ProgramSource> Executor<S> {
     /// out (a run's; the end, after an error).
     fn path_step(&mut self) -> PathOut {
         // a feed hold brakes the run in progress to rest along its path at
-        // once; the override scales the feed from 0.1 s on
-        self.pipe.path_hold(self.target == 0.0);
-        if self.target > 0.0 {
-            self.pipe.path_scale(self.target);
+        // once; the override, and under G95 the measured spindle speed
+        // over the programmed one (its changes of 0.5 % or more), scale the
+        // feed from 0.1 s on
+        let spindle = match self.path_rpm {
+            Some(rpm) => self.per_rev_scale(rpm, self.src.line),
+            None => 1.0,
+        };
+        let scale = self.target * spindle;
+        if (scale - self.path_scale).abs() >= PER_REV_STEP * self.path_scale.max(0.01)
+            || (scale == 0.0) != (self.path_scale == 0.0)
+        {
+            self.path_scale = scale;
+        }
+        self.pipe.path_hold(self.path_scale == 0.0);
+        if self.path_scale > 0.0 {
+            self.pipe.path_scale(self.path_scale);
         }
         loop {
             match self.pipe.path_step() {
-                Ok(Some(Step::Sample { x, pos, src, last })) => {
+                Ok(Some(Step::Sample {
+                    x,
+                    pos,
+                    src,
+                    last,
+                    rpm,
+                })) => {
                     self.src = src;
+                    self.path_rpm = rpm;
                     self.pos = pos;
                     if last {
                         // at rest on the run's end: this tick is the first
@@ -1200,9 +1227,17 @@ impl<S: ProgramSource> Executor<S> {
     /// G95 with a measured spindle: measured over programmed speed (frozen
     /// once the signal is lost, while the axes stop).
     fn spindle_scale(&mut self, m: &PlannedMove) -> f64 {
-        let (Feed::PerRev { rpm, .. }, Some(_)) = (m.feed, self.tracker.as_ref()) else {
+        match m.feed {
+            Feed::PerRev { rpm, .. } => self.per_rev_scale(rpm, m.src.line),
+            _ => 1.0,
+        }
+    }
+
+    /// `spindle_scale` of a G95 move at `rpm` programmed (its `line`).
+    fn per_rev_scale(&mut self, rpm: f64, line: u32) -> f64 {
+        if self.tracker.is_none() {
             return 1.0;
-        };
+        }
         if self.fault.is_some() {
             return self.sp_scale;
         }
@@ -1214,7 +1249,7 @@ impl<S: ProgramSource> Executor<S> {
             // (the encoder's first reading is still to come: the axes wait)
             Ok(None) => self.sp_scale = 0.0,
             Err(why) => {
-                self.fault = Some(format!("line {}: {why}", m.src.line));
+                self.fault = Some(format!("line {line}: {why}"));
                 self.set_feed_target(0.0);
             }
         }

@@ -12,7 +12,7 @@
 //! sharply that its blend within P would be narrower than `W_MIN` (0.1
 //! mm) ends a run too: the machine stops exactly on it. Feed moves under G64 P run together (`Run::smooth`)
 //! until something that is not a feed move comes (a rapid, a dwell, a
-//! spindle or tool command, a thread, a change of P, the end); the run
+//! spindle or tool command, a thread, a change of P or of G94/G95, the end); the run
 //! ends at rest on the last move's end. Its moves reach the geometry as
 //! points: a line as its ends and a point 4 µm inside each (the feed is
 //! the move's there), an arc or a helix as points at most 4 µm apart; a
@@ -106,6 +106,8 @@ pub struct Run {
     /// the moves' places on the programmed path (start, block), the first
     /// the one being run
     moves: VecDeque<(f64, Src)>,
+    /// G95: the programmed spindle speed (a run is all G95 or none)
+    rpm: Option<f64>,
     /// the programmed length so far
     len: f64,
     /// where the run starts, and where its last move so far ends, and its
@@ -150,6 +152,7 @@ impl Run {
             lim,
         )?;
         run.moves.push_back((0.0, src));
+        run.rpm = per_rev(feed);
         run.len = geom.length();
         run.start = geom.start();
         run.end = geom.end();
@@ -191,6 +194,7 @@ impl Run {
             shape,
             speed,
             moves: VecDeque::new(),
+            rpm: None,
             len: 0.0,
             start: V3::zeros(),
             end: V3::zeros(),
@@ -255,6 +259,9 @@ impl Run {
         }
         self.end = geom.end();
         self.end_tangent = geom.end_tangent();
+        if self.moves.is_empty() {
+            self.rpm = per_rev(feed);
+        }
         self.moves.push_back((self.len, src));
         self.len += l;
         Ok(())
@@ -466,6 +473,8 @@ pub enum Step {
         pos: V3,
         src: Src,
         last: bool,
+        /// G95: the programmed spindle speed, rpm
+        rpm: Option<f64>,
     },
     /// A planned item between runs.
     Item(Item),
@@ -692,12 +701,18 @@ impl Runner {
                 match run.sample()? {
                     Next::At { x, last } => {
                         let pos = if points { run.point(x) } else { V3::zeros() };
-                        let src = run.src_at(x);
+                        let (src, rpm) = (run.src_at(x), run.rpm);
                         if last {
                             // (the next run starts with the next step)
                             self.done = self.run.take();
                         }
-                        return Ok(Some(Step::Sample { x, pos, src, last }));
+                        return Ok(Some(Step::Sample {
+                            x,
+                            pos,
+                            src,
+                            last,
+                            rpm,
+                        }));
                     }
                     Next::More => {
                         let (queue, moves, line) =
@@ -762,8 +777,19 @@ fn take_into(
 }
 
 /// Whether `ev` joins smooth run `run`: a feed move under a P the geometry
-/// resolves, turning gently enough from the run's last move.
+/// resolves, G95 as the run is or not, turning gently enough from the
+/// run's last move.
 fn joins(run: &Run, ev: &Event, tol: f64) -> bool {
     matches!(ev, Event::Move { geom, feed, .. }
-        if *feed != Feed::Rapid && tol >= P_MIN && !run.corner_stops(geom))
+        if *feed != Feed::Rapid && tol >= P_MIN
+            && per_rev(*feed).is_some() == run.rpm.is_some()
+            && !run.corner_stops(geom))
+}
+
+/// G95: the programmed spindle speed of a move's feed.
+fn per_rev(feed: Feed) -> Option<f64> {
+    match feed {
+        Feed::PerRev { rpm, .. } => Some(rpm),
+        _ => None,
+    }
 }

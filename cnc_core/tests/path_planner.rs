@@ -352,3 +352,58 @@ fn the_feed_override_scales_the_path_planner_s_feed_from_0_1_s_on_within_every_l
     }
     within_limits(&here, &m, 5e4);
 }
+
+/// `N30 G95 F0.2` at S600 on the bundled lathe (50 m/s³) with the path
+/// planner, following an encoder that reads `rpm` throughout: the samples
+/// (on the executor's thread, or planned ahead).
+fn per_rev_run(rpm: f64, ahead: bool) -> Vec<Sample> {
+    let mut m = Machine::builtin_lathe();
+    for a in &mut m.axes {
+        a.max_jerk_mm_s3 = Some(5e4);
+    }
+    m.planner.method = PlanMethod::Path;
+    let program = "N10 G00 X20 Z5\nN20 M03 S600\nN30 G95 G01 Z-3 F0.2\nN40 G00 X30\nN50 M30\n";
+    let mut ex = Executor::new(StrSource::new(program), Dialect::Cnc836, &m);
+    ex.attach_encoder();
+    if ahead {
+        ex.plan_ahead(|| {});
+    }
+    let dt = m.dt();
+    let mut s: Vec<Sample> = Vec::new();
+    loop {
+        let t = s.len() as f64 * dt;
+        ex.encoder(cnc_core::tracker::EncoderReading {
+            t,
+            count: (rpm / 60.0 * t * 4096.0) as i64,
+            counts_per_rev: 4096,
+            index_count: 1,
+            count_at_index: 0,
+        });
+        let Some(x) = ex.next_sample() else { break };
+        s.push(x);
+        assert!(s.len() < 60_000, "no end");
+    }
+    assert_eq!(ex.fault(), None);
+    s
+}
+
+#[test]
+fn under_g95_the_path_planner_follows_the_measured_spindle() {
+    let dt = Machine::builtin_lathe().dt();
+    for (rpm, want) in [(600.0, 2.0), (300.0, 1.0)] {
+        let s = per_rev_run(rpm, false);
+        let on: Vec<usize> = (1..s.len()).filter(|&i| s[i].src.line == 3).collect();
+        let mid = on[on.len() / 2];
+        let v = speed(&s, mid, dt);
+        assert!(
+            (v - want).abs() < 0.01 * want,
+            "{v} mm/s at {rpm} rpm, {want} wanted"
+        );
+        let last = s.last().unwrap().pos;
+        assert_eq!(last, V3::new(15.0, 0.0, -3.0), "X30 is a diameter");
+    }
+    // planned ahead: the same samples
+    let (here, ahead) = (per_rev_run(300.0, false), per_rev_run(300.0, true));
+    assert_eq!(here.len(), ahead.len());
+    assert!(here.iter().zip(&ahead).all(|(a, b)| a.pos == b.pos));
+}
