@@ -1170,14 +1170,20 @@ impl<S: ProgramSource> Executor<S> {
             None => 1.0,
         };
         let scale = self.target * spindle;
+        let held = self.path_scale == 0.0;
         if (scale - self.path_scale).abs() >= PER_REV_STEP * self.path_scale.max(0.01)
-            || (scale == 0.0) != (self.path_scale == 0.0)
+            || (scale == 0.0) != held
         {
             self.path_scale = scale;
         }
-        self.pipe.path_hold(self.path_scale == 0.0);
-        if self.path_scale > 0.0 {
-            self.pipe.path_scale(self.path_scale);
+        if held && self.path_scale > 0.0 {
+            // (a run that stands held goes on at the new scale at once)
+            self.pipe.path_resume(self.path_scale);
+        } else {
+            self.pipe.path_hold(self.path_scale == 0.0);
+            if self.path_scale > 0.0 {
+                self.pipe.path_scale(self.path_scale);
+            }
         }
         loop {
             match self.pipe.path_step() {

@@ -362,6 +362,16 @@ impl<S: ProgramSource> Pipeline<S> {
         }
     }
 
+    /// With the path planner: the end of a feed hold, with the override
+    /// `scale` (at once for a run that stands held; `Runner::resume`).
+    pub fn path_resume(&mut self, scale: f64) {
+        match self.runner.as_mut() {
+            Some(Runs::Here(r)) => r.resume(scale),
+            Some(Runs::Ahead(a)) => a.resume(scale),
+            None => {}
+        }
+    }
+
     /// With the path planner: whether no run is in progress (the machine
     /// stands between two runs).
     pub fn path_idle(&self) -> bool {

@@ -351,6 +351,16 @@ fn the_feed_override_scales_the_path_planner_s_feed_from_0_1_s_on_within_every_l
         );
     }
     within_limits(&here, &m, 5e4);
+    // resumed from the hold at 70 %: at once, not 0.1 s later (until the
+    // 120 % asked at k0 + 460 comes, 0.1 s after it)
+    let fastest = (k0 + 421..k0 + 560)
+        .map(|i| speed(&here, i, dt))
+        .fold(0.0, f64::max);
+    assert!(
+        fastest <= 70.0 + 1e-6,
+        "{fastest} mm/s after the resume at 70 %"
+    );
+    assert!(fastest > 50.0, "{fastest} mm/s: resumed");
 }
 
 /// `N30 G95 F0.2` at S600 on the bundled lathe (50 m/s³) with the path

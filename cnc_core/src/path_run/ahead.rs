@@ -39,8 +39,12 @@ enum Cmd {
     /// the consumer has had step `seq`
     Had(u64),
     /// a hold (`on`) or its end, after step `seq` (a sample of a run in
-    /// progress, not settled)
-    Hold { on: bool, seq: u64 },
+    /// progress, not settled); ending it, the override from the next step
+    Hold {
+        on: bool,
+        seq: u64,
+        scale: Option<f64>,
+    },
     /// the feed override from step `at` on (`scale::LATENCY` after it was
     /// asked: never worked out yet)
     Scale { at: u64, scale: f64 },
@@ -129,6 +133,22 @@ impl Ahead {
     /// A feed hold (`on`) of the run in progress, or its end: as
     /// `Runner::hold` called between the last step had and the next.
     pub fn hold(&mut self, on: bool) {
+        self.hold_at(on, None);
+    }
+
+    /// The end of a feed hold with the override `scale`, as
+    /// `Runner::resume` between the last step had and the next.
+    pub fn resume(&mut self, scale: f64) {
+        let live = self.held && self.in_run && !self.settled;
+        self.hold_at(false, live.then_some(scale));
+        if live {
+            self.scale = scale;
+        } else {
+            self.set_scale(scale);
+        }
+    }
+
+    fn hold_at(&mut self, on: bool, scale: Option<f64>) {
         if on == self.held {
             return;
         }
@@ -137,6 +157,7 @@ impl Ahead {
             let _ = self.tx.send(Cmd::Hold {
                 on,
                 seq: self.seq - 1,
+                scale,
             });
             self.epoch += 1;
         }
@@ -336,7 +357,7 @@ impl Work {
                 }
             }
             Cmd::Scale { at, scale } => self.runner.scale_at(at, scale),
-            Cmd::Hold { on, seq } => {
+            Cmd::Hold { on, seq, scale } => {
                 self.epoch += 1;
                 let Some(snap) = self.snap(seq).cloned() else {
                     // (cannot be: the consumer holds only within a run)
@@ -351,6 +372,9 @@ impl Work {
                 // (the last run worked out: the worker goes past a run only
                 // once the consumer has reached a settled sample of it)
                 self.runner.rewind(&snap, on, seq);
+                if let Some(scale) = scale {
+                    self.runner.scale_now(scale);
+                }
                 self.snaps.retain(|s| s.0 <= seq);
                 self.seq = seq + 1;
                 self.in_run = true;

@@ -7,7 +7,8 @@
 //! whether the runner works on the loop's thread or ahead of it on its own
 //! (`Ahead`, at most `LATENCY` steps ahead): the step where it applies is
 //! never worked out before the worker hears of it, so nothing is undone.
-//! A feed hold, which must act at once, goes back instead.
+//! A feed hold, which must act at once, goes back instead; the override
+//! given as a hold ends applies at once (the run stands: nothing to undo).
 
 use super::Runner;
 use std::collections::VecDeque;
@@ -65,6 +66,32 @@ impl Runner {
     /// The steps handed out.
     pub fn steps(&self) -> u64 {
         self.over.steps
+    }
+
+    /// The end of a feed hold with the override `scale`: a run held in
+    /// progress goes on from the next step at `scale` at once (it stands:
+    /// nothing to undo); otherwise the hold's end as `hold(false)` and
+    /// the override as `set_scale`.
+    pub fn resume(&mut self, scale: f64) {
+        let held = self.run.as_ref().is_some_and(|r| r.speed.held());
+        self.hold(false);
+        if held {
+            self.scale_now(scale);
+        } else {
+            self.set_scale(scale);
+        }
+    }
+
+    /// The override `scale` from the next step on (a run that stands).
+    pub(super) fn scale_now(&mut self, scale: f64) {
+        if !(scale > 0.0 && scale.is_finite()) {
+            return;
+        }
+        self.over.asked = scale;
+        self.over.pending.clear();
+        let before = self.over.scale;
+        self.over.made.push((self.over.steps, scale, before));
+        self.set_runs_scale(scale);
     }
 
     /// Applies the overrides due at the next step.
