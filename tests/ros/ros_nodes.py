@@ -282,3 +282,50 @@ def read_mcap(path):
         for _, ch, m, dec in make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages():
             out.setdefault(ch.topic, []).append((m.log_time, dec))
     return out
+
+
+def cnc(env, *args, timeout=60):
+    """The `cnc` command line with `args`: (exit code, stdout, stderr)."""
+    r = subprocess.run([os.path.join(TARGET, "cnc")] + list(args), cwd=ROOT, env=env,
+                       capture_output=True, text=True, timeout=timeout)
+    return r.returncode, r.stdout, r.stderr
+
+
+class StatusPeer(SpinningPeer):
+    """An rclpy peer that keeps the controller's status messages (`ns`)."""
+
+    def __init__(self, name, own_participant=False, ns="/cnc"):
+        from cnc_msgs.msg import ControllerStatus
+        super().__init__(name, own_participant)
+        self.ns = ns
+        self.status = []
+        self.node.create_subscription(ControllerStatus, ns + "/status", self._st, 10)
+        self.spin()
+
+    def _st(self, m):
+        with self.lock:
+            self.status.append(m)
+
+    def missing(self, timeout=30.0):
+        """For `hearing_peer`: None once a status came, else what did not."""
+        return self.unheard([], lambda: bool(self.latest()), self.ns + "/status", timeout)
+
+    def latest(self):
+        with self.lock:
+            return self.status[-1] if self.status else None
+
+    def wait_state(self, state, timeout=60.0):
+        # (conditions run under the lock: they read the list directly)
+        self.wait_for("state %d" % state, lambda: bool(self.status) and self.status[-1].state == state, timeout)
+        return self.latest()
+
+
+def status_peer(prefix):
+    """The body of a peer fixture: a `StatusPeer` that has heard the
+    controller (made again as a participant of its own if the node never
+    matched its reader: `hearing_peer`), closed after. `yield from` it."""
+    p = hearing_peer(lambda own: StatusPeer("%s_%d" % (prefix, time.time_ns() % 100000), own), StatusPeer.missing)
+    try:
+        yield p
+    finally:
+        p.close()

@@ -18,10 +18,9 @@ import pytest
 import rclpy
 
 from cnc_msgs.msg import ControllerStatus
-from ros_nodes import ROOT, TARGET, build, domain, hearing_peer, read_mcap, SpinningPeer, start, stop
+from ros_nodes import ROOT, TARGET, build, cnc, domain, read_mcap, start, status_peer, stop
 
 DOMAIN = domain(4)
-NS = "/cnc"
 RECORDINGS = os.path.join(ROOT, "target", "test-recordings-cli")
 
 
@@ -39,47 +38,12 @@ def env():
     stop(procs)
 
 
-class Peer(SpinningPeer):
-    def __init__(self, name, own_participant=False):
-        super().__init__(name, own_participant)
-        self.status = []
-        self.node.create_subscription(ControllerStatus, NS + "/status", self._st, 10)
-        self.spin()
-
-    def _st(self, m):
-        with self.lock:
-            self.status.append(m)
-
-    def missing(self, timeout=30.0):
-        """For `hearing_peer`: None once a status came, else what did not."""
-        return self.unheard([], lambda: bool(self.latest()), NS + "/status", timeout)
-
-    def latest(self):
-        with self.lock:
-            return self.status[-1] if self.status else None
-
-    def wait_state(self, state, timeout=60.0):
-        # (conditions run under the lock: they read the list directly)
-        self.wait_for("state %d" % state, lambda: bool(self.status) and self.status[-1].state == state, timeout)
-        return self.latest()
-
-
 @pytest.fixture
 def peer(env):
     # (a peer whose reader the node never matched is made again as a
     # participant of its own: ros_nodes.hearing_peer; CI once saw this
     # module's peers hear no status for 30 s, three tests in a row)
-    p = hearing_peer(lambda own: Peer("cli_peer_%d" % (time.time_ns() % 100000), own), Peer.missing)
-    try:
-        yield p
-    finally:
-        p.close()
-
-
-def cnc(env, *args, timeout=60):
-    r = subprocess.run([os.path.join(TARGET, "cnc")] + list(args), cwd=ROOT, env=env,
-                       capture_output=True, text=True, timeout=timeout)
-    return r.returncode, r.stdout, r.stderr
+    yield from status_peer("cli_peer")
 
 
 def start_run(env, tmp_path, text, name="job.nc"):
