@@ -256,12 +256,10 @@ impl Run {
         geo.hand_over().map_err(err)?;
         if self.moves.is_empty() {
             self.start = geom.start();
+            self.rpm = per_rev(feed);
         }
         self.end = geom.end();
         self.end_tangent = geom.end_tangent();
-        if self.moves.is_empty() {
-            self.rpm = per_rev(feed);
-        }
         self.moves.push_back((self.len, src));
         self.len += l;
         Ok(())
@@ -284,22 +282,15 @@ impl Run {
     }
 
     /// With a worker for the geometry: hands the speed stage a slice of
-    /// stations it has ready while they reach less than `LEAD` past `x`
-    /// (a decision cut short for want of stations starts again).
-    fn top_up(&mut self, x: f64) -> Result<(), String> {
-        let Shape::Smooth { geo, .. } = &mut self.shape else {
+    /// stations it has ready while they reach less than `LEAD` past the
+    /// last sample (a decision cut short for want of stations starts
+    /// again).
+    fn top_up(&mut self) -> Result<(), String> {
+        let Shape::Smooth { geo, .. } = &self.shape else {
             return Ok(());
         };
-        if geo.len().is_some() || self.speed.path().known() >= x + LEAD {
-            return Ok(());
-        }
-        geo.advance_ready(&mut self.scratch).map_err(err)?;
-        let len = geo.len();
-        for st in self.scratch.drain(..) {
-            self.speed.push(st).map_err(err)?;
-        }
-        if let Some(len) = len {
-            self.speed.finish(len).map_err(err)?;
+        if geo.len().is_none() && self.speed.path().known() < self.at + LEAD {
+            self.smooth_stations(false)?;
         }
         Ok(())
     }
@@ -324,29 +315,41 @@ impl Run {
                 }
                 Ok(more)
             }
-            Shape::Smooth { geo, .. } => {
-                let had = geo.len().is_some();
-                // (with a worker, slices up to `LEAD` ahead at once: a
-                // decision cut short for want of stations starts again)
-                let mut more = false;
-                loop {
-                    geo.advance(&mut self.scratch).map_err(err)?;
-                    let got = !self.scratch.is_empty();
-                    more |= got;
-                    for st in self.scratch.drain(..) {
-                        self.speed.push(st).map_err(err)?;
-                    }
-                    if !got || geo.len().is_some() || self.speed.path().known() >= self.at + LEAD {
-                        break;
-                    }
-                }
-                if let (false, Some(len)) = (had, geo.len()) {
-                    self.speed.finish(len).map_err(err)?;
-                    return Ok(true);
-                }
-                Ok(more)
+            Shape::Smooth { .. } => self.smooth_stations(true),
+        }
+    }
+
+    /// A smooth run's stations to the speed stage: (`wait`) up to `LEAD`
+    /// past the last sample, waiting for the geometry's worker if it must
+    /// (a decision cut short for want of stations starts again), or a
+    /// slice the worker has ready; and the run's end once the geometry
+    /// has it. Whether any came.
+    fn smooth_stations(&mut self, wait: bool) -> Result<bool, String> {
+        let Shape::Smooth { geo, .. } = &mut self.shape else {
+            return Ok(false);
+        };
+        let had = geo.len().is_some();
+        let mut more = false;
+        loop {
+            if wait {
+                geo.advance(&mut self.scratch).map_err(err)?;
+            } else {
+                geo.advance_ready(&mut self.scratch).map_err(err)?;
+            }
+            let got = !self.scratch.is_empty();
+            more |= got;
+            for st in self.scratch.drain(..) {
+                self.speed.push(st).map_err(err)?;
+            }
+            if !wait || !got || geo.len().is_some() || self.speed.path().known() >= self.at + LEAD {
+                break;
             }
         }
+        if let (false, Some(len)) = (had, geo.len()) {
+            self.speed.finish(len).map_err(err)?;
+            return Ok(true);
+        }
+        Ok(more)
     }
 
     /// The next sample's path position, or `More` when a smooth run needs
@@ -361,7 +364,7 @@ impl Run {
             };
             if let Some(x) = next {
                 self.at = x;
-                self.top_up(x)?;
+                self.top_up()?;
                 if let Shape::Smooth { geo, .. } = &mut self.shape {
                     // (what lies behind the sample before this one: the
                     // caller may still want its point)
@@ -604,9 +607,11 @@ impl Runner {
         self.run.is_none()
     }
 
-    /// A run of `geom` starting from rest, or `None` for a move too short
-    /// to count.
-    fn start(&self, geom: Geom, feed: Feed, src: Src) -> Result<Option<Run>, String> {
+    /// A move taken: a run of `geom` starting from rest, or `None` for a
+    /// move too short to count.
+    fn start(&mut self, geom: Geom, feed: Feed, src: Src) -> Result<Option<Run>, String> {
+        self.moves += 1;
+        self.line = src.line;
         if geom.length() <= TINY {
             return Ok(None);
         }
@@ -657,8 +662,6 @@ impl Runner {
             match self.queue.front().copied() {
                 Some(Event::Move { geom, feed, src }) => {
                     self.queue.pop_front();
-                    self.moves += 1;
-                    self.line = src.line;
                     self.next = self.start(geom, feed, src)?;
                 }
                 Some(Event::Tolerance { mm }) => {
@@ -729,8 +732,6 @@ impl Runner {
             };
             let item = match ev {
                 Event::Move { geom, feed, src } => {
-                    self.moves += 1;
-                    self.line = src.line;
                     self.run = self.start(geom, feed, src)?;
                     continue;
                 }

@@ -178,12 +178,9 @@ impl Ahead {
         !self.in_run
     }
 
-    /// Whether no command is to come.
-    pub fn closed(&self) -> bool {
-        self.closed
-    }
-
-    /// Hands the worker commands from `pull` if it asked for them.
+    /// Hands the worker commands from `pull` if it asked for them. (It
+    /// asks twice: the flag is seen at the next step even behind samples
+    /// still queued, the `Need` message wakes a step waiting for one.)
     fn feed(&mut self, pull: &mut dyn FnMut() -> Option<Event>) {
         if self.closed || !self.need.swap(false, Ordering::AcqRel) {
             return;

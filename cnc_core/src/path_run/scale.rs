@@ -63,11 +63,6 @@ impl Runner {
         }
     }
 
-    /// The steps handed out.
-    pub fn steps(&self) -> u64 {
-        self.over.steps
-    }
-
     /// The end of a feed hold with the override `scale`: a run held in
     /// progress goes on from the next step at `scale` at once (it stands:
     /// nothing to undo); otherwise the hold's end as `hold(false)` and
