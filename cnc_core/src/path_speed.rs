@@ -35,6 +35,9 @@
 //! share of the tangent, and the speed at which the curvature alone takes
 //! an axis's whole acceleration; a sample keeps the caps of every station
 //! it passes, so a curvature peak between two samples is kept too.
+//! Likewise the jerk is bounded with every `K'` of the stations a sample
+//! may pass (`envelope.rs`): a blend's curvature ramp passed in two
+//! samples has its peak change of curvature between them.
 //!
 //! The run ends at rest exactly on the path's end: the little it stops
 //! short (under 0.1 µm) is added over the last braking by a smooth step.
@@ -70,6 +73,8 @@ pub struct AxisLimits {
     pub j: [f64; 3],
 }
 
+mod envelope;
+use envelope::Range;
 mod path;
 pub use path::{Path, SpeedError, Station};
 use std::collections::VecDeque;
@@ -202,8 +207,12 @@ impl Planner {
         if !(ok(&lim.v) && ok(&lim.a) && ok(&lim.j) && dt > 0.0 && dt.is_finite()) {
             return Err(SpeedError::BadLimits);
         }
+        // (a sample's span: at most the axes' top speeds together)
+        let top = lim.v.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let mut own = Path::open(path.h)?;
+        own.set_window((top * dt / path.h).ceil() as usize + 1);
         let mut p = Planner {
-            path: Path::open(path.h)?,
+            path: own,
             lim,
             dt,
             caps: VecDeque::new(),
@@ -347,40 +356,48 @@ impl Planner {
         if let Some((_, b)) = memo.iter().find(|(k, _)| *k == key) {
             return *b;
         }
-        let b = self.bounds(&self.path.at(s), v, a);
+        let g = self.path.at(s);
+        let b = self.bounds(&g, &self.path.kd_range(s, &g), v, a);
         memo.rotate_right(1);
         memo[0] = (key, b);
         b
     }
 
-    /// The path accelerations and jerks every axis allows at `(v, a)`;
-    /// `None` where no jerk does (the curvature terms alone are over).
-    fn bounds(&self, g: &Station, v: f64, a: f64) -> Option<Bounds> {
+    /// The path accelerations and jerks every axis allows at `(v, a)`,
+    /// with every `K'` of `kd` (`envelope.rs`); `None` where no jerk does
+    /// (the curvature terms alone are over).
+    fn bounds(&self, g: &Station, kd: &Range, v: f64, a: f64) -> Option<Bounds> {
         let mut b = Bounds {
             a_lo: f64::NEG_INFINITY,
             a_hi: f64::INFINITY,
             s_lo: f64::NEG_INFINITY,
             s_hi: f64::INFINITY,
         };
+        let v3 = v * v * v;
         for i in 0..3 {
             let t = g.t[i];
             let ca = g.k[i] * v * v;
-            let cj = 3.0 * g.k[i] * v * a + g.kd[i] * v * v * v;
+            let cj = 3.0 * g.k[i] * v * a;
             let (am, jm) = (self.lim.a[i], self.lim.j[i]);
+            // T σ within the limit less the curvature's terms, for every K'
+            let (e0, e1) = (-jm - cj - kd.lo[i] * v3, jm - cj - kd.hi[i] * v3);
+            if e0 > e1 {
+                return None;
+            }
             if t.abs() > 1e-12 {
                 let r = 1.0 / t;
                 let (x, y) = ((-am - ca) * r, (am - ca) * r);
                 b.a_lo = b.a_lo.max(x.min(y));
                 b.a_hi = b.a_hi.min(x.max(y));
-                let (x, y) = ((-jm - cj) * r, (jm - cj) * r);
+                let (x, y) = (e0 * r, e1 * r);
                 b.s_lo = b.s_lo.max(x.min(y));
                 b.s_hi = b.s_hi.min(x.max(y));
-            } else if ca.abs() > am || cj.abs() > jm {
+            } else if ca.abs() > am || e0 > 0.0 || e1 < 0.0 {
                 return None;
             }
         }
         if v * (g.k[0].abs() + g.k[1].abs() + g.k[2].abs()) > 1e-12 {
-            let (lo, hi) = self.a_for_jerk(g, v);
+            let (lo, hi) = self.a_for_jerk(g, kd, v);
             b.a_lo = b.a_lo.max(lo);
             b.a_hi = b.a_hi.min(hi);
         }
@@ -392,16 +409,16 @@ impl Planner {
     /// left for changing the acceleration): every axis gives the jerk an
     /// interval whose ends move with `a` (the `3 K v a` term), and each
     /// pair of a lower and an upper end bounds `a` (Fourier–Motzkin).
-    fn a_for_jerk(&self, g: &Station, v: f64) -> (f64, f64) {
+    fn a_for_jerk(&self, g: &Station, kd: &Range, v: f64) -> (f64, f64) {
         let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
         // each end of a jerk interval as p + q a
         let mut lower: [(f64, f64); 3] = [(0.0, 0.0); 3];
         let mut upper: [(f64, f64); 3] = [(0.0, 0.0); 3];
         let mut n = 0;
         for i in 0..3 {
-            let (t, c, d) = (g.t[i], 3.0 * g.k[i] * v, g.kd[i] * v * v * v);
+            let (t, c, v3) = (g.t[i], 3.0 * g.k[i] * v, v * v * v);
             let jm = JERK_FOR_A * self.lim.j[i];
-            let (e0, e1) = (-jm - d, jm - d);
+            let (e0, e1) = (-jm - kd.lo[i] * v3, jm - kd.hi[i] * v3);
             if t.abs() > 1e-12 {
                 let r = 1.0 / t;
                 let (a0, a1) = ((e0 * r, -c * r), (e1 * r, -c * r));
@@ -414,12 +431,9 @@ impl Planner {
                 bound(&mut lo, &mut hi, c, e0, e1);
             }
         }
-        for (i, l) in lower[..n].iter().enumerate() {
-            for (j, u) in upper[..n].iter().enumerate() {
-                // an axis's own pair always holds: its interval is 2 jm wide
-                if i == j {
-                    continue;
-                }
+        for l in &lower[..n] {
+            for u in &upper[..n] {
+                // (an axis's own pair: whether every K' leaves it room)
                 // l.0 + l.1 a <= u.0 + u.1 a  <=>  (l.1 - u.1) a <= u.0 - l.0
                 let (c, e) = (l.1 - u.1, u.0 - l.0);
                 if c > 1e-12 {
@@ -505,8 +519,10 @@ impl Planner {
                 return No;
             }
             let i = (x.s.max(0.0) / self.path.h) as usize;
-            if !self.path.finished && i + 1 >= self.path.count() {
-                return Unknown(i + 2);
+            // (the stations a sample from here may pass, too)
+            let ahead = i + 1 + self.path.window();
+            if !self.path.finished && ahead >= self.path.count() {
+                return Unknown(ahead + 1);
             }
             // the speed at the sample and over it (the setpoints' difference)
             let cap = self.cap_over(from, x.s) * (1.0 + 1e-12) + 1e-12;
@@ -548,7 +564,7 @@ impl Planner {
         }
         let x = self.x;
         let g = self.path.at(x.s);
-        let Some(b) = self.bounds(&g, x.v, x.a) else {
+        let Some(b) = self.bounds(&g, &self.path.kd_range(x.s, &g), x.v, x.a) else {
             return Err(SpeedError::Stuck { s: x.s, v: x.v });
         };
         // staying at rest is always viable, braking from a viable state too
@@ -726,70 +742,8 @@ fn bound(lo: &mut f64, hi: &mut f64, c: f64, e0: f64, e1: f64) {
     *hi = hi.min(x.max(y));
 }
 
-/// The first jerk of a landing from `(v, a)`: the jerk, linear in the
-/// sample, that brings speed and acceleration to zero together after a
-/// whole number of samples, the fewest for which every sample's jerk is
-/// within `[lo, hi]` and the speed never goes below zero. `None` if no
-/// landing within `LAND_MAX` samples of the shortest conceivable does.
-fn landing(v: f64, a: f64, lo: f64, hi: f64, dt: f64) -> Option<f64> {
-    // the bang-bang stop with the larger jerk: t1 down, then up to zero
-    let jm = hi.max(-lo).max(1e-300);
-    let t1 = ((a + (a * a / 2.0 + jm * v.max(0.0)).sqrt()) / jm).max(0.0);
-    let shortest = (2.0 * t1 - a / jm).max(a.abs() / jm) / dt;
-    let first = (shortest.floor() as usize).max(2);
-    for n in first..first + LAND_MAX {
-        let nf = n as f64;
-        // sig_k = al + be * w_k, w_k = n - k - 1/2, k = 0..n-1:
-        // sum sig_k dt = -a, and v + n a dt + dt² sum sig_k w_k = 0
-        let s1 = -a / dt;
-        let s2 = -(v + nf * a * dt) / (dt * dt);
-        let (m11, m12, m22) = (nf, nf * nf / 2.0, nf * (4.0 * nf * nf - 1.0) / 12.0);
-        let det = m11 * m22 - m12 * m12;
-        let al = (s1 * m22 - m12 * s2) / det;
-        let be = (m11 * s2 - m12 * s1) / det;
-        let ends = [al + be * (nf - 0.5), al + be * 0.5];
-        if ends
-            .iter()
-            .any(|x| *x < lo * (1.0 + 1e-9) - 1e-9 || *x > hi * (1.0 + 1e-9) + 1e-9)
-        {
-            continue;
-        }
-        let (mut vv, mut aa) = (v, a);
-        let mut ok = true;
-        for k in 0..n {
-            let sig = al + be * (nf - k as f64 - 0.5);
-            vv += aa * dt + sig * dt * dt / 2.0;
-            aa += sig * dt;
-            if vv < -1e-9 {
-                ok = false;
-                break;
-            }
-        }
-        if ok {
-            return Some(ends[0]);
-        }
-    }
-    None
-}
-
-/// Makes the run end exactly on `end`: the little it stops short is added
-/// along the last `STRETCH_MIN` samples (all of them if there are fewer),
-/// by a quintic smooth step, which starts and ends with no speed and no
-/// acceleration of its own.
-fn stretch(out: &mut [f64], end: f64) {
-    let last = out.len() - 1;
-    let from = last.saturating_sub(STRETCH_MIN);
-    let short = end - out[last];
-    let n = (last - from) as f64;
-    if n > 0.0 {
-        for (k, s) in out[from..].iter_mut().enumerate() {
-            let u = k as f64 / n;
-            *s += short * u * u * u * (10.0 - 15.0 * u + 6.0 * u * u);
-        }
-    }
-    out[last] = end;
-}
-
+mod ends;
+use ends::{landing, stretch};
 mod hold;
 pub use hold::Snapshot;
 mod sampled;

@@ -507,7 +507,7 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: cases(4), ..ProptestConfig::default() })]
 
     /// The path planner (`[planner] method = "path"`): for any jerk limit
-    /// from 20 to 1000 m/s³, path tolerance (G61 and 0.005..0.2 mm,
+    /// from 20 to 1000 m/s³, path tolerance (G61, 0.001 mm and 0.005..0.2,
     /// changing between moves to a smaller one or G61) and feed, no
     /// axis exceeds its velocity, acceleration or jerk at any sample, no
     /// sample leaves the programmed path by more than P (nothing at all
@@ -519,7 +519,7 @@ proptest! {
         moves in prop::collection::vec(mv(), 1..8),
         feed in 100.0..20000.0f64,
         jerk in 2.0e4..1.0e6f64,
-        tol in prop_oneof![Just(0.0), 0.005..0.2f64],
+        tol in prop_oneof![Just(0.0), Just(0.001), 0.005..0.2f64],
         hold in hold(),
     ) {
         let mut m = Machine::builtin_mill();

@@ -3,6 +3,7 @@
 //! `finish`), the ones behind forgotten (`forget_before`), so that a run
 //! of any length takes the memory of a look-ahead.
 
+use super::envelope::{Envelope, Range};
 use std::collections::VecDeque;
 
 /// The path's shape at one station.
@@ -70,6 +71,9 @@ pub struct Path {
     /// The index of `st[0]` (the stations before are forgotten).
     pub(super) base: usize,
     pub(super) st: VecDeque<Station>,
+    /// Each station's range of `K'` over the path a sample from it may
+    /// pass (`set_window`; without one, its own).
+    env: Envelope,
 }
 
 impl Path {
@@ -94,6 +98,7 @@ impl Path {
             finished: false,
             base: 0,
             st: VecDeque::new(),
+            env: Envelope::new(0),
         })
     }
 
@@ -110,6 +115,7 @@ impl Path {
             return bad("a station's feed is not positive");
         }
         self.st.push_back(p);
+        self.env.push(p.kd);
         Ok(())
     }
 
@@ -128,6 +134,7 @@ impl Path {
         }
         self.len = len;
         self.finished = true;
+        self.env.finish();
         Ok(())
     }
 
@@ -173,7 +180,31 @@ impl Path {
             self.base += 1;
             gone += 1;
         }
+        self.env.forget_before(self.base);
         gone
+    }
+
+    /// Each station's range of `K'` takes in the `win` stations after
+    /// it (before the first station is pushed).
+    pub(super) fn set_window(&mut self, win: usize) {
+        if self.st.is_empty() && self.base == 0 {
+            self.env = Envelope::new(win);
+        }
+    }
+
+    /// How many stations after the one a place is in its range of `K'`
+    /// needs.
+    pub(super) fn window(&self) -> usize {
+        self.env.window()
+    }
+
+    /// The range of `K'` over the path a sample from `s` may pass: that
+    /// of the station before `s` (its window takes in the rest); where it
+    /// has not come yet, the shape's own at `s`.
+    pub(super) fn kd_range(&self, s: f64, own: &Station) -> Range {
+        let n = self.count();
+        let i = ((s.max(0.0) / self.h) as usize).clamp(self.base, n.max(2) - 2);
+        self.env.get(i).unwrap_or(Range::of(own.kd))
     }
 
     /// Station `i` (kept).
