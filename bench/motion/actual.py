@@ -21,7 +21,7 @@ actual positions over DDS and offline (aligned by the setpoint delay).
     . .venv-ros/env.sh
     python3 bench/motion/actual.py [--jerks 50 200] [--out DIR] [--bin DIR]
                                    [--accel-ff F] [--program cam|helix_pairs]
-                                   [--method filters|path]
+                                   [--method filters|path|auto]
 
 `--program helix_pairs` runs `gen.py helix_pairs` under `G61` instead:
 helical arcs of R 0.5, 2 and 10 mm, each from rest to rest (the arcs'
@@ -67,10 +67,10 @@ def stop_all():
 def machine_file(jerk, out, accel_ff=0.0, method="filters"):
     """config/mill.toml at VEL, ACC and `jerk` m/s³ on every axis (as jerk.sh),
     with the simulated drives' acceleration feed-forward `accel_ff` (0: none),
-    planned by `method` ([planner] method: filters or path)."""
+    planned by `method` ([planner] method: filters, path or auto)."""
     with open(os.path.join(ROOT, "config", "mill.toml")) as f:
         text = f.read()
-    if method != "filters":
+    if method != "auto":
         text = re.sub(r"(?m)^(lookahead_blocks = .*)$", r'\1\nmethod = "%s"' % method, text)
     if accel_ff:
         text = re.sub(r"(?m)^(max_velocity_mm_s = .*)$", r"\1\nservo_accel_feed_forward = %g" % accel_ff, text)
@@ -237,7 +237,7 @@ def main():
     ap.add_argument("--bin", default=os.path.join(ROOT, "target", "release"))
     ap.add_argument("--accel-ff", type=float, default=0.0,
                     help="the simulated drives' acceleration feed-forward, 0..1 (servo_accel_feed_forward)")
-    ap.add_argument("--method", choices=("filters", "path"), default="filters",
+    ap.add_argument("--method", choices=("filters", "path", "auto"), default="filters",
                     help="the machine's [planner] method")
     ap.add_argument("--program", choices=("cam", "helix_pairs"), default="cam",
                     help="gen.py's program: cam (G64 P0.01) or helix_pairs (G61)")

@@ -7,13 +7,14 @@
 #
 #   bash bench/motion/jerk.sh [--jerks "20 50 100 200 1000"] [--ours-only]
 #                             [--analyse-only] [--out DIR] [--mode "G64 P0.01"]
-#                             [--method filters|path]
+#                             [--method filters|path|auto]
 #
 #   --jerks LIST    jerk limits, m/s³, one run of ours each (default 20 50 100 200 1000; 200 the bundled machines')
 #   --ours-only     do not run LinuxCNC; reuse lcnc_cam.tsv in the output directory
 #   --analyse-only  run nothing, re-analyse the output directory
 #   --out DIR       default bench/out/jerk
-#   --method M      our planner ([planner] method; default the machine file's, "filters")
+#   --method M      our planner ([planner] method; default "filters", as every
+#                   figure before the default became "auto")
 #
 # The machine files: config/mill.toml with max_velocity_mm_s = 100,
 # max_acceleration_mm_s2 = 1000 and max_jerk_mm_s3 = J·1000 on every axis
@@ -26,7 +27,7 @@ HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 ROOT="$(cd "$HERE/../.." && pwd)"
 say() { printf 'jerk: %s\n' "$*" >&2; }
 usage() { sed -n '2,24p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//' >&2; exit 2; }
-JERKS="20 50 100 200 1000" OURS_ONLY=0 ANALYSE_ONLY=0 OUT="$ROOT/bench/out/jerk" MODE="G64 P0.01" METHOD=""
+JERKS="20 50 100 200 1000" OURS_ONLY=0 ANALYSE_ONLY=0 OUT="$ROOT/bench/out/jerk" MODE="G64 P0.01" METHOD="filters"
 VEL=100 ACC=1000
 while [ $# -gt 0 ]; do
     case "$1" in

@@ -42,6 +42,12 @@ def machine(out, jerk_m_s3, counts, ripple=0.0):
         r"(?m)^encoder_counts_per_rev = .*$", f"encoder_counts_per_rev = {counts}", text
     )
     assert n == 1
+    # (the look-ahead and its filters at every jerk, as these figures were
+    # taken before the default became "auto")
+    text, n = re.subn(
+        r"(?m)^(lookahead_blocks = .*)$", r'\1\nmethod = "filters"', text
+    )
+    assert n == 1
     path = out / f"lathe_j{jerk_m_s3:g}_c{counts}_r{ripple:g}.toml"
     path.write_text(text)
     return path

@@ -300,7 +300,7 @@ fn check_concurrently<S: ProgramSource>(
     let queued = &queued;
     // (the path planner plans from the moves themselves: nothing to work
     // out ahead)
-    let prepare = !machine.planner.method.is_path();
+    let prepare = !machine.plans_path();
     // (the interpreting thread's limits start where `first` leaves them)
     let mut lim_after_first = lim;
     first.iter().for_each(|ev| lim_after_first.follow(ev));

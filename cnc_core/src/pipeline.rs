@@ -78,7 +78,7 @@ impl Front {
             bbox: None,
             scratch: VecDeque::new(),
             out: VecDeque::with_capacity(8),
-            path_planner: machine.planner.method.is_path(),
+            path_planner: machine.plans_path(),
         }
     }
 

@@ -2,6 +2,7 @@
 
 use cnc_core::exec::{Executor, Sample};
 use cnc_core::jerk::ArcPart;
+use cnc_core::machine::PlanMethod;
 use cnc_core::source::StrSource;
 use cnc_core::{check, Dialect, Machine, V3};
 
@@ -69,6 +70,9 @@ fn bench_mill(jerk: f64) -> Machine {
         a.max_acceleration_mm_s2 = 1000.0;
         a.max_jerk_mm_s3 = Some(jerk);
     }
+    // (the filters at any jerk: "auto" would take the path planner under
+    // 200 m/s³)
+    m.planner.method = PlanMethod::Filters;
     m
 }
 

@@ -160,6 +160,7 @@ proptest! {
         for a in &mut m.axes {
             a.max_jerk_mm_s3 = jerk;
         }
+        m.planner.method = PlanMethod::Filters;
         let (text, end, els) = tangent_chain(&moves, feed, tol);
         runs_within_limits_and_path(&m, &text, end, &els, tol, None)?;
     }
@@ -211,6 +212,7 @@ fn kinks_closer_than_a_sample_keep_the_acceleration_limit() {
         for a in &mut m.axes {
             a.max_jerk_mm_s3 = jerk;
         }
+        m.planner.method = PlanMethod::Filters;
         let (text, end, els) = tangent_chain(moves, feed, 0.0);
         if let Err(e) = runs_within_limits_and_path(&m, &text, end, &els, 0.0, None) {
             let e = e.to_string();
@@ -301,6 +303,7 @@ proptest! {
         for a in &mut m.axes {
             a.max_jerk_mm_s3 = Some(jerk);
         }
+        m.planner.method = PlanMethod::Filters;
         // (arcs: a flat circle; a climbing one is the polyline's case)
         let climb = if arcs { 0.0 } else { climb };
         let c = V3::new(250.0, 250.0, -20.0);
@@ -493,6 +496,7 @@ proptest! {
         for a in &mut m.axes {
             a.max_jerk_mm_s3 = Some(jerk);
         }
+        m.planner.method = PlanMethod::Filters;
         // (a short look-ahead: the queue commits moves before it knows
         // what comes within the path filter's reach)
         m.planner.lookahead_blocks = look;
@@ -563,6 +567,7 @@ proptest! {
         for a in &mut m.axes {
             a.max_jerk_mm_s3 = Some(jerk);
         }
+        m.planner.method = PlanMethod::Filters;
         let (rpm, pitch, len, taper) = (rpm.round(), r4(pitch), r4(len), r4(taper));
         let x_end = r4(20.0 + taper);
         let text = match runout {
@@ -664,6 +669,7 @@ fn a_long_piece_capped_whole_by_a_move_to_come_keeps_every_limit() {
         for a in &mut m.axes {
             a.max_jerk_mm_s3 = Some(jerk);
         }
+        m.planner.method = PlanMethod::Filters;
         let r = check(StrSource::new(text), Dialect::Cnc836, &m);
         assert!(r.ok(), "{}", r.message());
         let s: Vec<Sample> = Executor::new(StrSource::new(text), Dialect::Cnc836, &m).collect();
@@ -930,6 +936,7 @@ fn tangent_chain_run(
     for a in &mut m.axes {
         a.max_jerk_mm_s3 = Some(jerk);
     }
+    m.planner.method = PlanMethod::Filters;
     m.planner.lookahead_blocks = look;
     let (text, end, els) = tangent_chain(moves, feed, tol);
     runs_within_limits_and_path(&m, &text, end, &els, tol, hold)
@@ -962,7 +969,7 @@ fn runs_within_limits_and_path(
         prop_assert_eq!(last.k, r.ticks);
     }
     // (the path planner has no filter: P is the bound)
-    let bound = if m.planner.method.is_path() {
+    let bound = if m.plans_path() {
         r4(tol)
     } else {
         r4(tol).max(m.smoothing_error_mm())

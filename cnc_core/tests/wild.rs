@@ -13,6 +13,7 @@
 //! at 1,516 mm/s² against 1,500, a dense polyline in space); 60,000 cases
 //! pass (`PROPTEST_CASES=60000 cargo test --release -p cnc_core --test
 //! wild`, about a minute).
+use cnc_core::machine::PlanMethod;
 use cnc_core::source::StrSource;
 use cnc_core::{check, Dialect, Machine};
 use proptest::prelude::*;
@@ -200,6 +201,9 @@ fn run_on_keeps_every_limit(
     for a in &mut m.axes {
         a.max_jerk_mm_s3 = jerk;
     }
+    // (the look-ahead and its filters at any jerk; the path planner's
+    // property tests are in props.rs)
+    m.planner.method = PlanMethod::Filters;
     let r = check(StrSource::new(text), Dialect::Cnc836, &m);
     if !r.ok() {
         return Err(TestCaseError::reject("not accepted"));

@@ -66,6 +66,8 @@ pub fn split_jerk(data: &[u8]) -> Option<(Dialect, Machine, &[u8])> {
                     for a in &mut m.axes {
                         a.max_jerk_mm_s3 = j;
                     }
+                    // (the filters at every jerk, as before "auto")
+                    m.planner.method = cnc_core::machine::PlanMethod::Filters;
                     v.push(m);
                 }
             }

@@ -25,7 +25,7 @@ pub struct RunLimits {
 impl RunLimits {
     /// The machine's limits if it plans with the path planner.
     pub fn for_machine(m: &Machine) -> Option<RunLimits> {
-        if !m.planner.method.is_path() {
+        if !m.plans_path() {
             return None;
         }
         let lim = |v: V3, keep: f64| {
