@@ -11,7 +11,7 @@ use cnc_core::{Dialect, Machine};
 use cnc_msgs::JointState;
 use cnc_node::bag::{compare, rerun, Bag};
 use cnc_node::offline::simulate;
-use cnc_node::record::{from_cdr, record_simulation, to_cdr, topics};
+use cnc_node::record::{from_cdr, record_simulation, record_simulation_as, to_cdr, topics};
 use std::path::{Path, PathBuf};
 
 /// (program file in examples/, machine, dialect)
@@ -211,6 +211,39 @@ fn rerun_of_a_fresh_recording_is_exact() {
     );
     assert_eq!(sa.messages.len() as u64, s.count(topics::JOINT_SETPOINTS));
     assert!(sa.messages == sb.messages, "setpoint payloads differ");
+}
+
+/// A recording of a machine file as written (comments and all, as the
+/// node attaches a file it was given) reruns with that same file: the
+/// compare finds the machine file and its attachment equal, where the
+/// rerun attached the machine as read before.
+#[test]
+fn rerun_attaches_the_machine_file_as_the_recording_had_it() {
+    let dir = tmp("rerun_text");
+    let text = std::fs::read_to_string(root().join("config/mill.toml")).unwrap();
+    let m = Machine::from_toml(&text).unwrap();
+    assert!(text.contains("# A three-axis vertical mill"));
+    let (a, b) = (dir.join("a.mcap"), dir.join("b.mcap"));
+    record_simulation_as(
+        &m,
+        Some(&text),
+        "mill_pocket.nc",
+        &program("mill_pocket.nc"),
+        m.dialect,
+        &a,
+    )
+    .unwrap();
+    rerun(&a, &b).unwrap();
+    let job = Bag::read(&b).unwrap().job().unwrap();
+    assert_eq!(job.machine_text, text);
+    let r = compare(&a, &b, 0.0).unwrap();
+    assert!(r.within(), "{r}");
+    assert!(r.notes.is_empty(), "{r}");
+    assert!(
+        r.to_string()
+            .contains("/cnc/machine_file: 1 message, equal"),
+        "{r}"
+    );
 }
 
 #[test]

@@ -75,8 +75,9 @@ pub fn rerun(recording: &Path, out: &Path) -> Result<RecordSummary, String> {
     let job = Bag::read(recording)?
         .job()
         .map_err(|e| format!("{}: {e}", recording.display()))?;
-    record::record_simulation(
+    record::record_simulation_as(
         &job.machine,
+        Some(&job.machine_text),
         &job.program_name,
         &job.program_text,
         job.dialect,

@@ -230,6 +230,7 @@ impl Bag {
             program_text,
             dialect,
             machine,
+            machine_text: machine_toml,
         })
     }
 }
@@ -280,6 +281,9 @@ pub struct Job {
     pub program_text: String,
     pub dialect: Dialect,
     pub machine: Machine,
+    /// The machine file as the recording holds it (as written, comments
+    /// and all, for a file the node was given).
+    pub machine_text: String,
 }
 
 #[cfg(test)]

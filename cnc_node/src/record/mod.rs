@@ -70,7 +70,9 @@ pub use path::{thin, GrowingPath, LivePath, GROWING_EVERY_NS, GROWING_MAX_POINTS
 pub use rosbag2::{
     bag_metadata_yaml, qos_yaml, BagTopic, Qos, BAG_METADATA_VERSION, MESSAGE_ENCODING, ROS_DISTRO,
 };
-pub use sim::{record_run, record_run_with, record_simulation, SimRecorder, EPOCH_NS};
+pub use sim::{
+    record_run, record_run_with, record_simulation, record_simulation_as, SimRecorder, EPOCH_NS,
+};
 pub use writer::{
     machine_toml, write_options, ChannelId, RecordSummary, Recorder, RecordingInfo, CHUNK_SIZE,
     LIBRARY, LIVE_CHUNK_SPAN_NS, PROFILE,

@@ -47,6 +47,20 @@ pub fn record_simulation(
     dialect: Dialect,
     out: &Path,
 ) -> Result<RecordSummary, String> {
+    record_simulation_as(machine, None, program_name, program_text, dialect, out)
+}
+
+/// [`record_simulation`] attaching `machine_text` as the machine file (a
+/// rerun's: the recording's own, as it was written); `None`: the machine
+/// as read.
+pub fn record_simulation_as(
+    machine: &Machine,
+    machine_text: Option<&str>,
+    program_name: &str,
+    program_text: &str,
+    dialect: Dialect,
+    out: &Path,
+) -> Result<RecordSummary, String> {
     let report = check_text(
         machine,
         dialect,
@@ -54,7 +68,11 @@ pub fn record_simulation(
         program_text,
         "nothing recorded",
     )?;
-    let info = RecordingInfo::offline(machine, program_name, program_text, dialect)?;
+    let mut info = RecordingInfo::offline(machine, program_name, program_text, dialect)?;
+    if let Some(text) = machine_text {
+        // (a rerun attaches the machine file as the recording had it)
+        info.machine_toml = text.to_string();
+    }
     let mut rec = SimRecorder::create(out, info, machine, report.ticks)?;
     run(
         StrSource::new(program_text),
