@@ -159,29 +159,16 @@ pub struct Planner {
     /// The first station of the straight stretch not closed yet, and its
     /// cap.
     open: Option<(usize, f64)>,
-    /// Where the run is, the last sample's jerk, and whether it is over.
-    x: State,
-    last: f64,
-    arrived: bool,
-    /// Samples held back (for the end's smooth step), oldest first, and
-    /// their states.
-    out: VecDeque<f64>,
-    states: VecDeque<State>,
-    /// The last three samples handed out, oldest first, and whether a feed
-    /// hold brakes the run (`hold.rs`).
-    handed: [State; 3],
-    halting: bool,
+    /// What has been decided and handed out (`hold::Snapshot`: a
+    /// snapshot is a copy of it).
+    d: Snapshot,
     /// Stations kept from here on too (`keep_from`).
     keep: Option<f64>,
     /// The feed override: the programmed feed's share in the caps
     /// (`set_scale`).
     scale: f64,
-    /// How many stations the last sample tried needed (no sample is
-    /// tried again before they have come).
-    need: usize,
-    /// The samples' own check (`check_samples`): the axes' limits, and the
-    /// last three positions decided (once the first is known).
-    sampled: Option<(AxisLimits, Option<[[f64; 3]; 3]>)>,
+    /// The samples' own check (`check_samples`): the axes' limits.
+    sampled: Option<AxisLimits>,
     /// The last few `bounds_at` answers.
     memo: std::cell::RefCell<[([u64; 3], Option<Bounds>); MEMO]>,
 }
@@ -221,17 +208,20 @@ impl Planner {
             caps: VecDeque::new(),
             clear: VecDeque::new(),
             open: None,
-            x: AT_REST,
-            last: 0.0,
-            arrived: false,
-            out: VecDeque::from([0.0]),
-            states: VecDeque::from([AT_REST]),
-            handed: [AT_REST; 3],
-            halting: false,
+            d: Snapshot {
+                x: AT_REST,
+                last: 0.0,
+                arrived: false,
+                out: VecDeque::from([0.0]),
+                states: VecDeque::from([AT_REST]),
+                handed: [AT_REST; 3],
+                halting: false,
+                need: 0,
+                sampled: None,
+            },
             keep: None,
             scale: 1.0,
             memo: std::cell::RefCell::new([([u64::MAX; 3], None); MEMO]),
-            need: 0,
             sampled: None,
         };
         for st in path.st {
@@ -562,10 +552,10 @@ impl Planner {
     /// One sample: the largest jerk whose next state is viable. `None`
     /// while that needs stations that have not come yet (nothing moves).
     fn tick(&mut self, point: Option<Point>) -> Result<Option<()>, SpeedError> {
-        if self.path.count() < 2 || (!self.path.finished && self.path.count() < self.need) {
+        if self.path.count() < 2 || (!self.path.finished && self.path.count() < self.d.need) {
             return Ok(None);
         }
-        let x = self.x;
+        let x = self.d.x;
         let g = self.path.at(x.s);
         let Some(b) = self.bounds(&g, &self.path.kd_range(x.s, &g), x.v, x.a) else {
             return Err(SpeedError::Stuck { s: x.s, v: x.v });
@@ -577,7 +567,7 @@ impl Planner {
         } else {
             self.brake(&g, x, &b).unwrap_or(b.s_lo)
         };
-        if self.halting {
+        if self.d.halting {
             // a feed hold: the braking rule to rest, then rest
             self.commit(x, safe, point);
             return Ok(Some(()));
@@ -598,7 +588,7 @@ impl Planner {
             // boundary often moves little from one sample to the next)
             let (mut lo, mut hi) = (safe, top.max(safe));
             let width = b.s_hi - b.s_lo;
-            let near = self.last.clamp(lo, hi);
+            let near = self.d.last.clamp(lo, hi);
             for probe in [near + WARM * width, near - WARM * width] {
                 if probe > lo && probe < hi {
                     if ok(probe)? {
@@ -624,7 +614,7 @@ impl Planner {
         let sig = match choose() {
             Ok(sig) => sig,
             Err(n) => {
-                self.need = n;
+                self.d.need = n;
                 return Ok(None);
             }
         };
@@ -638,27 +628,27 @@ impl Planner {
 
     /// Takes jerk `sig` from `x` for the next sample.
     fn commit(&mut self, x: State, sig: f64, point: Option<Point>) {
-        self.last = sig;
+        self.d.last = sig;
         let mut x = x.step(sig, self.dt);
         if x.v <= REST_V && x.a.abs() <= 1e-6 {
             x.v = 0.0;
             x.a = 0.0;
         }
-        self.x = x;
-        self.out.push_back(x.s);
-        self.states.push_back(x);
-        if let (Some(pt), Some((_, Some(h)))) = (point, self.sampled.as_mut()) {
+        self.d.x = x;
+        self.d.out.push_back(x.s);
+        self.d.states.push_back(x);
+        if let (Some(pt), Some(_), Some(h)) = (point, self.sampled, self.d.sampled.as_mut()) {
             *h = [h[1], h[2], pt(x.s)];
         }
         // (behind the samples handed out: a feed hold brakes from there)
-        let behind = self.handed[0].s.min(self.keep.unwrap_or(f64::INFINITY));
+        let behind = self.d.handed[0].s.min(self.keep.unwrap_or(f64::INFINITY));
         let gone = self.path.forget_before(behind.min(self.path.known()));
         self.caps.drain(..gone);
         self.clear.drain(..gone);
         if let Some(end) = self.path.len() {
             if x.v == 0.0 && x.s >= end - END_TOL {
-                stretch(self.out.make_contiguous(), end);
-                self.arrived = true;
+                stretch(self.d.out.make_contiguous(), end);
+                self.d.arrived = true;
             }
         }
     }
@@ -679,16 +669,15 @@ impl Planner {
     }
 
     fn next_sample_of(&mut self, point: Option<Point>) -> Result<Option<f64>, SpeedError> {
-        if let (Some(pt), Some((_, h @ None))) = (point, self.sampled.as_mut()) {
-            let p0 = pt(0.0);
-            *h = Some([p0; 3]);
+        if let (Some(pt), Some(_), None) = (point, self.sampled, self.d.sampled) {
+            self.d.sampled = Some([pt(0.0); 3]);
         }
         loop {
-            if self.arrived || self.out.len() > STRETCH_MIN + 1 {
-                if let Some(x) = self.states.pop_front() {
-                    self.handed = [self.handed[1], self.handed[2], x];
+            if self.d.arrived || self.d.out.len() > STRETCH_MIN + 1 {
+                if let Some(x) = self.d.states.pop_front() {
+                    self.d.handed = [self.d.handed[1], self.d.handed[2], x];
                 }
-                return Ok(self.out.pop_front());
+                return Ok(self.d.out.pop_front());
             }
             if self.tick(point)?.is_none() {
                 return Ok(None);
@@ -698,13 +687,13 @@ impl Planner {
 
     /// Whether the run has come to rest on its end.
     pub fn arrived(&self) -> bool {
-        self.arrived
+        self.d.arrived
     }
 
     /// Whether every sample of the run has been handed out (the last one
     /// at rest on its end).
     pub fn over(&self) -> bool {
-        self.arrived && self.out.is_empty()
+        self.d.arrived && self.d.out.is_empty()
     }
 
     /// The whole run of a finished path: the path position at every
@@ -714,13 +703,13 @@ impl Planner {
         while out.len() <= max_ticks {
             match self.next_sample()? {
                 Some(s) => out.push(s),
-                None if self.arrived => return Ok(out),
+                None if self.d.arrived => return Ok(out),
                 None => break,
             }
         }
         Err(SpeedError::NoEnd {
             ticks: out.len(),
-            s: self.x.s,
+            s: self.d.x.s,
         })
     }
 }

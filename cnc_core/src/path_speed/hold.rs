@@ -12,29 +12,28 @@ impl Planner {
     /// path's points, for the samples' own check. Near the run's end (its
     /// last braking decided) the run goes on to its end.
     pub fn hold(&mut self, point: Option<Point>) {
-        if self.arrived || self.halting {
+        if self.d.arrived || self.d.halting {
             return;
         }
-        self.halting = true;
-        self.x = self.handed[2];
-        self.out.clear();
-        self.states.clear();
-        self.need = 0;
-        self.last = 0.0;
-        let handed = self.handed;
-        if let (Some(pt), Some((_, h))) = (point, self.sampled.as_mut()) {
-            *h = Some(handed.map(|x| pt(x.s)));
+        self.d.halting = true;
+        self.d.x = self.d.handed[2];
+        self.d.out.clear();
+        self.d.states.clear();
+        self.d.need = 0;
+        self.d.last = 0.0;
+        if let (Some(pt), Some(_)) = (point, self.sampled) {
+            self.d.sampled = Some(self.d.handed.map(|x| pt(x.s)));
         }
     }
 
     /// Ends a hold: the run goes on from where it stands.
     pub fn resume(&mut self) {
-        self.halting = false;
+        self.d.halting = false;
     }
 
     /// Whether a hold is on.
     pub fn held(&self) -> bool {
-        self.halting
+        self.d.halting
     }
 }
 
@@ -46,15 +45,24 @@ impl Planner {
 /// the consumer asked for it.
 #[derive(Clone, Debug)]
 pub struct Snapshot {
-    x: State,
-    last: f64,
-    arrived: bool,
-    out: VecDeque<f64>,
-    states: VecDeque<State>,
-    handed: [State; 3],
-    halting: bool,
-    need: usize,
-    sampled: Option<[[f64; 3]; 3]>,
+    /// Where the run is, the last sample's jerk, and whether it is over.
+    pub(super) x: State,
+    pub(super) last: f64,
+    pub(super) arrived: bool,
+    /// Samples held back (for the end's smooth step), oldest first, and
+    /// their states.
+    pub(super) out: VecDeque<f64>,
+    pub(super) states: VecDeque<State>,
+    /// The last three samples handed out, oldest first, and whether a feed
+    /// hold brakes the run.
+    pub(super) handed: [State; 3],
+    pub(super) halting: bool,
+    /// How many stations the last sample tried needed (no sample is
+    /// tried again before they have come).
+    pub(super) need: usize,
+    /// For the samples' own check (`check_samples`): the last three
+    /// positions decided (once the first is known).
+    pub(super) sampled: Option<[[f64; 3]; 3]>,
 }
 
 impl Snapshot {
@@ -74,33 +82,13 @@ impl Snapshot {
 impl Planner {
     /// The planner's state after the last sample handed out.
     pub fn snapshot(&self) -> Snapshot {
-        Snapshot {
-            x: self.x,
-            last: self.last,
-            arrived: self.arrived,
-            out: self.out.clone(),
-            states: self.states.clone(),
-            handed: self.handed,
-            halting: self.halting,
-            need: self.need,
-            sampled: self.sampled.as_ref().and_then(|(_, h)| *h),
-        }
+        self.d.clone()
     }
 
     /// Goes back to `snap`, taken of this planner (its stations from the
     /// first handed state on must still be kept: `keep_from`).
     pub fn restore(&mut self, snap: &Snapshot) {
-        self.x = snap.x;
-        self.last = snap.last;
-        self.arrived = snap.arrived;
-        self.out.clone_from(&snap.out);
-        self.states.clone_from(&snap.states);
-        self.handed = snap.handed;
-        self.halting = snap.halting;
-        self.need = snap.need;
-        if let Some((_, h)) = self.sampled.as_mut() {
-            *h = snap.sampled;
-        }
+        self.d.clone_from(snap);
     }
 
     /// The feed override from the next decision on: the programmed feed's
@@ -127,7 +115,7 @@ impl Planner {
                 self.close(f, n);
             }
         }
-        self.need = 0;
+        self.d.need = 0;
     }
 
     /// Keeps the stations from path position `s` on (beside those behind

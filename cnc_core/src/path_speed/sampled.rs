@@ -15,13 +15,14 @@ impl Planner {
     /// largest of a few lower ones down to the braking rule's that keeps
     /// them and stays viable is taken instead; none does: the planner's.
     pub fn check_samples(&mut self, lim: AxisLimits) {
-        self.sampled = Some((lim, None));
+        self.sampled = Some(lim);
+        self.d.sampled = None;
     }
 
     /// The jerk for the next sample under the samples' own check (see
     /// `check_samples`): `sig` the planner's, `safe` the braking rule's.
     pub(super) fn sampled_choice(&self, x: State, sig: f64, safe: f64, pt: Point) -> f64 {
-        let Some((lim, Some(h))) = self.sampled else {
+        let (Some(lim), Some(h)) = (self.sampled, self.d.sampled) else {
             return sig;
         };
         let dt = self.dt;
