@@ -349,11 +349,23 @@ impl Planner {
         if let Some((_, b)) = memo.iter().find(|(k, _)| *k == key) {
             return *b;
         }
-        let g = self.path.at(s);
-        let b = self.bounds(&g, &self.path.kd_range(s, &g), v, a);
+        let b = self.bounds_on(&self.path.at(s), s, v, a);
         memo.rotate_right(1);
         memo[0] = (key, b);
         b
+    }
+
+    /// `bounds` with the shape `g` at `s` and the `K'` a sample from there
+    /// may pass. A moving state's window has always come (`viable` waits
+    /// for the stations two windows past where it brakes); at rest, where
+    /// no `K'` counts, it may not have, and `g`'s own stands in.
+    fn bounds_on(&self, g: &Station, s: f64, v: f64, a: f64) -> Option<Bounds> {
+        let kd = self.path.kd_range(s);
+        debug_assert!(
+            kd.is_some() || v == 0.0,
+            "K' range at {s} asked before its window came"
+        );
+        self.bounds(g, &kd.unwrap_or(Range::of(g.kd)), v, a)
     }
 
     /// The path accelerations and jerks every axis allows at `(v, a)`,
@@ -500,6 +512,14 @@ impl Planner {
         sig
     }
 
+    /// How many stations a decision at `s` needs before the run's end is
+    /// known: those a sample from there may pass, and each one's window
+    /// of `K'` (the braking rule asks for the bounds where its sample
+    /// ends, up to a window ahead, and those take in a window more).
+    fn needs(&self, s: f64) -> usize {
+        (s.max(0.0) / self.path.h) as usize + 2 + 2 * self.path.window()
+    }
+
     /// Whether `x`, reached from `from` with jerk `sig`, keeps every limit
     /// (`sig` too, at the sample's end as at its start; the speed cap of
     /// every station passed) and braking from it by `brake` does too,
@@ -511,11 +531,9 @@ impl Planner {
             if x.s > end + 1e-9 || x.v < -1e-6 {
                 return No;
             }
-            let i = (x.s.max(0.0) / self.path.h) as usize;
-            // (the stations a sample from here may pass, too)
-            let ahead = i + 1 + self.path.window();
-            if !self.path.finished && ahead >= self.path.count() {
-                return Unknown(ahead + 1);
+            let n = self.needs(x.s);
+            if !self.path.finished && n > self.path.count() {
+                return Unknown(n);
             }
             // the speed at the sample and over it (the setpoints' difference)
             let cap = self.cap_over(from, x.s) * (1.0 + 1e-12) + 1e-12;
@@ -552,12 +570,13 @@ impl Planner {
     /// One sample: the largest jerk whose next state is viable. `None`
     /// while that needs stations that have not come yet (nothing moves).
     fn tick(&mut self, point: Option<Point>) -> Result<Option<()>, SpeedError> {
-        if self.path.count() < 2 || (!self.path.finished && self.path.count() < self.d.need) {
+        let x = self.d.x;
+        let need = self.d.need.max(self.needs(x.s));
+        if self.path.count() < 2 || (!self.path.finished && self.path.count() < need) {
             return Ok(None);
         }
-        let x = self.d.x;
         let g = self.path.at(x.s);
-        let Some(b) = self.bounds(&g, &self.path.kd_range(x.s, &g), x.v, x.a) else {
+        let Some(b) = self.bounds_on(&g, x.s, x.v, x.a) else {
             return Err(SpeedError::Stuck { s: x.s, v: x.v });
         };
         // staying at rest is always viable, braking from a viable state too

@@ -199,12 +199,12 @@ impl Path {
     }
 
     /// The range of `K'` over the path a sample from `s` may pass: that
-    /// of the station before `s` (its window takes in the rest); where it
-    /// has not come yet, the shape's own at `s`.
-    pub(super) fn kd_range(&self, s: f64, own: &Station) -> Range {
+    /// of the station before `s` (its window takes in the rest), once its
+    /// window has come.
+    pub(super) fn kd_range(&self, s: f64) -> Option<Range> {
         let n = self.count();
         let i = ((s.max(0.0) / self.h) as usize).clamp(self.base, n.max(2) - 2);
-        self.env.get(i).unwrap_or(Range::of(own.kd))
+        self.env.get(i)
     }
 
     /// Station `i` (kept).
