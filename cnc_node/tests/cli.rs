@@ -28,6 +28,18 @@ fn tmp(name: &str, text: &str) -> PathBuf {
     p
 }
 
+/// `cnc check examples/mill_pocket.nc` on the machine file `text`
+/// (written to a temporary `name`): exit code, stdout, stderr.
+fn check_pocket_on(name: &str, text: &str) -> (i32, String, String) {
+    let p = tmp(name, text);
+    cnc(&[
+        "check",
+        "examples/mill_pocket.nc",
+        "--machine",
+        p.to_str().unwrap(),
+    ])
+}
+
 #[test]
 fn check_good_program_prints_one_line_summary() {
     let (code, out, err) = cnc(&["check", "examples/mill_pocket.nc", "--machine", "mill"]);
@@ -273,13 +285,7 @@ fn bad_machine_file_names_the_key() {
     // the bundled mill with one line changed: the check's exit code and
     // what it printed on stderr
     let with = |from: &str, to: &str| {
-        let p = tmp("m.toml", &m.replacen(from, to, 1));
-        let (code, _, err) = cnc(&[
-            "check",
-            "examples/mill_pocket.nc",
-            "--machine",
-            p.to_str().unwrap(),
-        ]);
+        let (code, _, err) = check_pocket_on("m.toml", &m.replacen(from, to, 1));
         (code, err)
     };
     let (code, err) = with(
@@ -658,13 +664,7 @@ fn a_machine_under_200_m_s3_plans_with_the_path_planner_unless_it_says_filters()
             "lookahead_blocks = 200",
             &format!("lookahead_blocks = 200\n{method}"),
         );
-        let p = tmp(name, &text);
-        let (code, out, err) = cnc(&[
-            "check",
-            "examples/mill_pocket.nc",
-            "--machine",
-            p.to_str().unwrap(),
-        ]);
+        let (code, out, err) = check_pocket_on(name, &text);
         assert_eq!(code, 0, "{err}");
         let t = out.split("estimated cycle time ").nth(1).unwrap_or("");
         t.split('s').next().unwrap_or("").to_string()

@@ -284,6 +284,14 @@ def read_mcap(path):
     return out
 
 
+def job_recording(directory, job_id):
+    """The node's recording of job `job_id` in its record directory, read
+    (`read_mcap`): the one file named job_<id>_*."""
+    name = [f for f in os.listdir(directory) if f.startswith("job_%d_" % job_id)]
+    assert len(name) == 1, name
+    return read_mcap(os.path.join(directory, name[0]))
+
+
 def cnc(env, *args, timeout=60):
     """The `cnc` command line with `args`: (exit code, stdout, stderr)."""
     r = subprocess.run([os.path.join(TARGET, "cnc")] + list(args), cwd=ROOT, env=env,

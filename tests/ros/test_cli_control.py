@@ -18,7 +18,7 @@ import pytest
 import rclpy
 
 from cnc_msgs.msg import ControllerStatus
-from ros_nodes import ROOT, TARGET, build, cnc, domain, read_mcap, start, status_peer, stop
+from ros_nodes import ROOT, TARGET, build, cnc, domain, job_recording, start, status_peer, stop
 
 DOMAIN = domain(4)
 RECORDINGS = os.path.join(ROOT, "target", "test-recordings-cli")
@@ -57,9 +57,7 @@ def start_run(env, tmp_path, text, name="job.nc"):
 def last_setpoint(job_id):
     """The last setpoint (mm) of a job, from the node's recording of it
     (every setpoint it published, by its stamp)."""
-    name = [f for f in os.listdir(RECORDINGS) if f.startswith("job_%d_" % job_id)]
-    assert len(name) == 1, name
-    rec = read_mcap(os.path.join(RECORDINGS, name[0]))
+    rec = job_recording(RECORDINGS, job_id)
     return [p * 1000.0 for p in rec["/cnc/joint_setpoints"][-1][1].position]
 
 

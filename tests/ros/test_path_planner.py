@@ -22,7 +22,7 @@ import time
 import pytest
 
 from cnc_msgs.msg import ControllerStatus
-from ros_nodes import ROOT, TARGET, cnc, domain, read_mcap, session, status_peer
+from ros_nodes import ROOT, TARGET, cnc, domain, job_recording, session, status_peer
 
 DOMAIN = domain(8)
 RECORDINGS = os.path.join(ROOT, "target", "test-recordings-path")
@@ -89,9 +89,7 @@ def test_a_path_planner_job_held_and_resumed_at_half_feed_keeps_every_limit_and_
     assert run.returncode == 0, err
     assert "job %d done" % job in out, out
     time.sleep(1.5)  # (the recording is closed after the job)
-    name = [f for f in os.listdir(RECORDINGS) if f.startswith("job_%d_" % job)]
-    assert len(name) == 1, name
-    rec = read_mcap(os.path.join(RECORDINGS, name[0]))
+    rec = job_recording(RECORDINGS, job)
     pos = [[q * 1000.0 for q in m.position] for _, m in rec["/cnc/joint_setpoints"]]
     assert len(pos) > 1000, len(pos)
     # exactly on the last point
