@@ -679,7 +679,7 @@ fn a_machine_under_200_m_s3_plans_with_the_path_planner_unless_it_says_filters()
     // filters', on blended CAM paths at 50 m/s³ 16 % shorter: README)
     assert_eq!(
         (auto.as_str(), path.as_str(), filters.as_str()),
-        ("20.192", "20.192", "20.052")
+        ("20.189", "20.189", "20.052")
     );
     // the bundled mill, "auto" or not said: the filters' 19.845 s
     let (code, out, _) = cnc(&["check", "examples/mill_pocket.nc", "--machine", "mill"]);
