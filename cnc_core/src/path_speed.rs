@@ -117,10 +117,6 @@ const REST_V: f64 = 1e-9;
 const END_TOL: f64 = 1e-4;
 /// How many `bounds_at` answers are remembered.
 const MEMO: usize = 4;
-/// Curvature (1/mm) and its change (1/mm²) under this count as straight.
-const STRAIGHT: f64 = 1e-6;
-/// Caps within this share of each other count as one for `clear`.
-const FLAT: f64 = 1e-6;
 /// The samples the last shortfall is spread over, and so how many the
 /// planner holds back.
 const STRETCH_MIN: usize = 50;
@@ -156,8 +152,9 @@ pub struct Planner {
     path: Path,
     lim: AxisLimits,
     dt: f64,
-    /// Each kept station's speed cap (`v_cap`).
-    caps: VecDeque<f64>,
+    /// Each kept station's speed cap but the feed's (`hard_cap`), and its
+    /// feed: the cap is the lower of it and the feed times the override.
+    caps: VecDeque<(f64, f64)>,
     /// Per kept station, how far on (mm) the path stays straight, and the
     /// lowest speed cap until there: a braking that ends before there
     /// under that cap keeps every limit. `(0, 0)` while unknown.
@@ -224,6 +221,7 @@ impl Planner {
                 halting: false,
                 need: 0,
                 sampled: None,
+                ceiling: 0.0,
             },
             keep: None,
             scale: 1.0,
@@ -247,28 +245,11 @@ impl Planner {
     /// The next station of the run.
     pub fn push(&mut self, st: Station) -> Result<(), SpeedError> {
         self.path.push(st)?;
-        let c = self.v_cap(&st);
-        self.caps.push_back(c);
+        self.caps.push_back((self.hard_cap(&st), st.feed));
+        let c = self.cap(self.path.count() - 1);
         self.clear.push_back((0.0, 0.0));
         self.group(self.path.count() - 1, &st, c);
         Ok(())
-    }
-
-    /// Station `i` (`st`, cap `c`) into the straight stretches.
-    fn group(&mut self, i: usize, st: &Station, c: f64) {
-        // stations are grouped into stretches that are straight (curvature
-        // and its change under `STRAIGHT`) with caps within `FLAT` of the
-        // stretch's first; a station that does not join the open stretch
-        // closes it
-        let starts = (!bent(st)).then_some((i, c));
-        match self.open {
-            Some((_, c0)) if !bent(st) && (c - c0).abs() <= FLAT * c0 => {}
-            Some((f, _)) => {
-                self.close(f, i);
-                self.open = starts;
-            }
-            None => self.open = starts,
-        }
     }
 
     /// The run ends at `len` (the last station's place).
@@ -278,71 +259,6 @@ impl Planner {
             self.close(f, self.path.count());
         }
         Ok(())
-    }
-
-    fn cap(&self, i: usize) -> f64 {
-        self.caps[i - self.path.base]
-    }
-
-    /// Closes the stretch of stations `f..j`: each gets the stretch's end
-    /// (the last station's place: the interval after it is shared with a
-    /// station outside) and the lowest cap from it to there.
-    fn close(&mut self, f: usize, j: usize) {
-        let stop = self.path.place(j - 1);
-        let mut low = f64::INFINITY;
-        for k in (f.max(self.path.base)..j).rev() {
-            low = low.min(self.cap(k));
-            self.clear[k - self.path.base] = (stop, low);
-        }
-    }
-
-    /// Whether braking from `x` (speed, acceleration; bounds `b` there) on
-    /// a straight stretch certainly ends within it: an upper bound of its
-    /// peak speed within the cap there, an upper bound of its length
-    /// before `clear` and the end.
-    fn clearly_viable(&self, x: State, b: &Bounds, end: f64) -> bool {
-        let i = ((x.s / self.path.h) as usize).clamp(self.path.base, self.path.count() - 1);
-        let jm = -b.s_lo;
-        let am = -b.a_lo * (1.0 - 2.0 * A_MARGIN);
-        if !(jm > 0.0 && am > 0.0) {
-            return false;
-        }
-        let up = x.a.max(0.0);
-        let v_peak = x.v + up * up / (2.0 * jm);
-        let t = up / jm + v_peak / am + 2.0 * am / jm + 20.0 * self.dt;
-        let (stop, cap) = self.clear[i - self.path.base];
-        v_peak <= cap && x.s + v_peak * t <= stop.min(end)
-    }
-
-    /// The lowest speed cap of the stations about the path from `s0` to
-    /// `s1` (those of the intervals both ends are in, and all between).
-    fn cap_over(&self, s0: f64, s1: f64) -> f64 {
-        let (base, n) = (self.path.base, self.path.count());
-        let (lo, hi) = (s0.min(s1).max(0.0), s0.max(s1));
-        let i0 = ((lo / self.path.h) as usize).clamp(base, n - 2);
-        let i1 = (((hi / self.path.h) as usize) + 1).clamp(base, n - 1);
-        (i0..=i1).fold(f64::INFINITY, |m, i| m.min(self.cap(i)))
-    }
-
-    /// The speed cap at a station: the feed, every axis's velocity, and
-    /// the speed at which the curvature alone takes an axis's whole
-    /// acceleration.
-    fn v_cap(&self, g: &Station) -> f64 {
-        let mut cap = g.feed * self.scale;
-        for i in 0..3 {
-            let t = g.t[i].abs();
-            if t > 1e-12 {
-                cap = cap.min(self.lim.v[i] / t);
-            }
-            // the curvature's own acceleration within the axis's limit:
-            // as a cap of the stations a sample passes (`cap_over`), it
-            // holds where the curvature peaks between two samples
-            let k = g.k[i].abs();
-            if k > 1e-12 {
-                cap = cap.min((self.lim.a[i] / k).sqrt());
-            }
-        }
-        cap
     }
 
     /// `bounds` at arc length `s`, remembered for the last few states it
@@ -542,7 +458,7 @@ impl Planner {
                 return Unknown(n);
             }
             // the speed at the sample and over it (the setpoints' difference)
-            let cap = self.cap_over(from, x.s) * (1.0 + 1e-12) + 1e-12;
+            let cap = self.cap_over_at(from, x.s, self.soft_scale()) * (1.0 + 1e-12) + 1e-12;
             if x.v > cap || x.s - from > cap * self.dt {
                 return No;
             }
@@ -669,6 +585,13 @@ impl Planner {
             x.v = 0.0;
             x.a = 0.0;
         }
+        // (over the caps of a lower override, it comes down onto them from
+        // the one it was decided under: the feed is not a limit of the axes)
+        self.d.ceiling = if x.v > self.cap_over(x.s, x.s) {
+            self.soft_scale()
+        } else {
+            self.scale
+        };
         self.d.x = x;
         self.d.out.push_back(x.s);
         self.d.states.push_back(x);
@@ -749,11 +672,6 @@ impl Planner {
     }
 }
 
-/// Whether a station bends: curvature or its change over `STRAIGHT`.
-fn bent(g: &Station) -> bool {
-    g.k.iter().chain(g.kd.iter()).any(|c| c.abs() > STRAIGHT)
-}
-
 /// Narrows `[lo, hi]` to the `a` with `e0 <= c a <= e1`; empty (lo > hi)
 /// where no `a` does.
 fn bound(lo: &mut f64, hi: &mut f64, c: f64, e0: f64, e1: f64) {
@@ -769,6 +687,7 @@ fn bound(lo: &mut f64, hi: &mut f64, c: f64, e0: f64, e1: f64) {
     *hi = hi.min(x.max(y));
 }
 
+mod caps;
 mod ends;
 use ends::{landing, stretch};
 mod hold;

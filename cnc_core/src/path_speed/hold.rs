@@ -63,6 +63,9 @@ pub struct Snapshot {
     /// For the samples' own check (`check_samples`): the last three
     /// positions decided (once the first is known).
     pub(super) sampled: Option<[[f64; 3]; 3]>,
+    /// The feed override the last state was decided under, or a higher
+    /// one it is still over the caps of a lower one from (`Planner::commit`).
+    pub(super) ceiling: f64,
 }
 
 impl Snapshot {
@@ -93,8 +96,9 @@ impl Planner {
 
     /// The feed override from the next decision on: the programmed feed's
     /// share in every station's cap (the axes' and the curvature's caps
-    /// stay). The samples decided stay; a state over the new caps brakes
-    /// (the braking rule, as a hold) until it can go on under them.
+    /// stay). The samples decided stay; a state over the new caps comes
+    /// down onto them by the approach (`approach.rs`), its brakings
+    /// checked under the feed it was decided under until it is under them.
     pub fn set_scale(&mut self, scale: f64) {
         if scale == self.scale || !(scale > 0.0 && scale.is_finite()) {
             return;
@@ -105,8 +109,7 @@ impl Planner {
         self.open = None;
         for i in base..n {
             let st = *self.path.station(i);
-            let c = self.v_cap(&st);
-            self.caps[i - base] = c;
+            let c = self.cap(i);
             self.clear[i - base] = (0.0, 0.0);
             self.group(i, &st, c);
         }

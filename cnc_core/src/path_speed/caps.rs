@@ -1,0 +1,125 @@
+//! The speed caps of the stations, and the straight stretches.
+//!
+//! Each station's cap is the lower of its hard cap (every axis's velocity
+//! over its share of the tangent, and the speed at which the curvature
+//! alone takes an axis's whole acceleration) and its feed times the feed
+//! override in force. A state the override has just put over the caps is
+//! not over a limit of the axes: its brakings are checked under the
+//! override it was decided under while it comes down (`soft_scale`).
+//! Stations on a straight line with one cap are grouped into stretches,
+//! so that a braking that certainly ends within one is not simulated
+//! (`clearly_viable`).
+
+use super::{Bounds, Planner, State, Station, A_MARGIN};
+
+/// Curvature (1/mm) and its change (1/mm²) under this count as straight.
+const STRAIGHT: f64 = 1e-6;
+/// Caps within this share of each other count as one for `clear`.
+const FLAT: f64 = 1e-6;
+
+impl Planner {
+    /// Station `i` (`st`, cap `c`) into the straight stretches.
+    pub(super) fn group(&mut self, i: usize, st: &Station, c: f64) {
+        // stations are grouped into stretches that are straight (curvature
+        // and its change under `STRAIGHT`) with caps within `FLAT` of the
+        // stretch's first; a station that does not join the open stretch
+        // closes it
+        let starts = (!bent(st)).then_some((i, c));
+        match self.open {
+            Some((_, c0)) if !bent(st) && (c - c0).abs() <= FLAT * c0 => {}
+            Some((f, _)) => {
+                self.close(f, i);
+                self.open = starts;
+            }
+            None => self.open = starts,
+        }
+    }
+
+    /// Station `i`'s speed cap under the override in force.
+    pub(super) fn cap(&self, i: usize) -> f64 {
+        self.cap_at(i, self.scale)
+    }
+
+    /// Station `i`'s speed cap under the override `scale`.
+    pub(super) fn cap_at(&self, i: usize, scale: f64) -> f64 {
+        let (hard, feed) = self.caps[i - self.path.base];
+        (feed * scale).min(hard)
+    }
+
+    /// The override a braking is checked under: the one in force, or a
+    /// higher one the run's state is still coming down from (`commit`).
+    pub(super) fn soft_scale(&self) -> f64 {
+        self.d.ceiling.max(self.scale)
+    }
+
+    /// Closes the stretch of stations `f..j`: each gets the stretch's end
+    /// (the last station's place: the interval after it is shared with a
+    /// station outside) and the lowest cap from it to there.
+    pub(super) fn close(&mut self, f: usize, j: usize) {
+        let stop = self.path.place(j - 1);
+        let mut low = f64::INFINITY;
+        for k in (f.max(self.path.base)..j).rev() {
+            low = low.min(self.cap(k));
+            self.clear[k - self.path.base] = (stop, low);
+        }
+    }
+
+    /// Whether braking from `x` (speed, acceleration; bounds `b` there) on
+    /// a straight stretch certainly ends within it: an upper bound of its
+    /// peak speed within the cap there, an upper bound of its length
+    /// before `clear` and the end.
+    pub(super) fn clearly_viable(&self, x: State, b: &Bounds, end: f64) -> bool {
+        let i = ((x.s / self.path.h) as usize).clamp(self.path.base, self.path.count() - 1);
+        let jm = -b.s_lo;
+        let am = -b.a_lo * (1.0 - 2.0 * A_MARGIN);
+        if !(jm > 0.0 && am > 0.0) {
+            return false;
+        }
+        let up = x.a.max(0.0);
+        let v_peak = x.v + up * up / (2.0 * jm);
+        let t = up / jm + v_peak / am + 2.0 * am / jm + 20.0 * self.dt;
+        let (stop, cap) = self.clear[i - self.path.base];
+        v_peak <= cap && x.s + v_peak * t <= stop.min(end)
+    }
+
+    /// The lowest speed cap of the stations about the path from `s0` to
+    /// `s1` (those of the intervals both ends are in, and all between).
+    pub(super) fn cap_over(&self, s0: f64, s1: f64) -> f64 {
+        self.cap_over_at(s0, s1, self.scale)
+    }
+
+    /// `cap_over` under the override `scale`.
+    pub(super) fn cap_over_at(&self, s0: f64, s1: f64, scale: f64) -> f64 {
+        let (base, n) = (self.path.base, self.path.count());
+        let (lo, hi) = (s0.min(s1).max(0.0), s0.max(s1));
+        let i0 = ((lo / self.path.h) as usize).clamp(base, n - 2);
+        let i1 = (((hi / self.path.h) as usize) + 1).clamp(base, n - 1);
+        (i0..=i1).fold(f64::INFINITY, |m, i| m.min(self.cap_at(i, scale)))
+    }
+
+    /// The speed cap at a station but the feed's: every axis's velocity,
+    /// and the speed at which the curvature alone takes an axis's whole
+    /// acceleration.
+    pub(super) fn hard_cap(&self, g: &Station) -> f64 {
+        let mut cap = f64::INFINITY;
+        for i in 0..3 {
+            let t = g.t[i].abs();
+            if t > 1e-12 {
+                cap = cap.min(self.lim.v[i] / t);
+            }
+            // the curvature's own acceleration within the axis's limit:
+            // as a cap of the stations a sample passes (`cap_over`), it
+            // holds where the curvature peaks between two samples
+            let k = g.k[i].abs();
+            if k > 1e-12 {
+                cap = cap.min((self.lim.a[i] / k).sqrt());
+            }
+        }
+        cap
+    }
+}
+
+/// Whether a station bends: curvature or its change over `STRAIGHT`.
+fn bent(g: &Station) -> bool {
+    g.k.iter().chain(g.kd.iter()).any(|c| c.abs() > STRAIGHT)
+}
