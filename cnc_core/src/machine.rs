@@ -120,6 +120,14 @@ pub struct PlannerConfig {
     /// machine is what it was
     #[serde(default, skip_serializing_if = "PlanMethod::is_auto")]
     pub method: PlanMethod,
+    /// the path planner only: how far, mm, the drives' lag under the
+    /// path's normal acceleration may take the tool off a curve, by each
+    /// axis's servo model (`Machine::servo_accel_lag_s2`, the lag per unit
+    /// of acceleration); the path planner keeps the normal acceleration
+    /// under this over the largest of them (`Machine::contour_accel`).
+    /// Absent (the default): no such cap
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contour_error_mm: Option<f64>,
 }
 
 /// How the path is planned ([`PlannerConfig::method`]).
@@ -162,6 +170,7 @@ impl Default for PlannerConfig {
             lookahead_blocks: default_lookahead(),
             path_tolerance_mm: 0.0,
             method: PlanMethod::Auto,
+            contour_error_mm: None,
         }
     }
 }
@@ -579,6 +588,14 @@ impl Machine {
                 "must be between 0 and 10".into(),
             );
         }
+        if let Some(e) = p.contour_error_mm {
+            if !(e.is_finite() && e > 0.0 && e <= 10.0) {
+                return bad(
+                    "planner.contour_error_mm".into(),
+                    format!("must be over 0 and at most 10 (got {e})"),
+                );
+            }
+        }
         let m = self.smoothing_samples_f();
         if m > MAX_SMOOTHING_SAMPLES as f64 {
             return bad(
@@ -744,6 +761,18 @@ impl Machine {
                 ((tau - l) / a.servo_kp + 0.5 * l * l).max(0.0)
             })
         })
+    }
+
+    /// The largest normal acceleration the path planner gives a curve,
+    /// mm/s², for `planner.contour_error_mm`: that distance over the
+    /// largest lag per unit of acceleration of the axes' servo models
+    /// (`∞` without it, or where no axis lags under acceleration).
+    pub fn contour_accel(&self) -> f64 {
+        let lag = self.servo_accel_lag_s2().max();
+        match self.planner.contour_error_mm {
+            Some(e) if lag > 0.0 => e / lag,
+            _ => f64::INFINITY,
+        }
     }
 
     /// The configured axis for machine coordinate index 0..3 (X, Y, Z).

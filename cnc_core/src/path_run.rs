@@ -190,6 +190,7 @@ impl Run {
     fn new(shape: Shape, lim: &RunLimits) -> Result<Run, String> {
         let mut speed = Planner::new(Path::open(H).map_err(err)?, lim.axes, lim.dt).map_err(err)?;
         speed.check_samples(lim.machine);
+        speed.limit_normal_accel(lim.normal_a);
         Ok(Run {
             shape,
             speed,

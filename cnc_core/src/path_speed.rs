@@ -170,6 +170,8 @@ pub struct Planner {
     /// The feed override: the programmed feed's share in the caps
     /// (`set_scale`).
     scale: f64,
+    /// The largest normal acceleration (`limit_normal_accel`), mm/s².
+    a_normal: f64,
     /// The samples' own check (`check_samples`): the axes' limits.
     sampled: Option<AxisLimits>,
     /// The last few `bounds_at` answers.
@@ -225,6 +227,7 @@ impl Planner {
             },
             keep: None,
             scale: 1.0,
+            a_normal: f64::INFINITY,
             memo: std::cell::RefCell::new([([u64::MAX; 3], None); MEMO]),
             sampled: None,
         };

@@ -492,4 +492,3 @@ fn at_p_0_001_a_fast_arc_s_curvature_ramps_keep_the_jerk() {
         .fold(0.0, f64::max);
     assert!(worst <= 0.001 + 1e-9, "{} µm off the path", worst * 1e3);
 }
-

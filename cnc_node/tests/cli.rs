@@ -686,3 +686,76 @@ fn a_machine_under_200_m_s3_plans_with_the_path_planner_unless_it_says_filters()
     assert_eq!(code, 0);
     assert!(out.contains("estimated cycle time 19.845s"), "{out}");
 }
+
+/// `[planner] contour_error_mm` (the path planner): what the simulated
+/// drive does on a circle of R10 at F6000 under the bundled mill at 50
+/// m/s³ (its servo model lags 33 µm per 1000 mm/s² of acceleration). The
+/// actual positions' distance from the circle while cutting (the middle
+/// half of the circle): 32.6 µm without the budget (1.502 s), 4.98 µm with
+/// `contour_error_mm = 0.005`, which slows the circle to keep it (2.457 s).
+#[test]
+fn a_contour_error_budget_keeps_the_simulated_drive_on_the_circle() {
+    let mill = std::fs::read_to_string(root().join("config/mill.toml")).unwrap();
+    let at_50 = mill.replace("max_jerk_mm_s3 = 2.0e5", "max_jerk_mm_s3 = 5.0e4");
+    let prog = tmp(
+        "circle.nc",
+        "N10 G17 G90 G61 G00 X50 Y50 Z0\nN20 G01 X60 F6000\nN30 G02 X60 Y50 I-10 J0\n\
+         N40 G01 X70\nN50 M30\n",
+    );
+    // (the circle's largest actual distance from R10 in its middle half,
+    // and the cycle time)
+    let run = |name: &str, budget: &str| -> (f64, f64) {
+        let text = at_50.replace(
+            "lookahead_blocks = 200",
+            &format!("lookahead_blocks = 200\n{budget}"),
+        );
+        let m = tmp(name, &text);
+        let csv = m.with_extension("csv");
+        let (code, _, err) = cnc(&[
+            "simulate",
+            prog.to_str().unwrap(),
+            "--machine",
+            m.to_str().unwrap(),
+            "--csv",
+            csv.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let rows: Vec<Vec<f64>> = std::fs::read_to_string(&csv)
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+            .collect();
+        // on the circle (centre X50 Y50, exact under G61): the setpoints
+        // on it and off the lines on Y50
+        let r = |x: f64, y: f64| (x - 50.0).hypot(y - 50.0);
+        let on: Vec<&Vec<f64>> = rows
+            .iter()
+            .filter(|p| (r(p[1], p[2]) - 10.0).abs() < 1e-6 && (p[2] - 50.0).abs() > 1e-9)
+            .collect();
+        let mid = &on[on.len() / 4..3 * on.len() / 4];
+        let worst = mid
+            .iter()
+            .map(|p| (r(p[4], p[5]) - 10.0).abs())
+            .fold(0.0, f64::max);
+        (worst, rows.last().unwrap()[0])
+    };
+    let (free, t_free) = run("free.toml", "");
+    let (kept, t_kept) = run("kept.toml", "contour_error_mm = 0.005");
+    assert!(free > 0.030, "{free} mm without the budget");
+    assert!(kept <= 0.005, "{kept} mm with a budget of 0.005");
+    assert!(t_kept > t_free, "{t_kept} s against {t_free}");
+    // refused: not over 0
+    let (code, _, err) = check_pocket_on(
+        "zero.toml",
+        &mill.replace(
+            "lookahead_blocks = 200",
+            "lookahead_blocks = 200\ncontour_error_mm = 0",
+        ),
+    );
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("key `planner.contour_error_mm`: must be over 0 and at most 10 (got 0)"),
+        "{err}"
+    );
+}

@@ -19,6 +19,9 @@ pub struct RunLimits {
     pub axes: AxisLimits,
     /// the machine's own, which every sample keeps
     pub machine: AxisLimits,
+    /// the largest normal acceleration of a curve, mm/s²
+    /// (`Machine::contour_accel`)
+    pub normal_a: f64,
     pub dt: f64,
 }
 
@@ -48,6 +51,7 @@ impl RunLimits {
                 a: lim(m.amax(), 1.0),
                 j: lim(m.jmax(), 1.0),
             },
+            normal_a: m.contour_accel(),
             dt: 1.0 / m.interpolation.rate_hz,
         })
     }

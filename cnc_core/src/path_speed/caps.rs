@@ -18,6 +18,37 @@ const STRAIGHT: f64 = 1e-6;
 const FLAT: f64 = 1e-6;
 
 impl Planner {
+    /// The largest normal acceleration (`|K| v²`) the path may take, mm/s²
+    /// (`∞`, the default: none but the axes'): a cap of every station,
+    /// those kept included.
+    pub fn limit_normal_accel(&mut self, a: f64) {
+        if a > 0.0 && a != self.a_normal {
+            self.a_normal = a;
+            self.recap();
+        }
+    }
+
+    /// Every kept station's cap again (its hard cap, and the stretches
+    /// under the override in force), after the override or the normal
+    /// acceleration changed; the next sample is tried anew.
+    pub(super) fn recap(&mut self) {
+        let (base, n) = (self.path.base, self.path.count());
+        self.open = None;
+        for i in base..n {
+            let st = *self.path.station(i);
+            self.caps[i - base].0 = self.hard_cap(&st);
+            let c = self.cap(i);
+            self.clear[i - base] = (0.0, 0.0);
+            self.group(i, &st, c);
+        }
+        if self.path.len().is_some() {
+            if let Some((f, _)) = self.open.take() {
+                self.close(f, n);
+            }
+        }
+        self.d.need = 0;
+    }
+
     /// Station `i` (`st`, cap `c`) into the straight stretches.
     pub(super) fn group(&mut self, i: usize, st: &Station, c: f64) {
         // stations are grouped into stretches that are straight (curvature
@@ -98,8 +129,8 @@ impl Planner {
     }
 
     /// The speed cap at a station but the feed's: every axis's velocity,
-    /// and the speed at which the curvature alone takes an axis's whole
-    /// acceleration.
+    /// the speed at which the curvature alone takes an axis's whole
+    /// acceleration, and the one at which it takes `limit_normal_accel`'s.
     pub(super) fn hard_cap(&self, g: &Station) -> f64 {
         let mut cap = f64::INFINITY;
         for i in 0..3 {
@@ -114,6 +145,10 @@ impl Planner {
             if k > 1e-12 {
                 cap = cap.min((self.lim.a[i] / k).sqrt());
             }
+        }
+        let k = (g.k[0] * g.k[0] + g.k[1] * g.k[1] + g.k[2] * g.k[2]).sqrt();
+        if k > 1e-12 && self.a_normal.is_finite() {
+            cap = cap.min((self.a_normal / k).sqrt());
         }
         cap
     }

@@ -104,21 +104,7 @@ impl Planner {
             return;
         }
         self.scale = scale;
-        // every kept station's cap again, and its straight stretches
-        let (base, n) = (self.path.base, self.path.count());
-        self.open = None;
-        for i in base..n {
-            let st = *self.path.station(i);
-            let c = self.cap(i);
-            self.clear[i - base] = (0.0, 0.0);
-            self.group(i, &st, c);
-        }
-        if self.path.len().is_some() {
-            if let Some((f, _)) = self.open.take() {
-                self.close(f, n);
-            }
-        }
-        self.d.need = 0;
+        self.recap();
     }
 
     /// Keeps the stations from path position `s` on (beside those behind
