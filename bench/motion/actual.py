@@ -21,7 +21,7 @@ actual positions over DDS and offline (aligned by the setpoint delay).
     . .venv-ros/env.sh
     python3 bench/motion/actual.py [--jerks 50 200] [--out DIR] [--bin DIR]
                                    [--accel-ff F] [--program cam|helix_pairs]
-                                   [--method filters|path|auto]
+                                   [--method filters|path|auto] [--contour-error MM]
 
 `--program helix_pairs` runs `gen.py helix_pairs` under `G61` instead:
 helical arcs of R 0.5, 2 and 10 mm, each from rest to rest (the arcs'
@@ -64,14 +64,17 @@ def stop_all():
     started.clear()
 
 
-def machine_file(jerk, out, accel_ff=0.0, method="filters"):
+def machine_file(jerk, out, accel_ff=0.0, method="filters", contour_error=None):
     """config/mill.toml at VEL, ACC and `jerk` m/s³ on every axis (as jerk.sh),
     with the simulated drives' acceleration feed-forward `accel_ff` (0: none),
-    planned by `method` ([planner] method: filters, path or auto)."""
+    planned by `method` ([planner] method: filters, path or auto), with
+    `[planner] contour_error_mm = contour_error` if given."""
     with open(os.path.join(ROOT, "config", "mill.toml")) as f:
         text = f.read()
     if method != "auto":
         text = re.sub(r"(?m)^(lookahead_blocks = .*)$", r'\1\nmethod = "%s"' % method, text)
+    if contour_error is not None:
+        text = re.sub(r"(?m)^(lookahead_blocks = .*)$", r"\1\ncontour_error_mm = %g" % contour_error, text)
     if accel_ff:
         text = re.sub(r"(?m)^(max_velocity_mm_s = .*)$", r"\1\nservo_accel_feed_forward = %g" % accel_ff, text)
     text = re.sub(r"(?m)^max_velocity_mm_s = .*", "max_velocity_mm_s = %d.0" % VEL, text)
@@ -239,6 +242,8 @@ def main():
                     help="the simulated drives' acceleration feed-forward, 0..1 (servo_accel_feed_forward)")
     ap.add_argument("--method", choices=("filters", "path", "auto"), default="filters",
                     help="the machine's [planner] method")
+    ap.add_argument("--contour-error", type=float, default=None,
+                    help="the machine's [planner] contour_error_mm (the path planner's)")
     ap.add_argument("--program", choices=("cam", "helix_pairs"), default="cam",
                     help="gen.py's program: cam (G64 P0.01) or helix_pairs (G61)")
     a = ap.parse_args()
@@ -256,7 +261,7 @@ def main():
     results = {}
     try:
         for jerk in a.jerks:
-            machine, delay_ms = machine_file(jerk, a.out, a.accel_ff, a.method)
+            machine, delay_ms = machine_file(jerk, a.out, a.accel_ff, a.method, a.contour_error)
             s_off, a_off = offline(cnc, prog, machine, a.out, jerk)
             sp, st, reply, rec = over_dds(a, machine, a.out, jerk)
             # the job's span on the shared clock: its first to its last setpoint, and the

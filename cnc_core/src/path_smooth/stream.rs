@@ -13,7 +13,7 @@
 //! out once the run is known `W0` past its margin.
 
 use super::ahead::{Done, Job, Link, Worker};
-use super::{dist, nearest, SmoothError, Smoothed, DS, W0};
+use super::{dist, nearest, xyz, SmoothError, Smoothed, DS, W0};
 use crate::path_speed::Station;
 use std::sync::Arc;
 
@@ -343,7 +343,7 @@ impl Stream {
             let u = (j + 1) as f64 / (self.tail.len() + 1) as f64;
             let f = u * u * u * (10.0 - 15.0 * u + 6.0 * u * u);
             let k = i0 + j - a;
-            cq[k] = [0, 1, 2].map(|c| tq[c] + f * (cq[k][c] - tq[c]));
+            cq[k] = xyz(|c| tq[c] + f * (cq[k][c] - tq[c]));
             cw[k] = tw + f * (cw[k] - tw);
         }
         let keep = ((FADE / DS) as usize).min(b - i1);
@@ -428,7 +428,7 @@ impl Stream {
             }
             let j = self.at;
             let f = ((x - self.sig[j]) / (self.sig[j + 1] - self.sig[j])).clamp(0.0, 1.0);
-            let mix = |v: &[[f64; 3]]| [0, 1, 2].map(|c| v[j][c] + f * (v[j + 1][c] - v[j][c]));
+            let mix = |v: &[[f64; 3]]| xyz(|c| v[j][c] + f * (v[j + 1][c] - v[j][c]));
             out.push(Station {
                 t: mix(&self.t),
                 k: mix(&self.k),
@@ -531,16 +531,16 @@ pub(super) fn extend(d: &mut Vec<[f64; 3]>, f: &[[f64; 3]], x: &[f64], all: bool
         let i = d.len();
         let mut v = if i == 0 {
             let h = x[1] - x[0];
-            [0, 1, 2].map(|k| (f[1][k] - f[0][k]) / h)
+            xyz(|k| (f[1][k] - f[0][k]) / h)
         } else if i == n - 1 {
             let h = x[n - 1] - x[n - 2];
-            [0, 1, 2].map(|k| (f[n - 1][k] - f[n - 2][k]) / h)
+            xyz(|k| (f[n - 1][k] - f[n - 2][k]) / h)
         } else {
             let (h1, h2) = (x[i] - x[i - 1], x[i + 1] - x[i]);
             let a = -h2 / (h1 * (h1 + h2));
             let b = (h2 - h1) / (h1 * h2);
             let c = h1 / (h2 * (h1 + h2));
-            [0, 1, 2].map(|k| a * f[i - 1][k] + b * f[i][k] + c * f[i + 1][k])
+            xyz(|k| a * f[i - 1][k] + b * f[i][k] + c * f[i + 1][k])
         };
         if unit {
             let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-300);
@@ -562,5 +562,5 @@ pub(super) fn hermite(sig: &[f64], q: &[[f64; 3]], t: &[[f64; 3]], x: f64) -> [f
         u * u * u - 2.0 * u * u + u,
     );
     let (h01, h11) = (-2.0 * u * u * u + 3.0 * u * u, u * u * u - u * u);
-    [0, 1, 2].map(|k| h00 * q[j][k] + h10 * h * t[j][k] + h01 * q[j + 1][k] + h11 * h * t[j + 1][k])
+    xyz(|k| h00 * q[j][k] + h10 * h * t[j][k] + h01 * q[j + 1][k] + h11 * h * t[j + 1][k])
 }

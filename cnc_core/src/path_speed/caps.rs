@@ -125,7 +125,15 @@ impl Planner {
         let (lo, hi) = (s0.min(s1).max(0.0), s0.max(s1));
         let i0 = ((lo / self.path.h) as usize).clamp(base, n - 2);
         let i1 = (((hi / self.path.h) as usize) + 1).clamp(base, n - 1);
-        (i0..=i1).fold(f64::INFINITY, |m, i| m.min(self.cap_at(i, scale)))
+        // (the feed times a positive scale rounds monotonically: the least
+        // of the products is the product of the least feed, bit for bit)
+        let (hard, feed) = self
+            .caps
+            .range(i0 - base..=i1 - base)
+            .fold((f64::INFINITY, f64::INFINITY), |(h, f), c| {
+                (h.min(c.0), f.min(c.1))
+            });
+        (feed * scale).min(hard)
     }
 
     /// The speed cap at a station but the feed's: every axis's velocity,
