@@ -247,19 +247,40 @@ fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
 
 /// The distance from `x` to the nearest of `p[i - reach ..= i + reach]`,
 /// searched outwards from `i`, stopping at the first within `enough`.
+/// The points are at most `DS` apart (a grid on the programmed path), so
+/// a point `d` from `x` has the next `m` on its side at least `d − m DS`
+/// from it: those that cannot be nearer than the nearest so far are not
+/// looked at (the answer is the exhaustive search's, bit for bit).
 fn nearest(x: &[f64; 3], p: &[[f64; 3]], i: usize, reach: usize, enough: f64) -> f64 {
     let d2 = |j: usize| (0..3).map(|k| (x[k] - p[j][k]).powi(2)).sum::<f64>();
     let (stop, last) = (enough * enough, p.len() - 1);
     let mut best = d2(i);
+    // (the spacing's bound with room for rounding)
+    let step = DS * (1.0 + 1e-9);
+    // how many points after one `d2` from `x` cannot be nearer than `best`
+    let skip = |d2: f64, best: f64| {
+        let m = (d2.sqrt() - best.sqrt()) / step - 1e-6;
+        if m >= 1.0 {
+            m.min(1e9) as usize
+        } else {
+            0
+        }
+    };
+    // the next offset looked at on either side
+    let (mut lo, mut hi) = (1, 1);
     for k in 1..=reach {
         if best <= stop {
             break;
         }
-        if k <= i {
-            best = best.min(d2(i - k));
+        if k <= i && k >= lo {
+            let d = d2(i - k);
+            best = best.min(d);
+            lo = k + 1 + skip(d, best);
         }
-        if i + k <= last {
-            best = best.min(d2(i + k));
+        if i + k <= last && k >= hi {
+            let d = d2(i + k);
+            best = best.min(d);
+            hi = k + 1 + skip(d, best);
         }
     }
     best.sqrt()
