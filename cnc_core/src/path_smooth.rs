@@ -102,17 +102,28 @@ struct Pl<'a> {
     s: &'a [f64],
     p: &'a [[f64; 3]],
     c: Vec<[f64; 3]>,
+    /// each segment's slope (worked out once: `integral` runs millions of
+    /// times a run)
+    m: Vec<[f64; 3]>,
     uniform: Option<f64>,
 }
 
 impl<'a> Pl<'a> {
     fn new(s: &'a [f64], p: &'a [[f64; 3]], uniform: Option<f64>) -> Pl<'a> {
         let mut c = vec![[0.0; 3]; s.len()];
+        let mut m = vec![[0.0; 3]; s.len()];
         for j in 1..s.len() {
             let h = s[j] - s[j - 1];
             c[j] = xyz(|k| c[j - 1][k] + 0.5 * (p[j][k] + p[j - 1][k]) * h);
+            m[j - 1] = xyz(|k| (p[j][k] - p[j - 1][k]) / h);
         }
-        Pl { s, p, c, uniform }
+        Pl {
+            s,
+            p,
+            c,
+            m,
+            uniform,
+        }
     }
 
     fn seg(&self, y: f64) -> usize {
@@ -126,17 +137,14 @@ impl<'a> Pl<'a> {
     fn value(&self, y: f64) -> [f64; 3] {
         let j = self.seg(y);
         let f = ((y - self.s[j]) / (self.s[j + 1] - self.s[j])).clamp(0.0, 1.0);
-        [0, 1, 2].map(|k| self.p[j][k] + f * (self.p[j + 1][k] - self.p[j][k]))
+        xyz(|k| self.p[j][k] + f * (self.p[j + 1][k] - self.p[j][k]))
     }
 
     fn integral(&self, y: f64) -> [f64; 3] {
         let j = self.seg(y);
-        let h = self.s[j + 1] - self.s[j];
         let tau = y - self.s[j];
-        [0, 1, 2].map(|k| {
-            let slope = (self.p[j + 1][k] - self.p[j][k]) / h;
-            self.c[j][k] + self.p[j][k] * tau + slope * 0.5 * tau * tau
-        })
+        let (c, p, m) = (&self.c[j], &self.p[j], &self.m[j]);
+        xyz(|k| c[k] + p[k] * tau + m[k] * 0.5 * tau * tau)
     }
 
     /// The running integral continued past the ends by point reflection
