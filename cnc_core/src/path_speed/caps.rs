@@ -1,9 +1,10 @@
 //! The speed caps of the stations, and the straight stretches.
 //!
 //! Each station's cap is the lower of its hard cap (every axis's velocity
-//! over its share of the tangent, and the speed at which the curvature
-//! alone takes an axis's whole acceleration) and its feed times the feed
-//! override in force. A state the override has just put over the caps is
+//! over its share of the tangent, the speed at which the curvature alone
+//! takes an axis's whole acceleration, and the one at which it takes the
+//! normal acceleration the machine allows for its drives' contour error,
+//! `limit_normal_accel`) and its feed times the feed override in force. A state the override has just put over the caps is
 //! not over a limit of the axes: its brakings are checked under the
 //! override it was decided under while it comes down (`soft_scale`).
 //! Stations on a straight line with one cap are grouped into stretches,
