@@ -124,8 +124,9 @@ pub struct PlannerConfig {
     /// path's normal acceleration may take the tool off a curve, by each
     /// axis's servo model (`Machine::servo_accel_lag_s2`, the lag per unit
     /// of acceleration); the path planner keeps the normal acceleration
-    /// under this over the largest of them (`Machine::contour_accel`).
-    /// Absent (the default): no such cap
+    /// under this over the largest of them (`Machine::contour_accel`); a
+    /// machine that plans with the filters is refused with it. Absent
+    /// (the default): no such cap
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contour_error_mm: Option<f64>,
 }
@@ -593,6 +594,15 @@ impl Machine {
                 return bad(
                     "planner.contour_error_mm".into(),
                     format!("must be over 0 and at most 10 (got {e})"),
+                );
+            }
+            // (a key that would change nothing is a mistake to say so)
+            if !self.plans_path() {
+                return bad(
+                    "planner.contour_error_mm".into(),
+                    "only the path planner keeps it, and this machine plans with the filters \
+                     (method = \"filters\", or \"auto\" with every axis's jerk limit at 200 m/s³ or more)"
+                        .into(),
                 );
             }
         }

@@ -745,17 +745,33 @@ fn a_contour_error_budget_keeps_the_simulated_drive_on_the_circle() {
     assert!(free > 0.030, "{free} mm without the budget");
     assert!(kept <= 0.005, "{kept} mm with a budget of 0.005");
     assert!(t_kept > t_free, "{t_kept} s against {t_free}");
-    // refused: not over 0
-    let (code, _, err) = check_pocket_on(
-        "zero.toml",
-        &mill.replace(
-            "lookahead_blocks = 200",
-            "lookahead_blocks = 200\ncontour_error_mm = 0",
+    // refused: not over 0 (at 50 m/s³); on the bundled mill (200 m/s³),
+    // which plans with the filters, that do not keep it
+    for (file, text, budget, why) in [
+        (
+            "zero.toml",
+            &at_50,
+            "0",
+            "must be over 0 and at most 10 (got 0)",
         ),
-    );
-    assert_eq!(code, 2);
-    assert!(
-        err.contains("key `planner.contour_error_mm`: must be over 0 and at most 10 (got 0)"),
-        "{err}"
-    );
+        (
+            "filters.toml",
+            &mill,
+            "0.01",
+            "only the path planner keeps it",
+        ),
+    ] {
+        let (code, _, err) = check_pocket_on(
+            file,
+            &text.replace(
+                "lookahead_blocks = 200",
+                &format!("lookahead_blocks = 200\ncontour_error_mm = {budget}"),
+            ),
+        );
+        assert_eq!(code, 2, "{file}");
+        assert!(
+            err.contains(&format!("key `planner.contour_error_mm`: {why}")),
+            "{err}"
+        );
+    }
 }
