@@ -35,8 +35,10 @@
 //!
 //! Each station's speed cap is the feed, every axis's velocity over its
 //! share of the tangent, and the speed at which the curvature alone takes
-//! an axis's whole acceleration; a sample keeps the caps of every station
-//! it passes, so a curvature peak between two samples is kept too.
+//! an axis's whole acceleration (or a machine's normal acceleration for
+//! its drives' contour error: `caps.rs`); a sample keeps the caps of
+//! every station it passes, so a curvature peak between two samples is
+//! kept too.
 //! Likewise the jerk is bounded with every `K'` of the stations a sample
 //! may pass (`envelope.rs`): a blend's curvature ramp passed in two
 //! samples has its peak change of curvature between them.

@@ -4,9 +4,10 @@
 //! over its share of the tangent, the speed at which the curvature alone
 //! takes an axis's whole acceleration, and the one at which it takes the
 //! normal acceleration the machine allows for its drives' contour error,
-//! `limit_normal_accel`) and its feed times the feed override in force. A state the override has just put over the caps is
-//! not over a limit of the axes: its brakings are checked under the
-//! override it was decided under while it comes down (`soft_scale`).
+//! `limit_normal_accel`) and its feed times the feed override in force.
+//! A state the override has just put over the caps is not over a limit
+//! of the axes: its brakings are checked under the override it was
+//! decided under while it comes down (`soft_scale`).
 //! Stations on a straight line with one cap are grouped into stretches,
 //! so that a braking that certainly ends within one is not simulated
 //! (`clearly_viable`).
@@ -25,19 +26,23 @@ impl Planner {
     pub fn limit_normal_accel(&mut self, a: f64) {
         if a > 0.0 && a != self.a_normal {
             self.a_normal = a;
+            let base = self.path.base;
+            for i in base..self.path.count() {
+                let st = *self.path.station(i);
+                self.caps[i - base].0 = self.hard_cap(&st);
+            }
             self.recap();
         }
     }
 
-    /// Every kept station's cap again (its hard cap, and the stretches
-    /// under the override in force), after the override or the normal
-    /// acceleration changed; the next sample is tried anew.
+    /// The straight stretches of every kept station again, under its cap
+    /// now (after the override or the normal acceleration changed); the
+    /// next sample is tried anew.
     pub(super) fn recap(&mut self) {
         let (base, n) = (self.path.base, self.path.count());
         self.open = None;
         for i in base..n {
             let st = *self.path.station(i);
-            self.caps[i - base].0 = self.hard_cap(&st);
             let c = self.cap(i);
             self.clear[i - base] = (0.0, 0.0);
             self.group(i, &st, c);
@@ -155,9 +160,11 @@ impl Planner {
                 cap = cap.min((self.lim.a[i] / k).sqrt());
             }
         }
-        let k = (g.k[0] * g.k[0] + g.k[1] * g.k[1] + g.k[2] * g.k[2]).sqrt();
-        if k > 1e-12 && self.a_normal.is_finite() {
-            cap = cap.min((self.a_normal / k).sqrt());
+        if self.a_normal.is_finite() {
+            let k = (g.k[0] * g.k[0] + g.k[1] * g.k[1] + g.k[2] * g.k[2]).sqrt();
+            if k > 1e-12 {
+                cap = cap.min((self.a_normal / k).sqrt());
+            }
         }
         cap
     }
