@@ -71,6 +71,19 @@ pub struct JerkBudget {
     /// a single-average budget ([`JerkBudget::single_average`]): the XYZ filter's
     /// error bound, mm (None: the bound of the caps, [`JerkBudget::error_mm`])
     pub single_average_error_mm: Option<f64>,
+    /// the machine's filters, from which [`JerkBudget::for_tolerance`]
+    /// makes the budget under another tolerance
+    pub base: Base,
+}
+
+/// A machine's filters: its path filter's length (samples) and, where one
+/// XYZ moving average alone keeps the path within
+/// [`crate::shares::SINGLE_AVERAGE_ERROR_MM`], that average's length
+/// (samples) and error bound (mm).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Base {
+    pub m_s: usize,
+    pub single: Option<(usize, f64)>,
 }
 
 impl JerkBudget {
@@ -85,7 +98,32 @@ impl JerkBudget {
             b_step: f64::INFINITY,
             a_dev: f64::INFINITY,
             single_average_error_mm: None,
+            base: Base {
+                m_s: 1,
+                single: None,
+            },
         }
+    }
+
+    /// The budget of a machine with jerk limit `j` (mm/s³, the least of
+    /// the axes'), a path filter of `m_s` samples and, where one XYZ
+    /// moving average alone keeps the path within
+    /// [`crate::shares::SINGLE_AVERAGE_ERROR_MM`], that average `single`
+    /// (samples, error bound in mm), under path tolerance `tol`
+    /// ([`JerkBudget::for_tolerance`]).
+    pub fn for_machine(
+        dt: f64,
+        m_s: usize,
+        j: Option<f64>,
+        single: Option<(usize, f64)>,
+        tol: f64,
+    ) -> Self {
+        let mut b = JerkBudget::new(dt, m_s, j);
+        b.base = Base {
+            m_s: m_s.max(1),
+            single,
+        };
+        b.for_tolerance(tol)
     }
 
     /// At high jerk, where one XYZ moving average of `m` samples alone (M =
@@ -153,6 +191,10 @@ impl JerkBudget {
             b_step: NORMAL_JERK_SHARE * j * m * dt,
             a_dev: 24.0 * error_mm / ((m * m - 1.0) * dt * dt),
             single_average_error_mm: None,
+            base: Base {
+                m_s: m_s.max(1),
+                single: None,
+            },
         }
     }
 
@@ -162,15 +204,22 @@ impl JerkBudget {
     /// within the rest. A longer XYZ filter allows more normal
     /// acceleration where curvature steps (lines meeting arcs, kinks): at
     /// 50 m/s³ and P 0.01 mm, M_f 10 → 16 samples and `a_n` 99 → 160
-    /// mm/s². Without a jerk limit, or with the single average
-    /// ([`JerkBudget::single_average`]), the budget does not depend on the
-    /// tolerance.
+    /// mm/s². Where the machine's single average
+    /// ([`JerkBudget::single_average`], [`Base::single`]) keeps within that
+    /// share, that average alone; where it does not (G61 or a small P on
+    /// a machine whose average would cut arcs by more), the caps. Without
+    /// a jerk limit the budget does not depend on the tolerance.
     pub fn for_tolerance(&self, tol: f64) -> JerkBudget {
-        if !self.limited() {
+        if !self.j.is_finite() {
             return *self;
         }
         let error = (XYZ_FILTER_TOLERANCE_SHARE * tol).max(XYZ_FILTER_ERROR_MM);
-        JerkBudget::with_error(self.dt, self.m_s, Some(self.j), error)
+        let mut b = match self.base.single {
+            Some((m, e)) if e <= error => JerkBudget::single_average(self.dt, m, self.j, e),
+            _ => JerkBudget::with_error(self.dt, self.base.m_s, Some(self.j), error),
+        };
+        b.base = self.base;
+        b
     }
 
     /// Whether the planner caps speeds and accelerations for the jerk
@@ -666,133 +715,4 @@ impl Smoother {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn beside_a_line_an_arc_fed_slower_than_its_end_cap_keeps_the_ends_caps() {
-        // (a higher speed cap lowers the tangential acceleration cap: an
-        // arc beside a line takes the higher one only as far as its feed)
-        let jb = JerkBudget::new(0.001, 40, Some(2.0e5));
-        let kappa = 0.5;
-        let end = jb.arc_caps(kappa, ArcPart::End);
-        let beside = jb.arc_caps(kappa, ArcPart::Beside);
-        assert!(
-            beside.0 > end.0 * 1.3 && beside.1 < end.1,
-            "{end:?} {beside:?}"
-        );
-        assert_eq!(jb.arc_caps_below(kappa, ArcPart::Beside, 0.9 * end.0), end);
-        let v = 0.5 * (end.0 + beside.0);
-        let (vb, ab) = jb.arc_caps_below(kappa, ArcPart::Beside, v);
-        assert_eq!(vb, v);
-        assert!((ab * v * kappa - TURN_JERK_SHARE * 2.0e5).abs() < 1e-6);
-        assert_eq!(jb.arc_caps_below(kappa, ArcPart::Beside, 1e9), beside);
-    }
-
-    #[test]
-    fn an_arcs_inside_keeps_its_budgets_and_is_never_slower_than_its_ends() {
-        for j in [2.0e4, 5.0e4, 1.0e5, 3.0e5, 1.0e6] {
-            for m_s in [4, 40, 400] {
-                let jb = JerkBudget::new(0.001, m_s, Some(j));
-                let w = jb.step_span();
-                for r in [0.01, 0.1, 1.0, 2.0, 8.0, 50.0, 1000.0] {
-                    let kappa = 1.0 / r;
-                    let (v_end, a_end) = jb.arc_caps(kappa, ArcPart::End);
-                    let (v_b, a_b) = jb.arc_caps(kappa, ArcPart::Beside);
-                    let (v, a) = jb.arc_caps(kappa, ArcPart::Inside);
-                    assert!(v_end <= v_b && v_b <= v.max(v_end), "{j} {r}");
-                    // beside a line: the normal acceleration within b_step
-                    // and a_dev, its turn over W within a quarter of b_step
-                    if v_b > v_end {
-                        assert!(v_b * v_b * kappa <= jb.b_step.min(jb.a_dev) * (1.0 + 1e-12));
-                        assert!(
-                            v_b * v_b * v_b * kappa * kappa * w <= 0.25 * jb.b_step * (1.0 + 1e-12)
-                        );
-                        assert!(a_b * v_b * kappa <= TURN_JERK_SHARE * j * (1.0 + 1e-12));
-                    }
-                    assert!(v >= v_end && v.is_finite() && a > 0.0, "{j} {r}");
-                    // at the ends: the normal acceleration within a_n
-                    assert!(v_end * v_end * kappa <= jb.a_n * (1.0 + 1e-12));
-                    assert!(a_end * v_end * kappa <= TURN_JERK_SHARE * j * (1.0 + 1e-12));
-                    if v > v_end {
-                        // inside: the offset, the turn and the growth
-                        let q = 0.25 * jb.b_step * (1.0 + 1e-12);
-                        assert!(v * v * kappa <= jb.a_dev * (1.0 + 1e-12), "{j} {r}");
-                        assert!(v * v * v * kappa * kappa * w <= q, "{j} {r}");
-                        assert!(2.0 * v * a * kappa * w <= 2.0 * q, "{j} {r}");
-                        assert!(a * v * kappa <= TURN_JERK_SHARE * j * (1.0 + 1e-12));
-                    }
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn high_jerk_machines_run_the_single_average_and_low_jerk_ones_the_caps() {
-        for (m, mm, (ms, mf)) in [
-            (crate::Machine::builtin_mill(), 4, (40, 6)),
-            (crate::Machine::builtin_lathe(), 5, (50, 6)),
-        ] {
-            // the bundled 200 m/s³: the path filter, the XYZ filter and
-            // the caps
-            let b = m.jerk_budget();
-            assert_eq!(
-                (b.m_s, b.m_f, b.hold_ticks()),
-                (ms, mf, (ms + mf - 2) as u64)
-            );
-            assert!(b.limited() && b.filtered());
-            assert_eq!(
-                b,
-                JerkBudget::new(m.dt(), m.smoothing_samples(), Some(2.0e5))
-            );
-            assert!(b.error_mm() <= XYZ_FILTER_ERROR_MM * (1.0 + 1e-12));
-            // 1000 m/s³: one XYZ moving average of M samples, no caps
-            let mut high = m.clone();
-            for a in &mut high.axes {
-                a.max_jerk_mm_s3 = Some(1.0e6);
-            }
-            let b = high.jerk_budget();
-            assert_eq!((b.m_s, b.m_f, b.hold_ticks()), (1, mm, mm as u64 - 1));
-            assert!(!b.limited() && b.filtered());
-            assert_eq!(b.error_mm(), high.single_average_error_mm());
-            assert!(b.error_mm() <= crate::shares::SINGLE_AVERAGE_ERROR_MM);
-            assert_eq!(
-                b.arc_caps(0.1, ArcPart::End),
-                (f64::INFINITY, f64::INFINITY)
-            );
-            assert_eq!(b.kink_cap(0.5), f64::INFINITY);
-            // 50 m/s³: the caps, a longer path filter
-            let mut low = m;
-            for a in &mut low.axes {
-                a.max_jerk_mm_s3 = Some(5.0e4);
-            }
-            let b = low.jerk_budget();
-            assert!(b.limited() && b.m_s > ms && b.m_f > mf);
-            assert_eq!(
-                b,
-                JerkBudget::new(low.dt(), low.smoothing_samples(), Some(5.0e4))
-            );
-            assert!(b.error_mm() <= XYZ_FILTER_ERROR_MM * (1.0 + 1e-12));
-        }
-    }
-
-    #[test]
-    fn pieces_are_in_order_within_the_move() {
-        for reach in [0.05, 0.5, 3.0, 20.0] {
-            for length in [0.01, 0.1, 1.0, 5.0, 40.0, 300.0] {
-                for inner in [None, Some(0.3 * length), Some(2.0 * reach), Some(length)] {
-                    let Some((cuts, n)) = piece_cuts(reach, length, inner) else {
-                        continue;
-                    };
-                    let cuts = &cuts[..n];
-                    assert!((2..=MAX_CUTS).contains(&n));
-                    assert!(cuts[0] > 0.0 && cuts[n - 1] < length, "{cuts:?}");
-                    assert!(
-                        cuts.windows(2).all(|c| c[0] < c[1]),
-                        "{reach} {length} {cuts:?}"
-                    );
-                }
-            }
-        }
-    }
-}
+mod tests;

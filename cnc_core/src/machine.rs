@@ -842,25 +842,29 @@ impl Machine {
             .reduce(f64::min)
     }
 
-    /// The jerk budget: both filters and the planner's caps. Where one
-    /// moving average of the XYZ setpoints keeps the path within
-    /// [`crate::shares::SINGLE_AVERAGE_ERROR_MM`] (high jerk:
-    /// [`Machine::single_average_error_mm`]), that filter alone
-    /// ([`JerkBudget::single_average`]); else the path filter, the XYZ filter
-    /// and the caps for the default path tolerance
-    /// ([`JerkBudget::for_tolerance`]; a program's G64 P or G61 changes it).
+    /// The jerk budget under the default path tolerance
+    /// ([`JerkBudget::for_tolerance`]; a program's G64 P or G61 changes
+    /// it): where one moving average of the XYZ setpoints keeps the path
+    /// within the XYZ filter's share of that tolerance (high jerk:
+    /// [`Machine::single_average_error_mm`], at most
+    /// [`crate::shares::SINGLE_AVERAGE_ERROR_MM`]), that filter alone
+    /// ([`JerkBudget::single_average`]); else the path filter, the XYZ
+    /// filter and the caps.
     pub fn jerk_budget(&self) -> JerkBudget {
         let dt = self.dt();
         let Some(j) = self.jerk_limit() else {
             return JerkBudget::new(dt, self.smoothing_samples(), None);
         };
         let err = self.single_average_error_mm();
-        if err <= crate::shares::SINGLE_AVERAGE_ERROR_MM {
-            JerkBudget::single_average(dt, self.single_average_samples(), j, err)
-        } else {
-            JerkBudget::new(dt, self.smoothing_samples(), Some(j))
-                .for_tolerance(self.planner.path_tolerance_mm)
-        }
+        let single = (err <= crate::shares::SINGLE_AVERAGE_ERROR_MM)
+            .then(|| (self.single_average_samples(), err));
+        JerkBudget::for_machine(
+            dt,
+            self.smoothing_samples(),
+            Some(j),
+            single,
+            self.planner.path_tolerance_mm,
+        )
     }
 
     /// Length of the single XYZ moving average that limits jerk on its

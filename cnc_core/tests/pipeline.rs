@@ -561,6 +561,55 @@ fn the_xyz_filter_takes_half_of_the_path_tolerance_and_changes_at_a_stop() {
 }
 
 #[test]
+fn on_a_high_jerk_machine_g61_keeps_the_path_within_1_um() {
+    // the bundled mill at 1000 m/s³ (2000 mm/s²): one XYZ moving average
+    // of 4 samples alone would limit the jerk, but it cuts an arc by up to
+    // 2.2 µm; under G61 (and P 0.001) the path may be off by 1 µm, so
+    // there the path filter, the short XYZ filter and the caps run, and
+    // the average again under P 0.01
+    let mut m = mill();
+    for a in &mut m.axes {
+        a.max_jerk_mm_s3 = Some(1.0e6);
+    }
+    assert!((m.single_average_error_mm() - 0.00217).abs() < 1e-5);
+    let b = m.jerk_budget();
+    assert!(b.limited() && b.error_mm() <= 0.001 + 1e-12);
+    assert_eq!(b.for_tolerance(0.01).m_f, 4);
+    // an R5 slot end and an R2 circle at F6000
+    let prog = |mode: &str| {
+        format!(
+            "G17 G90 G94\n{mode}\nG00 X200 Y20\nG01 X240 F6000\nG03 X240 Y30 I0 J5\n\
+             G01 X200\nG02 X200 Y30 I0 J2\nM30\n"
+        )
+    };
+    let off_path = |s: &[Sample]| {
+        s.iter()
+            .filter(|p| (4..=7).contains(&p.src.line))
+            .map(|p| {
+                let (x, y) = (p.pos[0], p.pos[1]);
+                let line = (y - 20.0).abs().min((y - 30.0).abs());
+                let slot = ((x - 240.0).hypot(y - 25.0) - 5.0).abs();
+                let circle = ((x - 200.0).hypot(y - 32.0) - 2.0).abs();
+                let line = if (200.0..=240.0).contains(&x) {
+                    line
+                } else {
+                    f64::MAX
+                };
+                line.min(slot).min(circle)
+            })
+            .fold(0.0, f64::max)
+    };
+    let g61 = run(&prog("G61"), &m);
+    let p1 = run(&prog("G64 P0.001"), &m);
+    let p10 = run(&prog("G64 P0.01"), &m);
+    let (d61, d1, d10) = (off_path(&g61), off_path(&p1), off_path(&p10));
+    // (before, every run was the average's: 1.082 µm off, 2,174 samples)
+    assert!(d61 <= 0.001 && d1 <= 0.001, "{d61} {d1} mm");
+    assert!(d10 > 0.001 && d10 <= 0.005, "{d10} mm");
+    assert_eq!((g61.len(), p1.len(), p10.len()), (2219, 2219, 2174));
+}
+
+#[test]
 fn an_arc_beside_tangent_lines_takes_the_whole_normal_step() {
     // the R5 slot end at 50 m/s³ under G61: where only a long tangent
     // line (or a stop) meets an arc, the XYZ filter's window across the

@@ -5,6 +5,7 @@
 use cnc_core::exec::{Executor, Sample};
 use cnc_core::geom::{Arc, Geom, Plane};
 use cnc_core::machine::PlanMethod;
+use cnc_core::shares::XYZ_FILTER_ERROR_MM;
 use cnc_core::source::StrSource;
 use cnc_core::{check, Dialect, Machine, V3};
 use proptest::prelude::*;
@@ -336,7 +337,7 @@ proptest! {
         let last = s.last().unwrap();
         prop_assert_eq!(last.pos, at(n));
         prop_assert_eq!(last.k, r_check.ticks);
-        let bound = r4(tol).max(m.smoothing_error_mm()) + sag + 2e-4 + 1e-9;
+        let bound = r4(tol).max(XYZ_FILTER_ERROR_MM) + sag + 2e-4 + 1e-9;
         for x in &s {
             let d = els.iter().map(|e| el_dist(x.pos, e)).fold(f64::MAX, f64::min);
             prop_assert!(d <= bound, "{} mm off the path at k={} (bound {})\n{}", d, x.k, bound, text);
@@ -478,9 +479,10 @@ proptest! {
     /// hold or an override of 5-200 %
     /// for a while somewhere, no
     /// axis exceeds its velocity, acceleration or jerk at any sample; no
-    /// sample leaves the programmed path by more than the tolerance (or
-    /// the XYZ filter's own bound, `Machine::smoothing_error_mm`, 1 µm, if
-    /// larger: under G61);
+    /// sample leaves the programmed path by more than the tolerance (under
+    /// G61, or a P under it, by more than the 1 µm an exact path may be
+    /// off, `shares::XYZ_FILTER_ERROR_MM`: at any jerk, also where the
+    /// machine's single average would cut more);
     /// the run ends exactly on the end point, and without the hold exactly
     /// when the check said.
     #[test]
@@ -968,11 +970,12 @@ fn runs_within_limits_and_path(
     if hold.is_none() {
         prop_assert_eq!(last.k, r.ticks);
     }
-    // (the path planner has no filter: P is the bound)
+    // (the path planner has no filter: P is the bound; the filters'
+    // G61 budget is 1 µm at any jerk)
     let bound = if m.plans_path() {
         r4(tol)
     } else {
-        r4(tol).max(m.smoothing_error_mm())
+        r4(tol).max(XYZ_FILTER_ERROR_MM)
     } + 1e-9;
     for x in &s {
         let d = els
