@@ -7,12 +7,13 @@
 #
 #   bash bench/motion/jerk.sh [--jerks "20 50 100 200 1000"] [--ours-only]
 #                             [--analyse-only] [--out DIR] [--mode "G64 P0.01"]
-#                             [--method filters|path|auto]
+#                             [--method filters|path|auto] [--program cam|part|dense]
 #
 #   --jerks LIST    jerk limits, m/s³, one run of ours each (default 20 50 100 200 1000; 200 the bundled machines')
-#   --ours-only     do not run LinuxCNC; reuse lcnc_cam.tsv in the output directory
+#   --ours-only     do not run LinuxCNC; reuse lcnc_PROGRAM.tsv in the output directory
 #   --analyse-only  run nothing, re-analyse the output directory
 #   --out DIR       default bench/out/jerk
+#   --program P     the gen.py program, cam (default), part or dense
 #   --method M      our planner ([planner] method; default "filters", as every
 #                   figure before the default became "auto")
 #
@@ -26,8 +27,8 @@ set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 ROOT="$(cd "$HERE/../.." && pwd)"
 say() { printf 'jerk: %s\n' "$*" >&2; }
-usage() { sed -n '2,24p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//' >&2; exit 2; }
-JERKS="20 50 100 200 1000" OURS_ONLY=0 ANALYSE_ONLY=0 OUT="$ROOT/bench/out/jerk" MODE="G64 P0.01" METHOD="filters"
+usage() { sed -n '2,25p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+JERKS="20 50 100 200 1000" OURS_ONLY=0 ANALYSE_ONLY=0 OUT="$ROOT/bench/out/jerk" MODE="G64 P0.01" METHOD="filters" PROG=cam
 VEL=100 ACC=1000
 while [ $# -gt 0 ]; do
     case "$1" in
@@ -37,6 +38,7 @@ while [ $# -gt 0 ]; do
         --out) OUT="${2:?}"; shift ;;
         --mode) MODE="${2:?}"; shift ;;
         --method) METHOD="${2:?}"; shift ;;
+        --program) PROG="${2:?}"; shift ;;
         -h|--help) usage ;;
         *) say "unknown argument $1"; usage ;;
     esac
@@ -59,8 +61,8 @@ machine() {  # machine J FILE: config/mill.toml at VEL/ACC and jerk J m/s³
     fi
 }
 if [ $ANALYSE_ONLY = 0 ]; then
-    "$PY" "$HERE/gen.py" cam --dialect cnc836 --mode "$MODE" -o "$OUT/cam.nc"
-    "$PY" "$HERE/gen.py" cam --dialect linuxcnc --mode "$MODE" -o "$OUT/cam.ngc"
+    "$PY" "$HERE/gen.py" "$PROG" --dialect cnc836 --mode "$MODE" -o "$OUT/$PROG.nc"
+    "$PY" "$HERE/gen.py" "$PROG" --dialect linuxcnc --mode "$MODE" -o "$OUT/$PROG.ngc"
     if [ -z "${CNC:-}" ]; then
         (cd "$ROOT" && cargo build --release --locked -p cnc_node --bin cnc >&2)
         CNC="$ROOT/target/release/cnc"
@@ -73,9 +75,9 @@ if [ $ANALYSE_ONLY = 0 ]; then
     for j in $JERKS; do
         m="$OUT/mill_j$j.toml"
         machine "$j" "$m"
-        "$CNC" check "$OUT/cam.nc" --machine "$m" | tee "$OUT/check_j$j.txt" >&2
-        "$CNC" simulate "$OUT/cam.nc" --machine "$m" --csv "$OUT/ours_cam_j$j.csv" >&2
-        printf 'cam\t%s\t%s\t%s\t%s\t%s\n' "$CNC_LABEL" "$MODE" "$OUT/cam.nc" "$OUT/ours_cam_j$j.csv" "$m" >> "$OUT/ours.manifest"
+        "$CNC" check "$OUT/$PROG.nc" --machine "$m" | tee "$OUT/check_j$j.txt" >&2
+        "$CNC" simulate "$OUT/$PROG.nc" --machine "$m" --csv "$OUT/ours_${PROG}_j$j.csv" >&2
+        printf '%s\t%s\t%s\t%s\t%s\t%s\n' "$PROG" "$CNC_LABEL" "$MODE" "$OUT/$PROG.nc" "$OUT/ours_${PROG}_j$j.csv" "$m" >> "$OUT/ours.manifest"
     done
     if [ $OURS_ONLY = 0 ]; then
         machine 1000000 "$OUT/mill_lcnc.toml"   # its velocity and acceleration (no jerk in 2.9)
@@ -85,13 +87,13 @@ if [ $ANALYSE_ONLY = 0 ]; then
         for try in 1 2; do
             say "LinuxCNC (try $try)"
             if X_MAX_VEL=$VEL Y_MAX_VEL=$VEL Z_MAX_VEL=$VEL X_MAX_ACC=$ACC Y_MAX_ACC=$ACC Z_MAX_ACC=$ACC \
-                BENCH_TIMEOUT="${BENCH_TIMEOUT:-300}" bash "$ROOT/bench/linuxcnc/run.sh" "$OUT/cam.ngc" "$OUT/lcnc_cam.tsv" 2> "$OUT/lcnc_cam.log"; then
+                BENCH_TIMEOUT="${BENCH_TIMEOUT:-300}" bash "$ROOT/bench/linuxcnc/run.sh" "$OUT/$PROG.ngc" "$OUT/lcnc_$PROG.tsv" 2> "$OUT/lcnc_$PROG.log"; then
                 ok=1; break
             fi
-            tail -5 "$OUT/lcnc_cam.log" >&2
+            tail -5 "$OUT/lcnc_$PROG.log" >&2
         done
-        [ $ok = 1 ] || { say "LinuxCNC failed twice; see $OUT/lcnc_cam.log"; exit 1; }
-        printf 'cam\t%s\t%s\t%s\t%s\t%s\n' "$(cat "$OUT/linuxcnc.label")" "$MODE" "$OUT/cam.ngc" "$OUT/lcnc_cam.tsv" "$OUT/mill_lcnc.toml" > "$OUT/linuxcnc.manifest"
+        [ $ok = 1 ] || { say "LinuxCNC failed twice; see $OUT/lcnc_$PROG.log"; exit 1; }
+        printf '%s\t%s\t%s\t%s\t%s\t%s\n' "$PROG" "$(cat "$OUT/linuxcnc.label")" "$MODE" "$OUT/$PROG.ngc" "$OUT/lcnc_$PROG.tsv" "$OUT/mill_lcnc.toml" > "$OUT/linuxcnc.manifest"
     fi
 fi
 cat "$OUT/linuxcnc.manifest" "$OUT/ours.manifest" > "$MAN"

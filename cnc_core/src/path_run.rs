@@ -5,10 +5,12 @@
 //! sample keeps each axis's velocity, acceleration and jerk, and the
 //! smoothed path stays within the path tolerance P.
 //!
-//! **Runs.** A rapid is a run of its own, as is every move under G61 (P
-//! 0) or a P under `P_MIN` (1 µm: the geometry's 4 µm grid does not
-//! resolve blends that narrow): its path is the move as programmed
-//! (`Run::exact`), so an exact path is exact. A corner that turns so
+//! **Runs.** A rapid is a run of its own: its path is the move as
+//! programmed (`Run::exact`). G61 (an exact path) and a P under `P_MIN`
+//! run as P = `P_MIN`, 1 µm, the deviation the filters allow an exact
+//! path too (`shares::XYZ_FILTER_ERROR_MM`): a CAM polyline's fine kinks
+//! are passed within it instead of at rest, and a sharp corner is
+//! nearly a stop. A corner that turns so
 //! sharply that its blend within P would be narrower than `W_MIN` (0.1
 //! mm) ends a run too: the machine stops exactly on it. Feed moves under G64 P run together (`Run::smooth`)
 //! until something that is not a feed move comes (a rapid, a dwell, a
@@ -64,9 +66,10 @@ const AHEAD: f64 = 4.0 * CHUNK;
 const LEAD: f64 = 20.0;
 /// Stations handed to the speed stage at once on an exact run.
 const BATCH: usize = 256;
-/// The smallest path tolerance the runs are smoothed within, mm: under it
-/// the 4 µm grid cannot resolve the blends, and every move is run as
-/// programmed (as under G61).
+/// The smallest path tolerance the runs are smoothed within, mm: that of
+/// an exact path (G61, and any P under it), the 1 µm the filters keep
+/// there too (`shares::XYZ_FILTER_ERROR_MM`); the 4 µm grid resolves
+/// no narrower blends.
 pub const P_MIN: f64 = 0.001;
 /// Moves shorter than this are left out, mm.
 const TINY: f64 = 1e-9;
@@ -489,7 +492,8 @@ pub enum Step {
 /// last), samples and items come out of [`Runner::step`].
 pub struct Runner {
     lim: RunLimits,
-    /// the path tolerance (G64 P) in force, mm; 0: G61
+    /// the path tolerance (G64 P) in force, mm, at least `P_MIN` (G61:
+    /// `P_MIN`)
     tol: f64,
     run: Option<Run>,
     /// with a worker: the run after this one, its moves taken in ahead
@@ -516,7 +520,7 @@ impl Runner {
     pub fn new(lim: RunLimits, tolerance: f64) -> Runner {
         Runner {
             lim,
-            tol: tolerance,
+            tol: tolerance.max(P_MIN),
             run: None,
             next: None,
             done: None,
@@ -616,7 +620,7 @@ impl Runner {
         if geom.length() <= TINY {
             return Ok(None);
         }
-        let mut run = if feed == Feed::Rapid || self.tol < P_MIN {
+        let mut run = if feed == Feed::Rapid {
             Run::exact(geom, feed, src, &self.lim)?
         } else {
             let mut r = Run::smooth(self.tol, &self.lim)?;
@@ -640,7 +644,7 @@ impl Runner {
             return Ok(true);
         }
         loop {
-            let (tol, closed) = (self.tol, self.closed);
+            let closed = self.closed;
             let taker = match (self.run.as_mut(), self.next.as_mut()) {
                 (_, Some(n)) => Some(n),
                 (Some(r), None) => Some(r),
@@ -651,7 +655,7 @@ impl Runner {
                     return Ok(true);
                 }
                 let (queue, moves, line) = (&mut self.queue, &mut self.moves, &mut self.line);
-                if !take_into(run, queue, (tol, closed), moves, line)? {
+                if !take_into(run, queue, closed, moves, line)? {
                     return Ok(false);
                 }
                 continue;
@@ -667,7 +671,7 @@ impl Runner {
                 }
                 Some(Event::Tolerance { mm }) => {
                     self.queue.pop_front();
-                    self.tol = mm;
+                    self.tol = mm.max(P_MIN);
                 }
                 Some(_) => return Ok(true),
                 None => return Ok(self.closed),
@@ -721,7 +725,7 @@ impl Runner {
                     Next::More => {
                         let (queue, moves, line) =
                             (&mut self.queue, &mut self.moves, &mut self.line);
-                        if !take_into(run, queue, (self.tol, self.closed), moves, line)? {
+                        if !take_into(run, queue, self.closed, moves, line)? {
                             return Ok(None);
                         }
                         continue;
@@ -737,7 +741,7 @@ impl Runner {
                     continue;
                 }
                 Event::Tolerance { mm } => {
-                    self.tol = mm;
+                    self.tol = mm.max(P_MIN);
                     continue;
                 }
                 Event::Dwell { seconds, src } => Item::Dwell { seconds, src },
@@ -753,16 +757,16 @@ impl Runner {
 
 /// Takes the next command into smooth run `run` if it joins it (counting
 /// the move and its line), or ends the run; `false`: no command yet.
-/// `(tol, closed)`: the P in force, and whether no command is to come.
+/// `closed`: whether no command is to come.
 fn take_into(
     run: &mut Run,
     queue: &mut VecDeque<Event>,
-    (tol, closed): (f64, bool),
+    closed: bool,
     moves: &mut u64,
     line: &mut u32,
 ) -> Result<bool, String> {
     match queue.front() {
-        Some(ev) if joins(run, ev, tol) => {
+        Some(ev) if joins(run, ev) => {
             if let Some(Event::Move { geom, feed, src }) = queue.pop_front() {
                 *moves += 1;
                 *line = src.line;
@@ -778,12 +782,11 @@ fn take_into(
     Ok(true)
 }
 
-/// Whether `ev` joins smooth run `run`: a feed move under a P the geometry
-/// resolves, G95 as the run is or not, turning gently enough from the
-/// run's last move.
-fn joins(run: &Run, ev: &Event, tol: f64) -> bool {
+/// Whether `ev` joins smooth run `run`: a feed move, G95 as the run is or
+/// not, turning gently enough from the run's last move.
+fn joins(run: &Run, ev: &Event) -> bool {
     matches!(ev, Event::Move { geom, feed, .. }
-        if *feed != Feed::Rapid && tol >= P_MIN
+        if *feed != Feed::Rapid
             && per_rev(*feed).is_some() == run.rpm.is_some()
             && !run.corner_stops(geom))
 }

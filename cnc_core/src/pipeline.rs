@@ -162,8 +162,10 @@ impl Canon for Front {
 
     fn set_path_tolerance(&mut self, mm: f64) {
         if self.path_planner {
-            // (the path planner's runs end where P changes)
-            if mm != self.tolerance {
+            // (the path planner's runs end where P changes; G61 and a P
+            // under 1 µm are P 1 µm there, `path_run::P_MIN`)
+            let mm = mm.max(crate::path_run::P_MIN);
+            if mm != self.tolerance.max(crate::path_run::P_MIN) {
                 self.tolerance = mm;
                 let mut errors = Vec::new();
                 self.command(Event::Tolerance { mm }, &mut errors);
