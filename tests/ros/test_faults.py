@@ -461,9 +461,11 @@ def test_a_client_killed_mid_call_does_not_stop_the_service(rig):
     peer = rig.peer
     slow = os.path.join(rig.tmp, "slow.nc")
     with open(slow, "w") as f:
-        # 2 x 1000 x 200 moves: about 1.5-3 s of check in a debug build
+        # 2 x 1000 x 500 moves: about 2.4 s of check in a debug build on
+        # a quiet host (at 200 repeats it had become 0.9 s, too close to
+        # the 0.8 s the call below must wait)
         f.write("N1 G00 X100 Y100\nN2 F60000 G91\nN10 G01 X0.5\nN20 X0.5\n"
-                "N30 X-0.5 G73 L20 Q999\nN40 X-0.5 G73 L10 Q199\n")
+                "N30 X-0.5 G73 L20 Q999\nN40 X-0.5 G73 L10 Q499\n")
     env = dict(os.environ, ROS_DOMAIN_ID=DOMAIN)
     for k in range(2):
         p = subprocess.Popen([sys.executable, os.path.join(HERE, "vanishing_call.py"), NS, slow],
