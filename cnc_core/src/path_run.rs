@@ -9,8 +9,8 @@
 //! programmed (`Run::exact`). G61 (an exact path) and a P under `P_MIN`
 //! run as P = `P_MIN`, 1 µm, the deviation the filters allow an exact
 //! path too (`shares::XYZ_FILTER_ERROR_MM`): a CAM polyline's fine kinks
-//! are passed within it instead of at rest, and a sharp corner is
-//! nearly a stop. A corner that turns so
+//! are passed within it instead of at rest, and a corner turning by more
+//! than about 4.6° stops exactly on its vertex (below). A corner that turns so
 //! sharply that its blend within P would be narrower than `W_MIN` (0.1
 //! mm) ends a run too: the machine stops exactly on it. Feed moves under G64 P run together (`Run::smooth`)
 //! until something that is not a feed move comes (a rapid, a dwell, a
