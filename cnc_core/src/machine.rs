@@ -913,10 +913,12 @@ impl Machine {
     }
 
     /// Largest distance, mm, by which the jerk filters move a setpoint off
-    /// the programmed path: the path filter not at all (the setpoint is the
-    /// path at a filtered path length), the XYZ filter by at most
-    /// [`JerkBudget::error_mm`] (the planner caps the normal acceleration
-    /// for it). Blends keep within the tolerance less this.
+    /// the programmed path under the machine's default path tolerance: the
+    /// path filter not at all (the setpoint is the path at a filtered path
+    /// length), the XYZ filter by at most [`JerkBudget::error_mm`] (the
+    /// planner caps the normal acceleration for it, or the single average
+    /// runs only where its bound fits): 1 µm under G61, at most half of P
+    /// under a larger P. Blends keep within the tolerance less this.
     pub fn smoothing_error_mm(&self) -> f64 {
         self.jerk_budget().error_mm()
     }
