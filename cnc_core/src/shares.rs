@@ -78,14 +78,15 @@ pub const XYZ_FILTER_ERROR_MM: f64 = 0.001;
 pub const XYZ_FILTER_TOLERANCE_SHARE: f64 = 0.5;
 /// Jerk: a machine whose single XYZ moving average (the design before the
 /// path filter, [`crate::Machine::single_average_error_mm`]) keeps the
-/// path within this many mm runs that filter alone, without the path
-/// filter and the caps ([`crate::jerk::JerkBudget::single_average`]). 5
-/// µm, not the XYZ filter's 1 µm ([`XYZ_FILTER_ERROR_MM`]): that bound at
-/// 1000 m/s³ is 2.17 µm on the bundled mill's axes (M = 4) and 4.71 µm on
-/// the lathe's (M = 5), which then run as before the path filter (about
-/// 800 m/s³ and up at 2000 mm/s²; the bundled machines' 200 m/s³ take
-/// the path filter).
-/// Blends shrink by that bound, so G64 P keeps its tolerance either way.
+/// path within this many mm may run that filter alone, without the path
+/// filter and the caps ([`crate::jerk::JerkBudget::single_average`]),
+/// where the path tolerance allows its bound: under G64 P when it is
+/// within [`XYZ_FILTER_TOLERANCE_SHARE`] of P, under G61 only when it is
+/// within [`XYZ_FILTER_ERROR_MM`] (that bound at 1000 m/s³ is 2.17 µm on
+/// the bundled mill's axes, M = 4, and 4.71 µm on the lathe's, M = 5:
+/// they run the average under G64 P0.01 and the caps under G61; the
+/// bundled machines' 200 m/s³ take the path filter). Blends shrink by
+/// that bound, so G64 P keeps its tolerance either way.
 pub const SINGLE_AVERAGE_ERROR_MM: f64 = 0.005;
 
 /// The largest feed override, as a scale (200 %): a move runs at most
